@@ -1,0 +1,119 @@
+"""Turn pytest-benchmark JSON into a markdown table of speed-up ratios and check targets.
+
+Usage: python bench/report.py [bench/results/latest.json] [--check]
+
+Each benchmark group is "<workload> N=<n>"; the implementation comes from the test name
+(test_fasttrack..., test_numpy_reference..., test_stonesoup...). Ratios compare medians
+measured in the same run. ``--check`` exits 1 if a ratio misses its target.
+"""
+import argparse
+import json
+import re
+import sys
+from collections import defaultdict
+
+# (workload, N, ratio, minimum): ratio "stonesoup" = Stone Soup time / fasttrack time,
+# "floor" = floor time / fasttrack time (so 1/3 means "within 3x of the floor")
+TARGETS = [
+    ("resample-systematic", 10**6, "stonesoup", 50.0),
+    ("resample-stratified", 10**6, "stonesoup", 50.0),
+    ("resample-multinomial", 10**6, "stonesoup", 50.0),
+    ("resample-residual", 10**6, "stonesoup", 100.0),
+    ("resample-systematic", 10**6, "floor", 1 / 3),
+]
+
+IMPLEMENTATIONS = ("fasttrack", "numpy_reference", "stonesoup")
+
+
+def load(path):
+    """Medians (seconds) by workload, N and implementation, and floors by workload family."""
+    with open(path) as f:
+        data = json.load(f)
+    medians = defaultdict(dict)
+    floors = {}
+    for bench in data["benchmarks"]:
+        median = bench["stats"]["median"]
+        group = bench["group"] or ""
+        if group.endswith("-floor"):
+            floors[(group[: -len("-floor")], bench["extra_info"]["n"])] = median
+            continue
+        match = re.fullmatch(r"(.+) N=(\d+)", group)
+        impl = next((i for i in IMPLEMENTATIONS if bench["name"].startswith(f"test_{i}")
+                     or f"_{i}[" in bench["name"] or bench["name"].endswith(f"_{i}")), None)
+        if match and impl:
+            medians[(match[1], int(match[2]))][impl] = median
+    return medians, floors, data.get("machine_info", {})
+
+
+def ratios(medians, floors):
+    """Rows of (workload, n, medians, {ratio name: value})."""
+    rows = []
+    for (workload, n), times in sorted(medians.items()):
+        ours = times.get("fasttrack")
+        found = {}
+        if ours:
+            if "stonesoup" in times:
+                found["stonesoup"] = times["stonesoup"] / ours
+            if "numpy_reference" in times:
+                found["numpy"] = times["numpy_reference"] / ours
+            family = workload.split("-")[0]
+            if (family, n) in floors:
+                found["floor"] = floors[(family, n)] / ours
+        rows.append((workload, n, times, found))
+    return rows
+
+
+def _ms(seconds):
+    return "" if seconds is None else f"{seconds * 1e3:.3g} ms"
+
+
+def _x(value):
+    return "" if value is None else f"{value:.3g}x"
+
+
+def table(rows):
+    lines = ["| workload | N | fasttrack | NumPy ref | Stone Soup | vs Stone Soup | vs NumPy "
+             "| fasttrack / floor |", "|---|---|---|---|---|---|---|---|"]
+    for workload, n, times, found in rows:
+        floor = found.get("floor")
+        lines.append(
+            f"| {workload} | {n:.0e} | {_ms(times.get('fasttrack'))} "
+            f"| {_ms(times.get('numpy_reference'))} | {_ms(times.get('stonesoup'))} "
+            f"| {_x(found.get('stonesoup'))} | {_x(found.get('numpy'))} "
+            f"| {_x(1 / floor) if floor else ''} |")
+    return "\n".join(lines)
+
+
+def check(rows):
+    """Messages for the targets that are missed or not measured."""
+    found = {(w, n): r for w, n, _, r in rows}
+    failures = []
+    for workload, n, ratio, minimum in TARGETS:
+        value = found.get((workload, n), {}).get(ratio)
+        if value is None:
+            failures.append(f"{workload} N={n}: {ratio} ratio not measured")
+        elif value < minimum:
+            failures.append(f"{workload} N={n}: {ratio} ratio {value:.3g} < target {minimum:.3g}")
+    return failures
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("json", nargs="?", default="bench/results/latest.json")
+    parser.add_argument("--check", action="store_true", help="exit 1 if a target is missed")
+    args = parser.parse_args(argv)
+    medians, floors, machine = load(args.json)
+    rows = ratios(medians, floors)
+    print(table(rows))
+    cpu = machine.get("cpu", {}).get("brand_raw", "")
+    print(f"\nMedians from {args.json} ({cpu}, {machine.get('cpu', {}).get('count', '?')} cores).")
+    if args.check:
+        failures = check(rows)
+        for failure in failures:
+            print("MISSED:", failure)
+        return 1 if failures else 0
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,37 @@
+"""fasttrack: Numba-accelerated tracking and state estimation.
+
+Classes keep Stone Soup's names and call patterns; the hot loops run in compiled kernels.
+"""
+from ._random import seed
+from .resampler import (ESSResampler, MultinomialResampler, Resampler, ResidualResampler,
+                        StratifiedResampler, SystematicResampler)
+from .resampling import (ResidualMethod, ess, multinomial, normalise, residual, stratified,
+                         systematic)
+from .types import Particle, ParticleState
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "ESSResampler", "MultinomialResampler", "Particle", "ParticleState", "Resampler",
+    "ResidualMethod", "ResidualResampler", "StratifiedResampler", "SystematicResampler",
+    "ess", "multinomial", "normalise", "residual", "seed", "stratified", "systematic",
+    "warmup",
+]
+
+
+def warmup():
+    """Compile (or load from the on-disk cache) the common kernels now rather than on first
+    use. Returns the seconds it took."""
+    import time
+
+    import numpy as np
+
+    start = time.perf_counter()
+    particles = ParticleState(np.zeros((2, 16)), log_weight=np.linspace(-3.0, 0.0, 16))
+    for resampler in (SystematicResampler(0), StratifiedResampler(0), MultinomialResampler(0),
+                      ResidualResampler(rng=0)):
+        resampler.resample(particles)
+    ess(particles.log_weight)
+    normalise(particles.log_weight)
+    _ = particles.mean
+    return time.perf_counter() - start

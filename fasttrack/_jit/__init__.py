@@ -1,0 +1,37 @@
+"""All Numba code of fasttrack: njit kernels with private names, no classes.
+
+Every kernel is compiled through :func:`jit`, the one place where compilation options live.
+
+Rules for ``parallel=True`` kernels, each learnt from a wrong result:
+
+- only explicit ``prange`` loops run in parallel: no NumPy reductions or array expressions
+  in them (Numba parallelises those too, so their rounding would follow the thread count);
+  reductions go over a fixed number of chunks (:func:`numeric.n_chunks`) in chunk order;
+- arrays written in a ``prange`` loop are arguments or slices of them taken in the kernel
+  itself (Numba's parfor dead-code elimination drops writes to an array returned by a call);
+- inner loops run over ``range(view.size)`` of a slice, not ``range(lo, hi)`` of the
+  whole array, so that LLVM can prove the index non-negative and vectorise.
+"""
+import numba
+
+#: Floating-point relaxations allowed in kernels. ``nnan``/``ninf`` are excluded because
+#: ``-inf`` log weights are legal; ``reassoc`` is excluded because it lets LLVM rewrite
+#: compensated arithmetic (it breaks the Cody-Waite reduction of :func:`fast_exp`) and
+#: makes the order of summation a compiler decision.
+FASTMATH = frozenset({"nsz", "arcp", "contract", "afn"})
+
+#: Options shared by every dispatcher; a test checks each one against this.
+OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+
+def jit(parallel=False):
+    """Return the decorator that compiles a fasttrack kernel.
+
+    Parameters
+    ----------
+    parallel : bool
+        Compile ``prange`` loops for multi-threaded execution.
+    """
+    def decorate(func):
+        return numba.njit(parallel=parallel, fastmath=set(FASTMATH), **OPTIONS)(func)
+    return decorate

@@ -1,0 +1,141 @@
+"""Scalar building blocks shared by the kernels: vectorisable exp and log, a counter-based
+uniform random stream, and the fixed chunking of parallel reductions."""
+import numpy as np
+from llvmlite import ir
+from numba import prange, types
+from numba.extending import intrinsic
+
+from . import jit
+
+
+@intrinsic
+def _int64_bits_as_float64(typingctx, bits):
+    """Reinterpret the 64 bits of an int64 as a float64 (a bit cast, not a conversion)."""
+    if bits != types.int64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+    return types.float64(types.int64), codegen
+
+
+@intrinsic
+def _float64_bits_as_int64(typingctx, value):
+    """Reinterpret the 64 bits of a float64 as an int64 (a bit cast, not a conversion)."""
+    if value != types.float64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.IntType(64))
+    return types.int64(types.float64), codegen
+
+
+@jit()
+def _pow2(k):
+    """2**k for an integer-valued float k in [-1022, 1023], built from its exponent bits."""
+    return _int64_bits_as_float64((np.int64(k) + 1023) << 52)
+
+
+@jit()
+def fast_exp(x):
+    """exp(x) within 1 ulp for normal results, branch-free so that loops vectorise.
+
+    libm's exp is a scalar call; this one is a Cody-Waite reduction ``x = k ln2 + r`` with a
+    degree-13 Taylor polynomial on ``|r| <= ln2/2``, scaled by ``2**k`` from bits. Results below
+    the normal range (and the top binade) are scaled in two steps so they round correctly.
+    """
+    ln2_hi = 0.6931471803691238
+    ln2_lo = 1.9082149292705877e-10
+    inv_ln2 = 1.4426950408889634
+    xc = min(max(x, -746.0), 709.8)
+    k = np.floor(xc * inv_ln2 + 0.5)
+    r = (xc - k * ln2_hi) - k * ln2_lo
+    p = 1.0 / 6227020800.0  # Horner on 1/13!, 1/12!, ..., 1/0!
+    for m in (479001600.0, 39916800.0, 3628800.0, 362880.0, 40320.0, 5040.0, 720.0,
+              120.0, 24.0, 6.0, 2.0, 1.0, 1.0):
+        p = p * r + 1.0 / m
+    k_normal = min(max(k, -1020.0), 1023.0)
+    y = p * _pow2(k_normal) * _pow2(k - k_normal)
+    if x > 709.782712893384:
+        y = np.inf
+    if x != x:
+        y = x
+    return y
+
+
+@jit()
+def fast_log(x):
+    """log(x) within 3 ulp for positive normal x, branch-free so that loops vectorise.
+
+    ``x = 2**e * m`` with m in [sqrt(1/2), sqrt(2)) from the bits, then
+    ``log m = 2 atanh(s)``, ``s = (m - 1) / (m + 1)``, as an odd series in s to s**23.
+    Zero, subnormal, negative and non-finite x are outside its domain.
+    """
+    ln2_hi = 0.6931471803691238
+    ln2_lo = 1.9082149292705877e-10
+    bits = _float64_bits_as_int64(x)
+    e = (bits >> 52) - 1023
+    m = _int64_bits_as_float64((bits & 0xFFFFFFFFFFFFF) | 0x3FF0000000000000)
+    if m > 1.4142135623730951:
+        m *= 0.5
+        e += 1
+    s = (m - 1.0) / (m + 1.0)
+    s2 = s * s
+    series = 1.0 / 23.0  # Horner on 1/23, 1/21, ..., 1/3, 1
+    for odd in (21.0, 19.0, 17.0, 15.0, 13.0, 11.0, 9.0, 7.0, 5.0, 3.0, 1.0):
+        series = series * s2 + 1.0 / odd
+    return e * ln2_hi + (2.0 * s * series + e * ln2_lo)
+
+
+@jit()
+def uniform(key, counter):
+    """The ``counter``-th uniform double in [0, 1) of the stream named by ``key``.
+
+    SplitMix64: the Weyl sequence ``key + (counter + 1) * golden`` through the SplitMix64
+    finaliser, 53 high bits kept. A pure function of (key, counter), so parallel loops draw
+    the same numbers whatever the thread count.
+    """
+    z = np.uint64(key) + np.uint64(counter + 1) * np.uint64(0x9E3779B97F4A7C15)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    z = z ^ (z >> np.uint64(31))
+    return np.float64(z >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+
+
+@jit()
+def n_chunks(n):
+    """Number of work chunks for ``n`` items: a function of ``n`` alone, so chunked
+    reductions give the same bits whatever the thread count."""
+    return min(max(n // 8192, 1), 64)
+
+
+@jit()
+def chunk_bounds(c, k, n):
+    """Half-open range of items in chunk ``c`` of ``k`` over ``n`` items."""
+    return c * n // k, (c + 1) * n // k
+
+
+@jit(parallel=True)
+def cumulate(w):
+    """Running sum of ``w`` (float or int), in place: each of :func:`n_chunks` chunks is
+    summed sequentially, then offset by the sequential sum of the chunks before it, so the
+    bits do not depend on the thread count."""
+    n = w.size
+    k = n_chunks(n)
+    ends = np.empty(k, dtype=w.dtype)
+    for c in prange(k):
+        lo, hi = chunk_bounds(c, k, n)
+        part = w[lo:hi]
+        total = w.dtype.type(0)
+        for i in range(part.size):
+            total += part[i]
+            part[i] = total
+        ends[c] = total
+    offsets = np.zeros(k, dtype=w.dtype)
+    for c in range(1, k):
+        offsets[c] = offsets[c - 1] + ends[c - 1]
+    for c in prange(1, k):
+        lo, hi = chunk_bounds(c, k, n)
+        part = w[lo:hi]
+        for i in range(part.size):
+            part[i] += offsets[c]

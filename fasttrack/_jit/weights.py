@@ -1,0 +1,127 @@
+"""Kernels on log weights: relative weights, logsumexp, effective sample size and the
+weighted mean and covariance of a particle cloud.
+
+Sums are chunked reductions with a chunk count that depends only on N, so the results have
+the same bits whatever the thread count. Inside a chunk, weights are exponentiated a block at
+a time into a small buffer (a loop that vectorises) before they are summed.
+"""
+import numpy as np
+from numba import prange
+
+from . import jit
+from .numeric import chunk_bounds, fast_exp, n_chunks
+
+BLOCK = 1024
+
+
+@jit(parallel=True)
+def relative_weights(log_w, log_w_max, out):
+    """``out = exp(log_w - log_w_max)``, shape (N,)."""
+    for i in prange(log_w.size):
+        out[i] = fast_exp(log_w[i] - log_w_max)
+
+
+@jit()
+def _block_weights(log_w, start, log_w_max, buf):
+    """``exp(log_w[start:start + m] - log_w_max)`` into ``buf[:m]``, m <= buf.size; returns
+    the filled view."""
+    block = log_w[start:start + buf.size]
+    w = buf[:block.size]
+    for i in range(block.size):
+        w[i] = fast_exp(block[i] - log_w_max)
+    return w
+
+
+@jit(parallel=True)
+def _power_sums(log_w, log_w_max):
+    """``(sum w, sum w**2)`` of ``w = exp(log_w - log_w_max)``."""
+    n = log_w.size
+    k = n_chunks(n)
+    partial = np.zeros((k, 2))
+    for c in prange(k):
+        lo, hi = chunk_bounds(c, k, n)
+        part = log_w[lo:hi]
+        buf = np.empty(BLOCK)
+        s1 = 0.0
+        s2 = 0.0
+        for start in range(0, part.size, BLOCK):
+            w = _block_weights(part, start, log_w_max, buf)
+            for i in range(w.size):
+                s1 += w[i]
+                s2 += w[i] * w[i]
+        partial[c, 0] = s1
+        partial[c, 1] = s2
+    sums = _sum_rows(partial)
+    return sums[0], sums[1]
+
+
+@jit()
+def log_sum_exp(log_w, log_w_max):
+    """``log(sum(exp(log_w)))`` given the (finite) maximum."""
+    return log_w_max + np.log(_power_sums(log_w, log_w_max)[0])
+
+
+@jit()
+def ess(log_w, log_w_max):
+    """Kish's effective sample size ``(sum w)**2 / sum w**2`` of unnormalised log weights."""
+    s1, s2 = _power_sums(log_w, log_w_max)
+    return s1 * s1 / s2
+
+
+@jit(parallel=True)
+def weighted_mean_covar(x, log_w, log_w_max, mean, covar):
+    """Weighted mean (d,) and covariance (d, d) of the columns of a (d, N) array, with
+    weights ``exp(log_w - log_w_max)``: ``sum w (x - mean)(x - mean)^T / sum w``.
+
+    Two passes (mean, then centred products) for accuracy.
+    """
+    d, n = x.shape
+    k = n_chunks(n)
+    partial = np.zeros((k, d + 1))
+    for c in prange(k):
+        lo, hi = chunk_bounds(c, k, n)
+        xs = x[:, lo:hi]
+        part = log_w[lo:hi]
+        buf = np.empty(BLOCK)
+        acc = partial[c]
+        for start in range(0, part.size, BLOCK):
+            w = _block_weights(part, start, log_w_max, buf)
+            for i in range(w.size):
+                acc[d] += w[i]
+                for r in range(d):
+                    acc[r] += w[i] * xs[r, start + i]
+    sums = _sum_rows(partial)
+    total = sums[d]
+    for r in range(d):
+        mean[r] = sums[r] / total
+    products = np.zeros((k, d * d))
+    for c in prange(k):
+        lo, hi = chunk_bounds(c, k, n)
+        xs = x[:, lo:hi]
+        part = log_w[lo:hi]
+        buf = np.empty(BLOCK)
+        acc = products[c]
+        centred = np.empty(d)
+        for start in range(0, part.size, BLOCK):
+            w = _block_weights(part, start, log_w_max, buf)
+            for i in range(w.size):
+                for r in range(d):
+                    centred[r] = xs[r, start + i] - mean[r]
+                for r in range(d):
+                    for q in range(r + 1):
+                        acc[r * d + q] += w[i] * centred[r] * centred[q]
+    sums = _sum_rows(products)
+    for r in range(d):
+        for q in range(r + 1):
+            covar[r, q] = sums[r * d + q] / total
+            covar[q, r] = covar[r, q]
+
+
+@jit()
+def _sum_rows(partial):
+    """Column sums of a (k, m) array of per-chunk partial sums, added in chunk order."""
+    sums = np.zeros(partial.shape[1])
+    for c in range(partial.shape[0]):
+        for j in range(partial.shape[1]):
+            sums[j] += partial[c, j]
+    return sums

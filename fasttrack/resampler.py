@@ -1,0 +1,151 @@
+"""Particle resamplers with Stone Soup's names and call pattern:
+``resampler.resample(particles, nparts=None)``."""
+import numbers
+
+import numpy as np
+
+from . import _random, _validate
+from .resampling import ResidualMethod, draw
+from .types import as_particle_state
+from ._jit import resample as _kernels
+from ._jit import weights as _weights
+
+
+class Resampler:
+    """Base class of the resamplers: ``resample(particles, nparts=None)``."""
+
+    def resample(self, particles, nparts=None):
+        raise NotImplementedError
+
+
+class _SchemeResampler(Resampler):
+    """Draws ancestors with ``method`` (and ``residual``) and builds the resampled state.
+
+    Parameters
+    ----------
+    rng : None, int or numpy.random.Generator
+        Source of randomness (None: the package default generator, see
+        :func:`fasttrack.seed`).
+    """
+
+    method = ResidualMethod.SYSTEMATIC
+    residual = False
+
+    def __init__(self, rng=None):
+        self.rng = _random.check_rng(rng)
+
+    def resample(self, particles, nparts=None):
+        """Resample to ``nparts`` equally weighted particles.
+
+        Parameters
+        ----------
+        particles : ParticleState or list of Particle
+        nparts : int, optional
+            Number of particles out, >= 1 (default: as many as in).
+
+        Returns
+        -------
+        ParticleState
+            Same type as the input, other attributes shared with it; ``state_vector`` holds
+            the drawn columns (ancestor indices ascending), ``log_weight`` is ``-log(nparts)``,
+            and ``parent`` is the input's parent indexed by the same ancestors (its own parent
+            dropped), or None.
+        """
+        state = as_particle_state(particles)
+        parent = state.parent
+        if parent is not None and len(parent) != len(state):
+            raise ValueError(f"particles.parent has {len(parent)} particles, "
+                             f"particles has {len(state)}")
+        idx, columns = draw(state.log_weight, nparts, self.method, self.residual, self.rng,
+                            columns=state.state_vector, name="particles.log_weight")
+        n = idx.size
+        if parent is not None:
+            parent_columns = np.empty((parent.ndim, n))
+            _kernels.take_columns(parent.state_vector, idx, parent_columns)
+            parent = parent._replace(state_vector=parent_columns,
+                                     log_weight=parent.log_weight[idx], parent=None)
+        return state._replace(state_vector=columns, log_weight=np.full(n, -np.log(n)),
+                              parent=parent)
+
+
+class SystematicResampler(_SchemeResampler):
+    """Systematic resampling: points ``(j + u) / n`` for a single uniform u; each particle
+    gets ``floor(n w_i)`` or ``ceil(n w_i)`` copies."""
+
+    method = ResidualMethod.SYSTEMATIC
+
+
+class StratifiedResampler(_SchemeResampler):
+    """Stratified resampling: one uniform point in each stratum ``[j/n, (j+1)/n)``."""
+
+    method = ResidualMethod.STRATIFIED
+
+
+class MultinomialResampler(_SchemeResampler):
+    """Multinomial resampling: ``nparts`` independent draws from the weights."""
+
+    method = ResidualMethod.MULTINOMIAL
+
+
+class ResidualResampler(_SchemeResampler):
+    """Residual resampling: ``floor(n w_i)`` copies of each particle, the remaining draws
+    from the residual weights ``n w_i - floor(n w_i)``.
+
+    Works for any weights, including when every ``n w_i < 1``, and for any ``nparts``.
+
+    Parameters
+    ----------
+    residual_method : {'multinomial', 'systematic', 'stratified'} or ResidualMethod
+        Scheme of the second stage.
+    rng : None, int or numpy.random.Generator
+    """
+
+    residual = True
+
+    def __init__(self, residual_method=ResidualMethod.MULTINOMIAL, rng=None):
+        super().__init__(rng)
+        self.residual_method = ResidualMethod.parse(residual_method)
+
+    @property
+    def method(self):
+        return self.residual_method
+
+
+class ESSResampler(Resampler):
+    """Resample only when Kish's effective sample size ``(sum w)**2 / sum(w**2)`` is below
+    a threshold.
+
+    Parameters
+    ----------
+    threshold : float, optional
+        Resample when ESS < threshold. Default: half the number of particles of each call
+        (computed per call, so it follows N).
+    resampler : Resampler, optional
+        The resampler used when it resamples (default: a :class:`SystematicResampler`).
+    """
+
+    def __init__(self, threshold=None, resampler=None):
+        if threshold is not None:
+            if not isinstance(threshold, numbers.Real) or isinstance(threshold, bool):
+                raise TypeError(f"threshold must be a number or None, "
+                                f"got {type(threshold).__name__}")
+            if not np.isfinite(threshold):
+                raise ValueError(f"threshold must be finite, got {threshold}")
+        if resampler is None:
+            resampler = SystematicResampler()
+        if not callable(getattr(resampler, "resample", None)):
+            raise TypeError(f"resampler must have a resample method, "
+                            f"got {type(resampler).__name__}")
+        self.threshold = threshold
+        self.resampler = resampler
+
+    def resample(self, particles, nparts=None):
+        """``resampler.resample(particles, nparts)`` if the ESS is below the threshold,
+        otherwise the input state itself (the same object; a list of Particle is returned as
+        the ParticleState built from it) and ``nparts`` is ignored."""
+        state = as_particle_state(particles)
+        log_w, log_w_max = _validate.log_weights(state.log_weight, "particles.log_weight")
+        threshold = len(state) / 2 if self.threshold is None else self.threshold
+        if _weights.ess(log_w, log_w_max) < threshold:
+            return self.resampler.resample(state, nparts)
+        return state

@@ -1,0 +1,207 @@
+"""Resampling on plain arrays: ancestor indices from log weights.
+
+Every function takes unnormalised log weights (``-inf`` allowed), normalises them in log space,
+and returns ascending int64 ancestor indices of length ``nparts`` (default: N). A particle
+of zero weight is never drawn, whatever the rounding of the cumulative weights.
+
+Random numbers come from a counter-based stream keyed by one draw from ``rng`` (None: the
+package default generator, see :func:`fasttrack.seed`; an int seed; or a
+``numpy.random.Generator``), so the indices for a seed do not depend on the thread count.
+"""
+import enum
+
+import numpy as np
+
+from . import _random, _validate
+from ._jit import resample as _kernels
+from ._jit import weights as _weights
+
+_NO_ROWS = np.empty((0, 0))
+
+
+class ResidualMethod(str, enum.Enum):
+    """How residual resampling draws the particles left after its deterministic stage."""
+
+    MULTINOMIAL = "multinomial"
+    SYSTEMATIC = "systematic"
+    STRATIFIED = "stratified"
+
+    @classmethod
+    def parse(cls, value, name="residual_method"):
+        """The member named by ``value`` (a member or its string value)."""
+        try:
+            return cls(value)
+        except ValueError:
+            valid = ", ".join(repr(m.value) for m in cls)
+            raise ValueError(f"{name} must be one of {valid} (or a ResidualMethod), "
+                             f"got {value!r}") from None
+
+
+def _cdf(log_w, log_w_max):
+    cdf = np.empty_like(log_w)
+    _weights.relative_weights(log_w, log_w_max, cdf)
+    _kernels.cumulate(cdf)
+    return cdf
+
+
+def _multinomial_starts(cdf, n, key, starts):
+    points = np.empty(n + 1)
+    _kernels.sorted_uniforms(key, n, points)
+    point_strata = np.empty(n, dtype=np.int64)
+    _kernels.strata(points, n, point_strata)
+    occupancy = np.empty(n + 1, dtype=np.int64)
+    occupancy[0] = 0
+    _kernels.expand(point_strata, occupancy[1:], _NO_ROWS, _NO_ROWS)
+    occupancy[1:] += 1
+    _kernels.multinomial_starts(cdf, n, key, occupancy, starts)
+
+
+def _scheme_starts(method, cdf, n, key):
+    starts = np.empty(cdf.size, dtype=np.int64)
+    if method is ResidualMethod.SYSTEMATIC:
+        _kernels.systematic_starts(cdf, n, key, starts)
+    elif method is ResidualMethod.STRATIFIED:
+        _kernels.stratified_starts(cdf, n, key, starts)
+    else:
+        _multinomial_starts(cdf, n, key, starts)
+    return starts
+
+
+def _residual_starts(log_w, log_w_max, cdf, n, method, key):
+    floors = np.empty(cdf.size, dtype=np.int64)
+    residuals = np.empty_like(cdf)
+    _kernels.residual_floors(cdf, log_w, log_w_max, n, floors, residuals)
+    _kernels.cumulate(floors)
+    n_rest = n - int(floors[-1])
+    if n_rest > 0:
+        _kernels.cumulate(residuals)
+        starts = _scheme_starts(method, residuals, n_rest, key)
+    else:
+        starts = np.zeros(cdf.size, dtype=np.int64)
+    _kernels.add_floors(starts, floors)
+    return starts
+
+
+def draw(log_weights, nparts=None, method=ResidualMethod.SYSTEMATIC, residual=False,
+         rng=None, columns=None, name="log_weights"):
+    """Ancestor indices of one resampling draw, and optionally the gathered columns.
+
+    Parameters
+    ----------
+    log_weights : (N,) array_like
+        Unnormalised log weights.
+    nparts : int, optional
+        Number of particles to draw (default N).
+    method : ResidualMethod
+        Multinomial, systematic or stratified; with ``residual``, the method of stage two.
+    residual : bool
+        Residual resampling.
+    rng : None, int or numpy.random.Generator
+    columns : (d, N) float64 C-contiguous ndarray, optional
+        Array whose columns are gathered by the indices.
+    name : str
+        Name of the weights in error messages.
+
+    Returns
+    -------
+    idx : (nparts,) int64
+    gathered : (d, nparts) ndarray
+        Only if ``columns`` is given.
+    """
+    log_w, log_w_max = _validate.log_weights(log_weights, name)
+    n = _validate.count(nparts, "nparts", default=log_w.size)
+    key = _random.stream_key(rng)
+    cdf = _cdf(log_w, log_w_max)
+    if residual:
+        starts = _residual_starts(log_w, log_w_max, cdf, n, method, key)
+    else:
+        starts = _scheme_starts(method, cdf, n, key)
+    idx = np.empty(n, dtype=np.int64)
+    if columns is None:
+        _kernels.expand(starts, idx, _NO_ROWS, _NO_ROWS)
+        return idx
+    gathered = np.empty((columns.shape[0], n))
+    _kernels.expand(starts, idx, columns, gathered)
+    return idx, gathered
+
+
+def systematic(log_weights, nparts=None, rng=None):
+    """Systematic resampling: points ``(j + u) / n`` for one uniform u.
+
+    Each particle gets ``floor(n w_i)`` or ``ceil(n w_i)`` copies.
+
+    Parameters
+    ----------
+    log_weights : (N,) array_like
+        Unnormalised log weights; ``-inf`` marks a zero weight.
+    nparts : int, optional
+        Number of particles to draw, >= 1 (default N).
+    rng : None, int or numpy.random.Generator
+
+    Returns
+    -------
+    (nparts,) int64 ndarray
+        Ascending ancestor indices.
+    """
+    return draw(log_weights, nparts, ResidualMethod.SYSTEMATIC, rng=rng)
+
+
+def stratified(log_weights, nparts=None, rng=None):
+    """Stratified resampling: one uniform point in each stratum ``[j/n, (j+1)/n)``.
+
+    Parameters and return as :func:`systematic`.
+    """
+    return draw(log_weights, nparts, ResidualMethod.STRATIFIED, rng=rng)
+
+
+def multinomial(log_weights, nparts=None, rng=None):
+    """Multinomial resampling: ``nparts`` independent draws from the weights.
+
+    Parameters and return as :func:`systematic` (indices ascending, as the draws are
+    exchangeable).
+    """
+    return draw(log_weights, nparts, ResidualMethod.MULTINOMIAL, rng=rng)
+
+
+def residual(log_weights, nparts=None, rng=None, method="multinomial"):
+    """Residual resampling: ``floor(n w_i)`` copies of each particle, the rest drawn from the
+    residual weights with ``method``.
+
+    Parameters
+    ----------
+    log_weights, nparts, rng
+        As :func:`systematic`.
+    method : {'multinomial', 'systematic', 'stratified'} or ResidualMethod
+        Scheme of the second stage.
+
+    Returns
+    -------
+    (nparts,) int64 ndarray
+        Ascending ancestor indices.
+    """
+    return draw(log_weights, nparts, ResidualMethod.parse(method, "method"), residual=True,
+                rng=rng)
+
+
+def ess(log_weights):
+    """Kish's effective sample size ``(sum w)**2 / sum(w**2)`` of unnormalised log weights.
+
+    Returns
+    -------
+    float
+        Between 1 and N.
+    """
+    log_w, log_w_max = _validate.log_weights(log_weights, "log_weights")
+    return float(_weights.ess(log_w, log_w_max))
+
+
+def normalise(log_weights):
+    """Log weights shifted so that their exponentials sum to 1 (computed with logsumexp).
+
+    Returns
+    -------
+    (N,) float64 ndarray
+        A new array.
+    """
+    log_w, log_w_max = _validate.log_weights(log_weights, "log_weights")
+    return log_w - _weights.log_sum_exp(log_w, log_w_max)

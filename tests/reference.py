@@ -1,0 +1,174 @@
+"""Plain-NumPy mirrors of the kernels in ``fasttrack._jit`` (same names, same arguments,
+loops allowed). Tests give both the same inputs, including the same random stream keys,
+and compare: integers equal, floats close."""
+import numpy as np
+
+# --- numeric -------------------------------------------------------------------------------
+
+
+def fast_exp(x):
+    return np.exp(x)
+
+
+def fast_log(x):
+    return np.log(x)
+
+
+def uniform(key, counter):
+    """SplitMix64 of the Weyl sequence ``key + (counter + 1) * golden``, 53 high bits."""
+    counter = np.asarray(counter, dtype=np.uint64)
+    with np.errstate(over="ignore"):
+        z = np.uint64(key) + (counter + np.uint64(1)) * np.uint64(0x9E3779B97F4A7C15)
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    z = z ^ (z >> np.uint64(31))
+    return (z >> np.uint64(11)).astype(np.float64) * 2.0**-53
+
+
+def n_chunks(n):
+    return min(max(n // 8192, 1), 64)
+
+
+def chunk_bounds(c, k, n):
+    return c * n // k, (c + 1) * n // k
+
+
+def cumulate(w):
+    w[:] = np.cumsum(w)
+
+
+# --- weights -------------------------------------------------------------------------------
+
+
+def relative_weights(log_w, log_w_max, out):
+    out[:] = np.exp(log_w - log_w_max)
+
+
+def log_sum_exp(log_w, log_w_max):
+    return log_w_max + np.log(np.sum(np.exp(log_w - log_w_max)))
+
+
+def ess(log_w, log_w_max):
+    w = np.exp(log_w - log_w_max)
+    return w.sum() ** 2 / (w**2).sum()
+
+
+def weighted_mean_covar(x, log_w, log_w_max, mean, covar):
+    w = np.exp(log_w - log_w_max)
+    mean[:] = np.average(x, axis=1, weights=w)
+    covar[:] = np.atleast_2d(np.cov(x, ddof=0, aweights=w))
+
+
+# --- resample ------------------------------------------------------------------------------
+
+
+def last_nonempty(cdf):
+    nonempty = np.flatnonzero(np.diff(cdf) != 0)
+    return int(nonempty[-1] + 1) if nonempty.size else 0
+
+
+def _stratum(bound, scale, n):
+    return np.minimum((bound * scale).astype(np.int64), n - 1)
+
+
+def _starts_frame(cdf, n, starts):
+    """Starts of particles no draw reaches, as the kernels set them."""
+    last = last_nonempty(cdf)
+    starts[0] = 0
+    starts[last + 1:] = n
+    return last, n / cdf[-1]
+
+
+def systematic_starts(cdf, n, key, starts):
+    last, scale = _starts_frame(cdf, n, starts)
+    u = uniform(key, 0)
+    starts[1:last + 1] = np.clip(np.ceil(cdf[:last] * scale - u), 0, n).astype(np.int64)
+
+
+def stratified_starts(cdf, n, key, starts):
+    last, scale = _starts_frame(cdf, n, starts)
+    y = cdf[:last] * scale
+    s = _stratum(cdf[:last], scale, n)
+    starts[1:last + 1] = s + (s + uniform(key, s) < y)
+
+
+def sorted_uniforms(key, n, out):
+    spacing = -np.log(1.0 - uniform(key, np.arange(n + 1)))
+    total = np.cumsum(spacing)
+    out[:n] = np.minimum(total[:n] * (n / total[n]), n)
+    out[n] = total[n]
+
+
+def strata(points, n, out):
+    out[:n] = np.minimum(points[:n].astype(np.int64), n - 1)
+
+
+def multinomial_starts(cdf, n, key, occupancy, starts):
+    """The k-th point is ``s_k + u(key, n + 1 + k)``; starts count the points below each
+    boundary by a search in the sorted points."""
+    last, scale = _starts_frame(cdf, n, starts)
+    point_strata = np.repeat(np.arange(n), np.diff(occupancy))
+    points = np.sort(point_strata + uniform(key, n + 1 + np.arange(n)))
+    starts[1:last + 1] = np.searchsorted(points, cdf[:last] * scale, side="left")
+
+
+def residual_floors(cdf, log_w, log_w_max, n, floors, residuals):
+    expected = np.exp(log_w - log_w_max) * (n / cdf[-1])
+    floors[:] = np.floor(expected * (1.0 + 1e-12)).astype(np.int64)
+    residuals[:] = np.maximum(expected - floors, 0.0)
+
+
+def add_floors(starts, floor_sums):
+    starts[1:] += floor_sums[:-1]
+
+
+def expand(starts, idx, x, out):
+    idx[:] = np.searchsorted(starts, np.arange(idx.size), side="right") - 1
+    out[:] = x[:, idx]
+
+
+def take_columns(x, idx, out):
+    out[:] = x[:, idx]
+
+
+# --- the resampling pipeline on these mirrors ----------------------------------------------
+
+
+def draw(log_w, n, method, residual, key):
+    """Ancestor indices of ``fasttrack.resampling.draw`` for the stream ``key``."""
+    cdf = np.empty_like(log_w)
+    log_w_max = log_w.max()
+    relative_weights(log_w, log_w_max, cdf)
+    cumulate(cdf)
+    if residual:
+        floors = np.empty(cdf.size, dtype=np.int64)
+        residuals = np.empty_like(cdf)
+        residual_floors(cdf, log_w, log_w_max, n, floors, residuals)
+        cumulate(floors)
+        n_rest = n - floors[-1]
+        starts = np.zeros(cdf.size, dtype=np.int64)
+        if n_rest > 0:
+            cumulate(residuals)
+            starts = scheme_starts(method, residuals, n_rest, key)
+        add_floors(starts, floors)
+    else:
+        starts = scheme_starts(method, cdf, n, key)
+    idx = np.empty(n, dtype=np.int64)
+    expand(starts, idx, np.empty((0, cdf.size)), np.empty((0, n)))
+    return idx
+
+
+def scheme_starts(method, cdf, n, key):
+    starts = np.empty(cdf.size, dtype=np.int64)
+    if method == "systematic":
+        systematic_starts(cdf, n, key, starts)
+    elif method == "stratified":
+        stratified_starts(cdf, n, key, starts)
+    else:
+        points = np.empty(n + 1)
+        sorted_uniforms(key, n, points)
+        point_strata = np.empty(n, dtype=np.int64)
+        strata(points, n, point_strata)
+        occupancy = np.concatenate([[0], np.cumsum(np.bincount(point_strata, minlength=n))])
+        multinomial_starts(cdf, n, key, occupancy, starts)
+    return starts

@@ -1,0 +1,149 @@
+"""The kernel layer: compilation options, numeric helpers, thread-count independence."""
+import importlib
+import json
+import os
+import pkgutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from numba.core.caching import FunctionCache
+from numba.core.registry import CPUDispatcher
+
+import fasttrack
+import fasttrack._jit as jit_pkg
+from fasttrack._jit import numeric
+
+import reference
+
+
+def _dispatchers(package):
+    for info in pkgutil.walk_packages(package.__path__, package.__name__ + "."):
+        module = importlib.import_module(info.name)
+        for name, obj in vars(module).items():
+            if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == module.__name__:
+                yield f"{module.__name__}.{name}", obj
+
+
+def test_every_kernel_uses_the_factory_options():
+    found = dict(_dispatchers(jit_pkg))
+    assert len(found) >= 20
+    for name, dispatcher in found.items():
+        options = dispatcher.targetoptions
+        for key, value in jit_pkg.OPTIONS.items():
+            if key == "cache":  # held by the dispatcher, not in its target options
+                assert isinstance(dispatcher._cache, FunctionCache) is value, name
+            else:
+                assert options.get(key) == value, (name, key)
+        assert set(options["fastmath"]) == set(jit_pkg.FASTMATH), name
+
+
+def test_no_numba_dispatchers_outside_jit():
+    outside = [name for name, _ in _dispatchers(fasttrack)
+               if not name.startswith("fasttrack._jit.")]
+    assert outside == []
+
+
+def test_fast_exp_within_one_ulp_over_the_whole_range():
+    rng = np.random.default_rng(0)
+    x = np.concatenate([np.linspace(-760, 720, 200_001), rng.normal(0, 30, 100_000),
+                        [0.0, -0.0, 709.78, -708.4, -745.13, -745.14, np.inf, -np.inf, np.nan]])
+    got = np.array([numeric.fast_exp(v) for v in x[:2000]] +
+                   list(_vector_exp(x[2000:])))
+    with np.errstate(over="ignore"):
+        want = reference.fast_exp(x)
+    assert np.array_equal(np.isnan(got), np.isnan(want))
+    assert np.array_equal(got[np.isinf(want)], want[np.isinf(want)])
+    assert np.all(got[want == 0] == 0)
+    finite = np.isfinite(want) & (want > 0)
+    ulps = np.abs(got[finite] - want[finite]) / np.spacing(want[finite])
+    assert ulps.max() <= 1.0
+
+
+def _vector_exp(x):
+    out = np.empty_like(x)
+    fasttrack._jit.weights.relative_weights(x, 0.0, out)
+    return out
+
+
+def test_fast_log_within_three_ulp_on_positive_normals():
+    rng = np.random.default_rng(1)
+    x = np.concatenate([rng.random(50_000), np.exp(rng.uniform(-700, 700, 50_000)),
+                        [1.0, 2.0, 0.5, 2.2250738585072014e-308, 1.7976931348623157e308,
+                         1 - 2**-53, 1 + 2**-52]])
+    got = np.array([numeric.fast_log(v) for v in x])
+    want = reference.fast_log(x)
+    assert got[-7] == 0.0
+    nonzero = want != 0
+    ulps = np.abs(got - want)[nonzero] / np.spacing(np.abs(want[nonzero]))
+    assert ulps.max() <= 3.0
+
+
+def test_uniform_stream_matches_its_mirror_and_is_uniform():
+    key = 0x1234_5678_9ABC_DEF
+    counters = np.arange(100_000)
+    got = np.array([numeric.uniform(key, int(c)) for c in counters[:1000]])
+    want = reference.uniform(key, counters)
+    assert np.array_equal(got, want[:1000])
+    assert want.min() >= 0.0 and want.max() < 1.0
+    # chi-square over 100 equal bins: 99 dof, reject far above the 99.99th percentile (~150)
+    counts = np.bincount((want * 100).astype(int), minlength=100)
+    chi2 = ((counts - 1000) ** 2 / 1000).sum()
+    assert chi2 < 160
+    # neighbouring counters are uncorrelated
+    assert abs(np.corrcoef(want[:-1], want[1:])[0, 1]) < 0.02
+
+
+def test_cumulate_integer_is_exact_and_float_close():
+    rng = np.random.default_rng(3)
+    ints = rng.integers(0, 5, 100_003)
+    got = ints.copy()
+    numeric.cumulate(got)
+    want = ints.copy()
+    reference.cumulate(want)
+    assert np.array_equal(got, want)
+    floats = rng.random(100_003)
+    got = floats.copy()
+    numeric.cumulate(got)
+    want = floats.copy()
+    reference.cumulate(want)
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    assert np.all(np.diff(got) >= 0)
+
+
+_THREAD_SCRIPT = r"""
+import json, sys
+import numpy as np
+import fasttrack as ft
+rng = np.random.default_rng(7)
+n = 300_000
+log_w = np.log(rng.random(n))
+log_w[::97] = -np.inf
+x = rng.standard_normal((3, n))
+state = ft.ParticleState(x, log_weight=log_w)
+out = {}
+for name in ("systematic", "stratified", "multinomial"):
+    out[name] = getattr(ft, name)(log_w, rng=11).tolist()
+for method in ("systematic", "multinomial"):
+    out["residual-" + method] = ft.residual(log_w, rng=11, method=method).tolist()
+out["ess"] = ft.ess(log_w).hex()
+out["mean"] = [v.hex() for v in state.mean.ravel()]
+out["covar"] = [v.hex() for v in state.covar.ravel()]
+out["normalise"] = ft.normalise(log_w)[:1000].tolist()
+json.dump(out, sys.stdout)
+"""
+
+
+def _run_with_threads(threads):
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
+    done = subprocess.run([sys.executable, "-c", _THREAD_SCRIPT], env=env,
+                          capture_output=True, text=True, check=True)
+    return json.loads(done.stdout)
+
+
+def test_results_do_not_depend_on_the_thread_count():
+    one, two = _run_with_threads(1), _run_with_threads(2)
+    assert one.keys() == two.keys()
+    for name in one:
+        assert one[name] == two[name], name

@@ -1,0 +1,139 @@
+"""The resampler classes."""
+import numpy as np
+import pytest
+
+import fasttrack as ft
+from fasttrack import (ESSResampler, MultinomialResampler, Particle, ParticleState,
+                       ResidualMethod, ResidualResampler, StratifiedResampler,
+                       SystematicResampler)
+
+RESAMPLERS = [SystematicResampler, StratifiedResampler, MultinomialResampler,
+              ResidualResampler]
+
+
+class Update(ParticleState):
+    """A subclass with an extra attribute, like Stone Soup's ParticleStateUpdate."""
+
+
+def _tutorial_particles():
+    return [Particle(np.array([[i]]), weight=1 / 5) for i in range(5)]
+
+
+@pytest.mark.parametrize("cls", RESAMPLERS)
+@pytest.mark.parametrize("nparts", [None, 10, 2])
+def test_resample_returns_equal_weights_and_keeps_type(cls, nparts):
+    prior = ParticleState(np.arange(6.0)[None] * 10)
+    state = Update(np.arange(12.0).reshape(2, 6), log_weight=np.log([1, 5, 1.5, 0.5, 2, 1]),
+                   parent=prior, timestamp=3.0)
+    state.hypothesis = "h"
+    out = cls(rng=1).resample(state, nparts)
+    n = nparts or 6
+    assert type(out) is Update and out.hypothesis == "h" and out.timestamp == 3.0
+    assert len(out) == n and out.ndim == 2
+    np.testing.assert_allclose(out.weight, 1 / n)
+    ancestors = out.state_vector[0].astype(int)
+    assert np.all(np.diff(ancestors) >= 0)
+    np.testing.assert_array_equal(out.state_vector[1], ancestors + 6)
+    # parent: the input's parent indexed by the same ancestors, its own parent dropped
+    np.testing.assert_array_equal(out.parent.state_vector[0], ancestors * 10)
+    assert out.parent.parent is None
+    assert state.state_vector.shape == (2, 6)  # input untouched
+
+
+@pytest.mark.parametrize("cls", RESAMPLERS)
+def test_resample_accepts_a_list_of_particles(cls):
+    out = cls(rng=2).resample(_tutorial_particles(), nparts=10)
+    assert isinstance(out, ParticleState) and len(out) == 10 and out.parent is None
+    assert set(out.state_vector[0]) <= set(range(5))
+
+
+def test_without_parent_the_output_has_none():
+    out = SystematicResampler(rng=0).resample(ParticleState(np.zeros((1, 4))))
+    assert out.parent is None
+
+
+@pytest.mark.parametrize("method", ["multinomial", "systematic", "stratified",
+                                    ResidualMethod.SYSTEMATIC])
+def test_residual_method_by_name_or_member(method):
+    resampler = ResidualResampler(residual_method=method, rng=3)
+    assert resampler.residual_method is ResidualMethod(method)
+    assert len(resampler.resample(_tutorial_particles())) == 5
+
+
+def test_residual_method_invalid_lists_valid_names():
+    with pytest.raises(ValueError, match="'multinomial', 'systematic', 'stratified'"):
+        ResidualResampler(residual_method="metropolis")
+
+
+def test_same_seed_same_draws_and_generator_advances():
+    state = ParticleState(np.arange(100.0)[None], log_weight=np.random.default_rng(0).normal(size=100))
+    a = MultinomialResampler(rng=7)
+    b = MultinomialResampler(rng=7)
+    first = a.resample(state).state_vector
+    assert np.array_equal(first, b.resample(state).state_vector)
+    assert not np.array_equal(first, a.resample(state).state_vector)
+
+
+def test_ess_resampler_threshold_follows_n():
+    resampler = ESSResampler()
+    skewed = ParticleState(np.zeros((1, 4)), weight=[0.97, 0.01, 0.01, 0.01])
+    even = ParticleState(np.zeros((1, 4)))
+    assert resampler.resample(even) is even
+    assert resampler.resample(skewed) is not skewed
+    # the default threshold is N/2 of each call, never stored
+    big = ParticleState(np.zeros((1, 100)), weight=np.r_[np.ones(30), np.full(70, 1e-9)])
+    assert resampler.threshold is None
+    assert resampler.resample(big) is not big  # ESS ~ 30 < 50
+    small = ParticleState(np.zeros((1, 4)), weight=[1, 1, 1, 0.2])
+    assert resampler.resample(small) is small  # ESS ~ 3.4 >= 2
+    assert resampler.threshold is None
+
+
+def test_ess_resampler_uses_its_resampler_and_threshold():
+    inner = ResidualResampler("systematic", rng=1)
+    resampler = ESSResampler(threshold=5, resampler=inner)
+    state = ParticleState(np.arange(4.0)[None])
+    out = resampler.resample(state, nparts=4)
+    assert out is not state and len(out) == 4  # ESS 4 < 5
+    assert ESSResampler(threshold=4).resample(state) is state  # not strictly below
+
+
+def test_ess_resampler_with_the_tutorial_calls():
+    resampler = ESSResampler(resampler=ResidualResampler(residual_method="systematic"))
+    out = resampler.resample(_tutorial_particles())
+    assert isinstance(out, ParticleState) and len(out) == 5
+
+
+@pytest.mark.parametrize("cls", RESAMPLERS)
+def test_bad_input(cls):
+    resampler = cls()
+    with pytest.raises(TypeError, match="particles must be a ParticleState or a list"):
+        resampler.resample(np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="nparts must be >= 1"):
+        resampler.resample(ParticleState(np.zeros((1, 3))), nparts=0)
+    state = ParticleState(np.zeros((1, 3)))
+    state._log_weight = np.array([0.0, np.nan, 0.0])  # corrupted after construction
+    with pytest.raises(ValueError, match="particles.log_weight contains NaN"):
+        resampler.resample(state)
+    with pytest.raises(ValueError, match="particles.parent has 2 particles"):
+        resampler.resample(ParticleState(np.zeros((1, 3)), parent=ParticleState(np.zeros((1, 2)))))
+    with pytest.raises(TypeError, match="rng must be"):
+        cls(rng=1.5)
+
+
+def test_ess_resampler_bad_arguments():
+    with pytest.raises(TypeError, match="threshold must be a number"):
+        ESSResampler(threshold="half")
+    with pytest.raises(ValueError, match="threshold must be finite"):
+        ESSResampler(threshold=np.nan)
+    with pytest.raises(TypeError, match="resampler must have a resample method"):
+        ESSResampler(resampler=object())
+
+
+def test_default_rng_follows_seed():
+    state = ParticleState(np.arange(50.0)[None], log_weight=np.random.default_rng(1).normal(size=50))
+    resampler = StratifiedResampler()
+    ft.seed(3)
+    a = resampler.resample(state).state_vector
+    ft.seed(3)
+    assert np.array_equal(a, resampler.resample(state).state_vector)

@@ -1,0 +1,118 @@
+"""Particle and ParticleState."""
+import datetime
+
+import numpy as np
+import pytest
+
+from fasttrack import Particle, ParticleState
+
+
+def test_particle_state_arrays_and_derived_weights():
+    x = np.arange(12.0).reshape(3, 4)
+    state = ParticleState(x, weight=[1, 2, 3, 4], timestamp=2.5)
+    assert state.state_vector.shape == (3, 4) and state.state_vector.dtype == np.float64
+    assert len(state) == 4 and state.ndim == 3 and state.timestamp == 2.5
+    np.testing.assert_allclose(state.log_weight, np.log([1, 2, 3, 4]))
+    np.testing.assert_allclose(state.weight, [1, 2, 3, 4])
+    assert state.weight.dtype == np.float64
+    equal = ParticleState(x)
+    np.testing.assert_allclose(equal.weight, 0.25)
+
+
+def test_mean_and_covar_follow_stone_soup_formulas():
+    rng = np.random.default_rng(0)
+    x = rng.standard_normal((4, 500)) * [[1], [10], [0.1], [3]] + 7
+    log_w = rng.normal(size=500) * 2 - 900  # far from 0: needs the max shift
+    state = ParticleState(x, log_weight=log_w)
+    w = np.exp(log_w - log_w.max())
+    np.testing.assert_allclose(state.mean, np.average(x, axis=1, weights=w)[:, None], rtol=1e-12)
+    np.testing.assert_allclose(state.covar, np.cov(x, ddof=0, aweights=w), rtol=1e-10)
+    assert state.mean.shape == (4, 1)
+    state.fixed_covar = np.eye(4)
+    assert np.array_equal(state.covar, np.eye(4))
+
+
+def test_moments_are_recomputed_after_assignment():
+    state = ParticleState(np.array([[0.0, 2.0]]))
+    assert state.mean[0, 0] == 1.0
+    state.weight = [3.0, 1.0]
+    assert state.mean[0, 0] == pytest.approx(0.5)
+    state.state_vector = np.array([[4.0, 8.0]])
+    assert state.mean[0, 0] == pytest.approx(5.0)
+
+
+def test_indexing():
+    parent = ParticleState(np.arange(5.0)[None] + 100)
+    state = ParticleState(np.arange(10.0).reshape(2, 5), log_weight=np.log(np.arange(1, 6.0)),
+                          parent=parent, timestamp=datetime.datetime(2026, 1, 1))
+    particle = state[2]
+    assert isinstance(particle, Particle)
+    np.testing.assert_array_equal(particle.state_vector, [[2.0], [7.0]])
+    assert particle.weight == pytest.approx(3.0)
+    assert particle.parent.state_vector[0, 0] == 102
+    sub = state[np.array([4, 0, 4])]
+    assert type(sub) is ParticleState and len(sub) == 3
+    np.testing.assert_array_equal(sub.state_vector[0], [4, 0, 4])
+    np.testing.assert_allclose(sub.weight, [5, 1, 5])
+    np.testing.assert_array_equal(sub.parent.state_vector[0], [104, 100, 104])
+    assert sub.parent.parent is None and sub.timestamp == state.timestamp
+    assert len(state[1:3]) == 2 and len(state[np.array([True, False] * 2 + [True])]) == 3
+    with pytest.raises(IndexError):
+        state[np.array([], dtype=int)]
+
+
+def test_from_particle_list_with_and_without_parents():
+    particles = [Particle(np.array([i, -i]), weight=i + 1.0) for i in range(4)]
+    state = ParticleState(particle_list=particles)
+    np.testing.assert_array_equal(state.state_vector, [[0, 1, 2, 3], [0, -1, -2, -3]])
+    np.testing.assert_allclose(state.weight, [1, 2, 3, 4])
+    assert state.parent is None
+    children = [Particle([[10.0 * i]], 1.0, parent=p) for i, p in enumerate(particles)]
+    child_state = ParticleState(particle_list=children)
+    np.testing.assert_array_equal(child_state.parent.state_vector[1], [0, -1, -2, -3])
+    with pytest.raises(ValueError, match="every particle in particle_list has a parent"):
+        ParticleState(particle_list=[children[0], Particle([[1.0]], 1.0)])
+    with pytest.raises(ValueError, match="particle_list mixes state dimensions"):
+        ParticleState(particle_list=[children[0], particles[1]])
+
+
+@pytest.mark.parametrize("kwargs,error,message", [
+    (dict(state_vector=[[0.0, np.nan]]), ValueError, "state_vector contains NaN"),
+    (dict(state_vector=[[0.0, np.inf]]), ValueError, "state_vector contains infinite"),
+    (dict(state_vector=[0.0, 1.0]), ValueError, "state_vector must be 2-D"),
+    (dict(state_vector=np.zeros((0, 3))), ValueError, r"state_vector must have shape \(d, N\)"),
+    (dict(state_vector=[["a"]]), TypeError, "state_vector must be a numeric array"),
+    (dict(state_vector=np.zeros((1, 2)), weight=[1, -1]), ValueError, "weight contains negative"),
+    (dict(state_vector=np.zeros((1, 2)), weight=[0, 0]), ValueError, "weight: all weights are zero"),
+    (dict(state_vector=np.zeros((1, 2)), weight=[1, 2, 3]), ValueError, "weight must have length 2"),
+    (dict(state_vector=np.zeros((1, 2)), log_weight=[0, np.nan]), ValueError, "log_weight contains NaN"),
+    (dict(state_vector=np.zeros((1, 2)), weight=[1, 1], log_weight=[0, 0]), ValueError, "not both"),
+    (dict(state_vector=np.zeros((1, 2)), timestamp="now"), TypeError, "timestamp must be None"),
+    (dict(state_vector=np.zeros((1, 2)), parent=[1]), TypeError, "parent must be a ParticleState"),
+    (dict(state_vector=np.zeros((2, 2)), fixed_covar=np.eye(3)), ValueError, r"fixed_covar must have shape \(2, 2\)"),
+    (dict(), ValueError, "state_vector .or particle_list. is required"),
+    (dict(particle_list=[]), ValueError, "particle_list is empty"),
+    (dict(particle_list=[1, 2]), TypeError, "particle_list must hold Particle"),
+])
+def test_bad_input(kwargs, error, message):
+    with pytest.raises(error, match=message):
+        ParticleState(**kwargs)
+
+
+@pytest.mark.parametrize("args,error,message", [
+    (([0.0, 1.0], -1.0), ValueError, "weight must be finite and >= 0"),
+    (([0.0, 1.0], np.nan), ValueError, "weight must be finite and >= 0"),
+    (([0.0, 1.0], "1"), TypeError, "weight must be a real number"),
+    (([[0.0, 1.0]], 1.0), ValueError, r"state_vector must have shape \(d,\) or \(d, 1\)"),
+    (([np.nan], 1.0), ValueError, "state_vector contains NaN"),
+])
+def test_bad_particle(args, error, message):
+    with pytest.raises(error, match=message):
+        Particle(*args)
+
+
+def test_caller_arrays_are_not_modified_or_aliased_for_weights():
+    log_w = np.zeros(3)
+    state = ParticleState(np.zeros((1, 3)), log_weight=log_w)
+    state.log_weight[0] = -1.0
+    assert log_w[0] == 0.0
