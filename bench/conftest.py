@@ -21,8 +21,8 @@ SIZES = [10**3, 10**4, 10**5, 10**6]
 def rounds_for(n, slow=False):
     """Repeats per measurement: fewer at large N, fewest for the slow implementations."""
     if slow:
-        return 3 if n >= 10**6 else 5 if n >= 10**5 else 15
-    return 7 if n >= 10**6 else 15 if n >= 10**5 else 50
+        return 5 if n >= 10**5 else 15
+    return 21 if n >= 10**5 else 50
 
 
 @pytest.fixture(scope="session", autouse=True)

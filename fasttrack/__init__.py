@@ -2,7 +2,7 @@
 
 Classes keep Stone Soup's names and call patterns; the hot loops run in compiled kernels.
 """
-from ._random import seed
+from .random import seed
 from .resampler import (ESSResampler, MultinomialResampler, Resampler, ResidualResampler,
                         StratifiedResampler, SystematicResampler)
 from .resampling import (ResidualMethod, ess, multinomial, normalise, residual, stratified,

@@ -4,7 +4,8 @@ import numbers
 
 import numpy as np
 
-from . import _random, _validate
+from . import _validate
+from . import random as _random
 from .resampling import ResidualMethod, draw
 from .types import as_particle_state
 from ._jit import resample as _kernels
@@ -57,7 +58,8 @@ class _SchemeResampler(Resampler):
             raise ValueError(f"particles.parent has {len(parent)} particles, "
                              f"particles has {len(state)}")
         idx, columns = draw(state.log_weight, nparts, self.method, self.residual, self.rng,
-                            columns=state.state_vector, name="particles.log_weight")
+                            columns=state.state_vector, name="particles.log_weight",
+                            compact=True)
         n = idx.size
         if parent is not None:
             parent_columns = np.empty((parent.ndim, n))

@@ -12,7 +12,8 @@ import enum
 
 import numpy as np
 
-from . import _random, _validate
+from . import _validate
+from . import random as _random
 from ._jit import resample as _kernels
 from ._jit import weights as _weights
 
@@ -47,17 +48,13 @@ def _cdf(log_w, log_w_max):
 def _multinomial_starts(cdf, n, key, starts):
     points = np.empty(n + 1)
     _kernels.sorted_uniforms(key, n, points)
-    point_strata = np.empty(n, dtype=np.int64)
-    _kernels.strata(points, n, point_strata)
-    occupancy = np.empty(n + 1, dtype=np.int64)
-    occupancy[0] = 0
-    _kernels.expand(point_strata, occupancy[1:], _NO_ROWS, _NO_ROWS)
-    occupancy[1:] += 1
+    occupancy = np.empty(n + 1, dtype=starts.dtype)
+    _kernels.stratum_occupancy(points, n, occupancy)
     _kernels.multinomial_starts(cdf, n, key, occupancy, starts)
 
 
-def _scheme_starts(method, cdf, n, key):
-    starts = np.empty(cdf.size, dtype=np.int64)
+def _scheme_starts(method, cdf, n, key, dtype):
+    starts = np.empty(cdf.size, dtype=dtype)
     if method is ResidualMethod.SYSTEMATIC:
         _kernels.systematic_starts(cdf, n, key, starts)
     elif method is ResidualMethod.STRATIFIED:
@@ -67,23 +64,23 @@ def _scheme_starts(method, cdf, n, key):
     return starts
 
 
-def _residual_starts(log_w, log_w_max, cdf, n, method, key):
-    floors = np.empty(cdf.size, dtype=np.int64)
+def _residual_starts(log_w, log_w_max, cdf, n, method, key, dtype):
+    floors = np.empty(cdf.size, dtype=dtype)
     residuals = np.empty_like(cdf)
     _kernels.residual_floors(cdf, log_w, log_w_max, n, floors, residuals)
     _kernels.cumulate(floors)
     n_rest = n - int(floors[-1])
     if n_rest > 0:
         _kernels.cumulate(residuals)
-        starts = _scheme_starts(method, residuals, n_rest, key)
+        starts = _scheme_starts(method, residuals, n_rest, key, dtype)
     else:
-        starts = np.zeros(cdf.size, dtype=np.int64)
+        starts = np.zeros(cdf.size, dtype=dtype)
     _kernels.add_floors(starts, floors)
     return starts
 
 
 def draw(log_weights, nparts=None, method=ResidualMethod.SYSTEMATIC, residual=False,
-         rng=None, columns=None, name="log_weights"):
+         rng=None, columns=None, name="log_weights", compact=False):
     """Ancestor indices of one resampling draw, and optionally the gathered columns.
 
     Parameters
@@ -101,22 +98,26 @@ def draw(log_weights, nparts=None, method=ResidualMethod.SYSTEMATIC, residual=Fa
         Array whose columns are gathered by the indices.
     name : str
         Name of the weights in error messages.
+    compact : bool
+        Work with (and return) int32 indices when N and nparts allow: less memory traffic,
+        for callers that only use the indices internally.
 
     Returns
     -------
-    idx : (nparts,) int64
+    idx : (nparts,) int64 (or int32, see ``compact``)
     gathered : (d, nparts) ndarray
         Only if ``columns`` is given.
     """
     log_w, log_w_max = _validate.log_weights(log_weights, name)
     n = _validate.count(nparts, "nparts", default=log_w.size)
     key = _random.stream_key(rng)
+    dtype = np.int32 if compact and max(n, log_w.size) < 2**31 - 1 else np.int64
     cdf = _cdf(log_w, log_w_max)
     if residual:
-        starts = _residual_starts(log_w, log_w_max, cdf, n, method, key)
+        starts = _residual_starts(log_w, log_w_max, cdf, n, method, key, dtype)
     else:
-        starts = _scheme_starts(method, cdf, n, key)
-    idx = np.empty(n, dtype=np.int64)
+        starts = _scheme_starts(method, cdf, n, key, dtype)
+    idx = np.empty(n, dtype=dtype)
     if columns is None:
         _kernels.expand(starts, idx, _NO_ROWS, _NO_ROWS)
         return idx

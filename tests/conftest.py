@@ -12,5 +12,5 @@ def _seeded():
 
 
 def stream_key(seed):
-    """The stream key that ``rng=seed`` gives the kernels (see fasttrack._random)."""
+    """The stream key that ``rng=seed`` gives the kernels (see fasttrack.random)."""
     return int(np.random.default_rng(seed).integers(0, 2**63 - 1))

@@ -26,7 +26,7 @@ def uniform(key, counter):
 
 
 def n_chunks(n):
-    return min(max(n // 8192, 1), 64)
+    return min(max(n // 8192, 1), 4096)
 
 
 def chunk_bounds(c, k, n):
@@ -99,8 +99,10 @@ def sorted_uniforms(key, n, out):
     out[n] = total[n]
 
 
-def strata(points, n, out):
-    out[:n] = np.minimum(points[:n].astype(np.int64), n - 1)
+def stratum_occupancy(points, n, occupancy):
+    strata = np.minimum(points[:n].astype(np.int64), n - 1)
+    occupancy[0] = 0
+    occupancy[1:] = np.cumsum(np.bincount(strata, minlength=n))
 
 
 def multinomial_starts(cdf, n, key, occupancy, starts):
@@ -167,8 +169,7 @@ def scheme_starts(method, cdf, n, key):
     else:
         points = np.empty(n + 1)
         sorted_uniforms(key, n, points)
-        point_strata = np.empty(n, dtype=np.int64)
-        strata(points, n, point_strata)
-        occupancy = np.concatenate([[0], np.cumsum(np.bincount(point_strata, minlength=n))])
+        occupancy = np.empty(n + 1, dtype=np.int64)
+        stratum_occupancy(points, n, occupancy)
         multinomial_starts(cdf, n, key, occupancy, starts)
     return starts

@@ -147,3 +147,38 @@ def test_results_do_not_depend_on_the_thread_count():
     assert one.keys() == two.keys()
     for name in one:
         assert one[name] == two[name], name
+
+
+def test_every_kernel_has_a_mirror_with_the_same_arguments():
+    import inspect
+    for name, dispatcher in _dispatchers(jit_pkg):
+        short = name.rsplit(".", 1)[1]
+        if short.startswith("_"):
+            continue  # private helpers are covered through the kernels that call them
+        mirror = getattr(reference, short, None)
+        assert mirror is not None, f"{name} has no mirror in tests/reference.py"
+        assert (list(inspect.signature(mirror).parameters)
+                == list(inspect.signature(dispatcher.py_func).parameters)), name
+
+
+def test_public_names_are_importable_from_the_package_and_their_module():
+    import fasttrack.random
+    import fasttrack.resampler
+    import fasttrack.resampling
+    import fasttrack.types
+    domains = (fasttrack.resampler, fasttrack.resampling, fasttrack.types, fasttrack.random)
+    for name in fasttrack.__all__:
+        obj = getattr(fasttrack, name)
+        if name == "warmup":
+            continue
+        assert any(getattr(module, name, None) is obj for module in domains), name
+
+
+def test_chunking_mirrors():
+    for n in (0, 1, 8191, 8192, 10**6, 10**9):
+        k = numeric.n_chunks(n)
+        assert k == reference.n_chunks(n) and 1 <= k <= 4096
+        bounds = [numeric.chunk_bounds(c, k, n) for c in range(k)]
+        assert bounds == [reference.chunk_bounds(c, k, n) for c in range(k)]
+        assert bounds[0][0] == 0 and bounds[-1][1] == n
+        assert all(a[1] == b[0] for a, b in zip(bounds, bounds[1:]))

@@ -60,11 +60,10 @@ def test_multinomial_kernels_match_mirrors(log_w, n):
     reference.sorted_uniforms(77, n, points_ref)
     np.testing.assert_allclose(points, points_ref, rtol=1e-12, atol=1e-9)
     assert np.all(np.diff(points[:n]) >= 0) and points[:n].max() <= n
-    point_strata, strata_ref = np.empty(n, np.int64), np.empty(n, np.int64)
-    kernels.strata(points, n, point_strata)
-    reference.strata(points, n, strata_ref)
-    assert np.array_equal(point_strata, strata_ref)
-    occupancy = np.concatenate([[0], np.cumsum(np.bincount(point_strata, minlength=n))])
+    occupancy, occupancy_ref = np.empty(n + 1, np.int64), np.empty(n + 1, np.int64)
+    kernels.stratum_occupancy(points, n, occupancy)
+    reference.stratum_occupancy(points, n, occupancy_ref)
+    assert np.array_equal(occupancy, occupancy_ref)
     got, want = np.empty(cdf.size, np.int64), np.empty(cdf.size, np.int64)
     kernels.multinomial_starts(cdf, n, 77, occupancy, got)
     reference.multinomial_starts(cdf, n, 77, occupancy, want)
@@ -302,3 +301,12 @@ def test_inputs_are_not_modified(log_w):
         _draw(log_w, 100, method, residual, 1)
     ft.normalise(log_w)
     assert np.array_equal(log_w, before, equal_nan=True)
+
+
+@pytest.mark.parametrize("method,residual", SCHEMES)
+def test_compact_indices_equal_the_int64_ones(log_w, method, residual):
+    wide = _draw(log_w, 30_001, method, residual, seed=4)
+    compact = resampling.draw(log_w, 30_001, ft.ResidualMethod(method), residual, rng=4,
+                              compact=True)
+    assert compact.dtype == np.int32 and wide.dtype == np.int64
+    assert np.array_equal(compact, wide)

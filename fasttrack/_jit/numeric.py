@@ -106,7 +106,7 @@ def uniform(key, counter):
 def n_chunks(n):
     """Number of work chunks for ``n`` items: a function of ``n`` alone, so chunked
     reductions give the same bits whatever the thread count."""
-    return min(max(n // 8192, 1), 64)
+    return min(max(n // 8192, 1), 4096)
 
 
 @jit()

@@ -107,10 +107,25 @@ def sorted_uniforms(key, n, out):
 
 
 @jit(parallel=True)
-def strata(points, n, out):
-    """Stratum ``floor(p)`` of each of the first n points, clipped to [0, n - 1]."""
-    for j in prange(n):
-        out[j] = min(np.int64(points[j]), n - 1)
+def stratum_occupancy(points, n, occupancy):
+    """``occupancy[s]`` = number of the n ascending points (in [0, n]) whose stratum
+    ``min(floor(p), n - 1)`` is below s, for s = 0..n: per chunk of strata, a histogram of
+    its points and a running sum."""
+    k = n_chunks(n)
+    for c in prange(k):
+        lo, hi = chunk_bounds(c, k, n)
+        first = np.searchsorted(points[:n], lo, side="left") if lo > 0 else 0
+        stop = np.searchsorted(points[:n], hi, side="left") if hi < n else n
+        hist = np.zeros(hi - lo, dtype=np.int64)
+        inside = points[first:stop]
+        for j in range(inside.size):
+            hist[min(np.int64(inside[j]), n - 1) - lo] += 1
+        below = first
+        chunk_occupancy = occupancy[lo:hi]
+        for t in range(chunk_occupancy.size):
+            chunk_occupancy[t] = below
+            below += hist[t]
+    occupancy[n] = n
 
 
 @jit(parallel=True)
