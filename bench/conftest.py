@@ -4,7 +4,11 @@ speed-up ratios.
 
 Run:  python -m pytest bench --benchmark-json=bench/results/latest.json
 Smoke (no timing, as in CI):  python -m pytest bench --benchmark-disable
+
+The process runs with ``fasttrack.tune_allocator()`` (both sides of every ratio run in it);
+set FASTTRACK_BENCH_DEFAULT_ALLOCATOR=1 for glibc's defaults.
 """
+import os
 import pathlib
 import sys
 
@@ -28,6 +32,13 @@ def rounds_for(n, slow=False):
 @pytest.fixture(scope="session", autouse=True)
 def _compiled():
     fasttrack.warmup()
+
+
+def pytest_configure(config):
+    """Every implementation runs with glibc's malloc keeping freed memory (see
+    fasttrack.tune_allocator), unless FASTTRACK_BENCH_DEFAULT_ALLOCATOR=1."""
+    if os.environ.get("FASTTRACK_BENCH_DEFAULT_ALLOCATOR") != "1":
+        fasttrack.tune_allocator()
 
 
 def run(benchmark, function, n, slow=False):

@@ -20,6 +20,9 @@ TARGETS = [
     ("resample-multinomial", 10**6, "stonesoup", 50.0),
     ("resample-residual", 10**6, "stonesoup", 100.0),
     ("resample-systematic", 10**6, "floor", 1 / 3),
+    ("pf-step", 10**5, "stonesoup", 20.0),
+    ("pf-step", 10**6, "stonesoup", 20.0),
+    ("pf-step", 10**6, "floor", 1 / 1.5),
 ]
 
 IMPLEMENTATIONS = ("fasttrack", "numpy_reference", "stonesoup")

@@ -7,15 +7,31 @@ from .resampler import (ESSResampler, MultinomialResampler, Resampler, ResidualR
                         StratifiedResampler, SystematicResampler)
 from .resampling import (ResidualMethod, ess, multinomial, normalise, residual, stratified,
                          systematic)
-from .types import Particle, ParticleState
+from .models import (Cartesian2DToBearing, CartesianToBearingRange,
+                     CombinedLinearGaussianTransitionModel, ConstantVelocity, LinearGaussian,
+                     LinearGaussianTransitionModel, MeasurementModel,
+                     NonlinearGaussianMeasurement, NonlinearGaussianTransitionModel,
+                     TransitionModel)
+from .memory import tune_allocator
+from .predictor import ParticlePredictor
+from .simulate import detections, ground_truth
+from .types import (Detection, GaussianState, GroundTruthPath, GroundTruthState, Particle,
+                    ParticleState, ParticleStatePrediction, ParticleStateUpdate,
+                    SingleHypothesis, State, Track)
+from .updater import ParticleUpdater
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "ESSResampler", "MultinomialResampler", "Particle", "ParticleState", "Resampler",
-    "ResidualMethod", "ResidualResampler", "StratifiedResampler", "SystematicResampler",
-    "ess", "multinomial", "normalise", "residual", "seed", "stratified", "systematic",
-    "warmup",
+    "Cartesian2DToBearing", "CartesianToBearingRange", "CombinedLinearGaussianTransitionModel",
+    "ConstantVelocity", "Detection", "ESSResampler", "GaussianState", "GroundTruthPath",
+    "GroundTruthState", "LinearGaussian", "LinearGaussianTransitionModel", "MeasurementModel",
+    "MultinomialResampler", "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel",
+    "Particle", "ParticlePredictor", "ParticleState", "ParticleStatePrediction",
+    "ParticleStateUpdate", "ParticleUpdater", "Resampler", "ResidualMethod",
+    "ResidualResampler", "SingleHypothesis", "State", "StratifiedResampler",
+    "SystematicResampler", "Track", "TransitionModel", "detections", "ess", "ground_truth",
+    "multinomial", "normalise", "residual", "seed", "stratified", "systematic", "tune_allocator", "warmup",
 ]
 
 

@@ -38,6 +38,15 @@ def square_matrix(value, name, size):
     return a
 
 
+def covariance(value, name, size):
+    """A finite, symmetric (size, size) float64 covariance matrix."""
+    a = square_matrix(value, name, size)
+    scale = max(np.abs(a).max(), np.finfo(float).tiny)
+    if np.abs(a - a.T).max() > 1e-9 * scale:
+        raise ValueError(f"{name} must be symmetric")
+    return a
+
+
 def state_array(value, name):
     """A (d, N) float64 state array: d >= 1 rows, N >= 1 columns, all finite."""
     a = finite_array(value, name, 2)

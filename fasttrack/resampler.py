@@ -8,7 +8,6 @@ from . import _validate
 from . import random as _random
 from .resampling import ResidualMethod, draw
 from .types import as_particle_state
-from ._jit import resample as _kernels
 from ._jit import weights as _weights
 
 
@@ -61,13 +60,8 @@ class _SchemeResampler(Resampler):
                             columns=state.state_vector, name="particles.log_weight",
                             compact=True)
         n = idx.size
-        if parent is not None:
-            parent_columns = np.empty((parent.ndim, n))
-            _kernels.take_columns(parent.state_vector, idx, parent_columns)
-            parent = parent._replace(state_vector=parent_columns,
-                                     log_weight=parent.log_weight[idx], parent=None)
         return state._replace(state_vector=columns, log_weight=np.full(n, -np.log(n)),
-                              parent=parent)
+                              parent=None if parent is None else parent._indexed(idx))
 
 
 class SystematicResampler(_SchemeResampler):

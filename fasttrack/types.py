@@ -3,11 +3,13 @@ with (N,) float64 log weights; linear weights are derived on request."""
 import copy
 import datetime
 import numbers
+import uuid
 
 import numpy as np
 
 from . import _validate
 from ._jit import weights as _weights
+from ._jit.resample import take_columns as _take_columns
 
 
 def check_timestamp(value, name="timestamp"):
@@ -83,6 +85,7 @@ class ParticleState:
 
     def __init__(self, state_vector=None, timestamp=None, weight=None, log_weight=None,
                  parent=None, particle_list=None, fixed_covar=None):
+        self._source = None
         if weight is not None and log_weight is not None:
             raise ValueError("give weight or log_weight, not both")
         if particle_list is not None:
@@ -110,7 +113,7 @@ class ParticleState:
         self._moments = None
 
     @classmethod
-    def _trusted(cls, state_vector, log_weight, timestamp=None, parent=None):
+    def _trusted(cls, state_vector, log_weight, timestamp=None, parent=None, **attributes):
         """Build from arrays that a kernel produced (no validation, no copies)."""
         state = cls.__new__(cls)
         state._state_vector = state_vector
@@ -119,11 +122,15 @@ class ParticleState:
         state.parent = parent
         state.fixed_covar = None
         state._moments = None
+        state._source = None
+        state.__dict__.update(attributes)
         return state
 
     def _replace(self, **changes):
         """A shallow copy of the same type with some attributes replaced (the arrays given
         are trusted, as in :meth:`_trusted`)."""
+        if self._source is not None:
+            self._gather()
         state = copy.copy(self)
         state._moments = None
         for name, value in changes.items():
@@ -131,46 +138,71 @@ class ParticleState:
                     value)
         return state
 
+    def _indexed(self, idx):
+        """A copy of the same type holding the particles ``idx`` (its own parent dropped),
+        gathered on first access: most parents are never read."""
+        state = self._replace(parent=None)
+        state._source = (state._state_vector, state._log_weight, idx)
+        state._state_vector = state._log_weight = None
+        return state
+
+    def _gather(self):
+        source, source_log_weight, idx = self._source
+        columns = np.empty((source.shape[0], idx.size))
+        _take_columns(source, idx, columns)
+        self._state_vector, self._log_weight = columns, source_log_weight[idx]
+        self._source = None
+
     @property
     def state_vector(self):
         """(d, N) float64 particle states."""
+        if self._source is not None:
+            self._gather()
         return self._state_vector
 
     @state_vector.setter
     def state_vector(self, value):
         sv = _validate.state_array(value, "state_vector")
-        if sv.shape[1] != self._log_weight.size:
-            raise ValueError(f"state_vector must have {self._log_weight.size} columns, "
-                             f"got {sv.shape[1]}")
+        if sv.shape[1] != len(self):
+            raise ValueError(f"state_vector must have {len(self)} columns, got {sv.shape[1]}")
+        if self._source is not None:
+            self._gather()
         self._state_vector = sv
         self._moments = None
 
     @property
     def log_weight(self):
         """(N,) float64 log weights (unnormalised; ``-inf`` is a zero weight)."""
+        if self._source is not None:
+            self._gather()
         return self._log_weight
 
     @log_weight.setter
     def log_weight(self, value):
-        self._log_weight = _validate.log_weights(value, "log_weight", len(self))[0].copy()
+        log_weight = _validate.log_weights(value, "log_weight", len(self))[0].copy()
+        _ = self.state_vector  # gather a pending state first
+        self._log_weight = log_weight
         self._moments = None
 
     @property
     def weight(self):
         """(N,) float64 linear weights ``exp(log_weight)`` (a new array)."""
-        return np.exp(self._log_weight)
+        return np.exp(self.log_weight)
 
     @weight.setter
     def weight(self, value):
-        self._log_weight = _validate.linear_weights(value, "weight", len(self))
-        self._moments = None
+        self.log_weight = _validate.linear_weights(value, "weight", len(self))
 
     def __len__(self):
+        if self._source is not None:
+            return self._source[2].size
         return self._state_vector.shape[1]
 
     @property
     def ndim(self):
         """Number of state dimensions d."""
+        if self._source is not None:
+            return self._source[0].shape[0]
         return self._state_vector.shape[0]
 
     def _weighted_moments(self):
@@ -178,8 +210,8 @@ class ParticleState:
             d = self.ndim
             mean = np.empty(d)
             covar = np.empty((d, d))
-            log_w = self._log_weight
-            _weights.weighted_mean_covar(self._state_vector, log_w, log_w.max(), mean, covar)
+            log_w = self.log_weight
+            _weights.weighted_mean_covar(self.state_vector, log_w, log_w.max(), mean, covar)
             self._moments = mean.reshape(d, 1), covar
         return self._moments
 
@@ -201,12 +233,12 @@ class ParticleState:
         slice gives a new state of the same type (with ``parent`` indexed alike)."""
         parent = None if self.parent is None else self.parent._replace(parent=None)[item]
         if isinstance(item, numbers.Integral):
-            return Particle(self._state_vector[:, item], float(np.exp(self._log_weight[item])),
+            return Particle(self.state_vector[:, item], float(np.exp(self.log_weight[item])),
                             parent=parent)
-        log_weight = self._log_weight[item]
+        log_weight = self.log_weight[item]
         if log_weight.size == 0:
             raise IndexError("indexing selected no particles")
-        return self._replace(state_vector=np.ascontiguousarray(self._state_vector[:, item]),
+        return self._replace(state_vector=np.ascontiguousarray(self.state_vector[:, item]),
                              log_weight=log_weight, parent=parent)
 
     def __repr__(self):
@@ -244,3 +276,201 @@ def as_particle_state(value, name="particles"):
         return ParticleState(particle_list=value)
     raise TypeError(f"{name} must be a ParticleState or a list of Particle, "
                     f"got {type(value).__name__}")
+
+
+class ParticleStatePrediction(ParticleState):
+    """A predicted particle state: a :class:`ParticleState` with the ``transition_model`` that
+    produced it and the ``prior`` it came from (also its ``parent``)."""
+
+    def __init__(self, state_vector=None, timestamp=None, weight=None, log_weight=None,
+                 parent=None, particle_list=None, fixed_covar=None, transition_model=None,
+                 prior=None):
+        super().__init__(state_vector, timestamp, weight, log_weight, parent, particle_list,
+                         fixed_covar)
+        self.transition_model = transition_model
+        self.prior = prior
+
+
+class ParticleStateUpdate(ParticleState):
+    """An updated particle state: a :class:`ParticleState` with the ``hypothesis`` (prediction
+    and measurement) it was updated from."""
+
+    def __init__(self, state_vector=None, timestamp=None, weight=None, log_weight=None,
+                 parent=None, particle_list=None, fixed_covar=None, hypothesis=None):
+        super().__init__(state_vector, timestamp, weight, log_weight, parent, particle_list,
+                         fixed_covar)
+        self.hypothesis = hypothesis
+
+
+def column_vector(value, name="state_vector"):
+    """A finite (d, 1) float64 column from a (d,) or (d, 1) array_like (d >= 1)."""
+    v = _validate.finite_array(value, name)
+    if v.ndim == 0 or v.ndim > 2 or (v.ndim == 2 and v.shape[1] != 1) or v.size == 0:
+        raise ValueError(f"{name} must have shape (d,) or (d, 1), got {v.shape}")
+    return v.reshape(-1, 1)
+
+
+class State:
+    """A point state: a (d, 1) ``state_vector`` at a ``timestamp``."""
+
+    def __init__(self, state_vector, timestamp=None):
+        self.state_vector = column_vector(state_vector)
+        self.timestamp = check_timestamp(timestamp)
+
+    @property
+    def ndim(self):
+        """Number of state dimensions d."""
+        return self.state_vector.shape[0]
+
+    def __repr__(self):
+        return (f"{type(self).__name__}(state_vector={self.state_vector.ravel()}, "
+                f"timestamp={self.timestamp!r})")
+
+
+class GaussianState(State):
+    """A Gaussian state: mean ``state_vector`` (d, 1) and covariance ``covar`` (d, d).
+
+    The covariance must be finite and symmetric (to 1e-9 relative); positive definiteness is
+    checked where a filter needs it.
+    """
+
+    def __init__(self, state_vector, covar, timestamp=None):
+        super().__init__(state_vector, timestamp)
+        self.covar = _validate.covariance(covar, "covar", self.ndim)
+
+    @property
+    def mean(self):
+        """The mean, ``state_vector``."""
+        return self.state_vector
+
+
+class GroundTruthState(State):
+    """A true state, with optional ``metadata``."""
+
+    def __init__(self, state_vector, timestamp=None, metadata=None):
+        super().__init__(state_vector, timestamp)
+        self.metadata = {} if metadata is None else dict(metadata)
+
+
+class Detection(State):
+    """A measurement ``state_vector`` (m, 1) at a ``timestamp``; its ``measurement_model``, if
+    set, is used by updaters instead of their own."""
+
+    def __init__(self, state_vector, timestamp=None, measurement_model=None, metadata=None):
+        super().__init__(state_vector, timestamp)
+        self.measurement_model = measurement_model
+        self.metadata = {} if metadata is None else dict(metadata)
+
+
+class StateSequence:
+    """States kept in time order: indexing is by position, iteration in time order, and
+    attributes not found here (``state_vector``, ``mean``, ``covar``, ...) are the last
+    state's."""
+
+    def __init__(self, states=None):
+        self.states = []
+        for state in states or ():
+            self.append(state)
+
+    def append(self, state):
+        """Add a state, keeping time order (after any states with the same timestamp)."""
+        if not hasattr(state, "timestamp"):
+            raise TypeError(f"a {type(self).__name__} holds states, got {type(state).__name__}")
+        if state.timestamp is None or not self.states or self.states[-1].timestamp is None \
+                or _time_order(self.states[-1].timestamp, state.timestamp) <= 0:
+            self.states.append(state)
+            return
+        position = len(self.states)
+        while position > 0 and _time_order(self.states[position - 1].timestamp,
+                                           state.timestamp) > 0:
+            position -= 1
+        self.states.insert(position, state)
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return type(self)(self.states[index])
+        return self.states[index]
+
+    def __iter__(self):
+        return iter(self.states)
+
+    def __len__(self):
+        return len(self.states)
+
+    @property
+    def state(self):
+        """The last state."""
+        return self.states[-1]
+
+    @property
+    def timestamps(self):
+        return [state.timestamp for state in self.states]
+
+    def __getattr__(self, name):
+        if name.startswith("_") or name == "states":
+            raise AttributeError(name)
+        if not self.__dict__.get("states"):
+            raise AttributeError(f"{type(self).__name__} is empty: no {name!r}")
+        return getattr(self.states[-1], name)
+
+
+def _time_order(a, b):
+    """-1, 0 or 1 as timestamp a is before, at or after b (same kind required)."""
+    if type(a) is not type(b) and not (isinstance(a, numbers.Real) and isinstance(b, numbers.Real)):
+        raise TypeError(f"cannot order timestamps {a!r} and {b!r}: mix of datetimes and numbers")
+    return (a > b) - (a < b)
+
+
+class Track(StateSequence):
+    """A track: estimated states in time order, with an ``id``."""
+
+    def __init__(self, states=None, id=None):
+        super().__init__(states)
+        self.id = str(uuid.uuid4()) if id is None else id
+
+
+class GroundTruthPath(StateSequence):
+    """A true path: :class:`GroundTruthState` objects in time order, with an ``id``."""
+
+    def __init__(self, states=None, id=None):
+        super().__init__(states)
+        self.id = str(uuid.uuid4()) if id is None else id
+
+
+class SingleHypothesis:
+    """A prediction paired with a measurement (a :class:`Detection`, or None for a missed
+    detection); updaters store their ``measurement_prediction`` on it."""
+
+    def __init__(self, prediction, measurement, measurement_prediction=None):
+        self.prediction = prediction
+        self.measurement = measurement
+        self.measurement_prediction = measurement_prediction
+
+    def __bool__(self):
+        return self.measurement is not None
+
+    def __repr__(self):
+        return f"SingleHypothesis(prediction={self.prediction!r}, measurement={self.measurement!r})"
+
+
+def time_interval(later, earlier, name="timestamp"):
+    """Seconds from ``earlier`` to ``later`` (two datetimes or two numbers of seconds)."""
+    if isinstance(later, datetime.datetime) and isinstance(earlier, datetime.datetime):
+        return (later - earlier).total_seconds()
+    if isinstance(later, numbers.Real) and isinstance(earlier, numbers.Real) \
+            and not isinstance(later, bool) and not isinstance(earlier, bool):
+        return float(later) - float(earlier)
+    raise TypeError(f"{name} {later!r} and the prior's timestamp {earlier!r} must both be "
+                    f"datetimes or both numbers of seconds")
+
+
+def seconds(interval, name="time_interval"):
+    """A time interval in seconds from a ``datetime.timedelta`` or a real number."""
+    if isinstance(interval, datetime.timedelta):
+        return interval.total_seconds()
+    if isinstance(interval, numbers.Real) and not isinstance(interval, bool):
+        if not np.isfinite(interval):
+            raise ValueError(f"{name} must be finite, got {interval}")
+        return float(interval)
+    raise TypeError(f"{name} must be a datetime.timedelta or a number of seconds, "
+                    f"got {type(interval).__name__}")

@@ -25,6 +25,32 @@ def uniform(key, counter):
     return (z >> np.uint64(11)).astype(np.float64) * 2.0**-53
 
 
+def fast_atan2(y, x):
+    return np.arctan2(y, x)
+
+
+def sin_cos_turns(u):
+    return np.sin(2 * np.pi * u), np.cos(2 * np.pi * u)
+
+
+def normal_pairs(key, pairs):
+    """The cosine and sine normals of the Box-Muller pairs ``pairs`` of stream ``key``."""
+    pairs = np.asarray(pairs, dtype=np.int64)
+    radius = np.sqrt(-2.0 * np.log(1.0 - uniform(key, 2 * pairs)))
+    turn = 2 * np.pi * uniform(key, 2 * pairs + 1)
+    return radius * np.cos(turn), radius * np.sin(turn)
+
+
+def fill_normals(key, first_pair, out):
+    half = out.size // 2
+    out[:half], out[half:2 * half] = normal_pairs(key, first_pair + np.arange(half))
+
+
+def wrap_angle(a):
+    """Stone Soup's mod_bearing: ((a + pi) mod 2 pi) - pi."""
+    return np.mod(a + np.pi, 2 * np.pi) - np.pi
+
+
 def n_chunks(n):
     return min(max(n // 8192, 1), 4096)
 
@@ -57,6 +83,82 @@ def weighted_mean_covar(x, log_w, log_w_max, mean, covar):
     w = np.exp(log_w - log_w_max)
     mean[:] = np.average(x, axis=1, weights=w)
     covar[:] = np.atleast_2d(np.cov(x, ddof=0, aweights=w))
+
+
+def normalise_in_place(log_w, log_w_max):
+    shift = log_sum_exp(log_w, log_w_max)
+    log_w -= shift
+    return shift
+
+
+# --- propagate -----------------------------------------------------------------------------
+
+PROPAGATE_BLOCK = 1024
+
+
+def _process_noise(noise_root, key, n):
+    """S z for n particles, with the kernels' layout of the normals: block b fills
+    ``even * BLOCK`` normals (even = d rounded up to even) from pair ``b * BLOCK * even / 2``,
+    and component c of its particle i is entry ``c * BLOCK + i``."""
+    d = noise_root.shape[0]
+    even = d + d % 2
+    blocks = -(-n // PROPAGATE_BLOCK)
+    z = np.empty((d, blocks * PROPAGATE_BLOCK))
+    for b in range(blocks):
+        block = np.empty(even * PROPAGATE_BLOCK)
+        fill_normals(key, b * PROPAGATE_BLOCK * even // 2, block)
+        z[:, b * PROPAGATE_BLOCK:(b + 1) * PROPAGATE_BLOCK] = block[:d * PROPAGATE_BLOCK].reshape(
+            d, PROPAGATE_BLOCK)
+    return noise_root @ z[:, :n]
+
+
+def propagate_linear(x, matrix, noise_root, key, out):
+    out[:] = matrix @ x
+    if np.any(noise_root != 0):
+        out += _process_noise(noise_root, key, x.shape[1])
+
+
+def propagate_function(function, time_interval, x, noise_root, key, out):
+    out[:] = function(x, time_interval)
+    if np.any(noise_root != 0):
+        out += _process_noise(noise_root, key, x.shape[1])
+
+
+# --- likelihood ----------------------------------------------------------------------------
+
+SELECT, BEARING_RANGE, BEARING = 0, 1, 2
+
+
+def measure(kind, x, mapping, offset, rotation, out):
+    if kind == SELECT:
+        out[:] = x[mapping]
+        return
+    p = rotation @ (x[mapping[:2]] - offset[:, None])
+    out[0] = wrap_angle(np.arctan2(p[1], p[0]))
+    if kind == BEARING_RANGE:
+        out[1] = np.hypot(p[0], p[1])
+
+
+def _log_likelihoods(z, predicted, angles, whiten, log_norm, log_w, out):
+    innovation = z[:, None] - predicted
+    innovation[angles] = wrap_angle(innovation[angles])
+    out[:] = log_w + log_norm - 0.5 * np.sum((whiten @ innovation) ** 2, axis=0)
+    return np.nan if np.isnan(out).any() else out.max()
+
+
+def log_likelihood(kind, z, x, mapping, offset, rotation, angles, whiten, log_norm, log_w, out):
+    predicted = np.empty((z.size, x.shape[1]))
+    measure(kind, x, mapping, offset, rotation, predicted)
+    return _log_likelihoods(z, predicted, angles, whiten, log_norm, log_w, out)
+
+
+def measure_function(function, x, angles, out):
+    out[:] = function(x)
+    out[angles] = wrap_angle(out[angles])
+
+
+def log_likelihood_function(function, z, x, angles, whiten, log_norm, log_w, out):
+    return _log_likelihoods(z, function(x), angles, whiten, log_norm, log_w, out)
 
 
 # --- resample ------------------------------------------------------------------------------

@@ -131,6 +131,15 @@ out["ess"] = ft.ess(log_w).hex()
 out["mean"] = [v.hex() for v in state.mean.ravel()]
 out["covar"] = [v.hex() for v in state.covar.ravel()]
 out["normalise"] = ft.normalise(log_w)[:1000].tolist()
+transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+sensor = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.01, 1.0]), translation_offset=[50, 0])
+prior = ft.ParticleState(rng.standard_normal((4, n)), log_weight=log_w, timestamp=0.0)
+prediction = ft.ParticlePredictor(transition, rng=3).predict(prior, 1.0)
+update = ft.ParticleUpdater(sensor, ft.SystematicResampler(rng=4)).update(
+    ft.SingleHypothesis(prediction, ft.Detection([0.5, 49.0])))
+out["predicted"] = [v.hex() for v in prediction.state_vector[:, ::997].ravel()]
+out["updated"] = [v.hex() for v in update.state_vector[:, ::997].ravel()]
+out["updated_mean"] = [v.hex() for v in update.mean.ravel()]
 json.dump(out, sys.stdout)
 """
 
@@ -162,11 +171,10 @@ def test_every_kernel_has_a_mirror_with_the_same_arguments():
 
 
 def test_public_names_are_importable_from_the_package_and_their_module():
-    import fasttrack.random
-    import fasttrack.resampler
-    import fasttrack.resampling
-    import fasttrack.types
-    domains = (fasttrack.resampler, fasttrack.resampling, fasttrack.types, fasttrack.random)
+    import importlib
+    domains = [importlib.import_module(f"fasttrack.{name}") for name in (
+        "memory", "models", "predictor", "random", "resampler", "resampling", "simulate",
+        "types", "updater")]
     for name in fasttrack.__all__:
         obj = getattr(fasttrack, name)
         if name == "warmup":

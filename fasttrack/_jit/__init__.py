@@ -10,7 +10,9 @@ Rules for ``parallel=True`` kernels, each learnt from a wrong result:
 - arrays written in a ``prange`` loop are arguments or slices of them taken in the kernel
   itself (Numba's parfor dead-code elimination drops writes to an array returned by a call);
 - inner loops run over ``range(view.size)`` of a slice, not ``range(lo, hi)`` of the
-  whole array, so that LLVM can prove the index non-negative and vectorise.
+  whole array, so that LLVM can prove the index non-negative and vectorise;
+- a loop over a literal tuple of coefficients (a Horner polynomial) holds at most 13 of
+  them: longer ones are not unrolled, and the loop around them no longer vectorises.
 """
 import numba
 

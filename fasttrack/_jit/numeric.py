@@ -1,5 +1,6 @@
-"""Scalar building blocks shared by the kernels: vectorisable exp and log, a counter-based
-uniform random stream, and the fixed chunking of parallel reductions."""
+"""Scalar building blocks shared by the kernels: vectorisable exp, log and sin/cos, a
+counter-based random stream (uniforms and normals), and the fixed chunking of parallel
+reductions."""
 import numpy as np
 from llvmlite import ir
 from numba import prange, types
@@ -100,6 +101,97 @@ def uniform(key, counter):
     z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
     z = z ^ (z >> np.uint64(31))
     return np.float64(z >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+
+
+@jit()
+def sin_cos_turns(u):
+    """``(sin(2 pi u), cos(2 pi u))`` for u in [0, 1), branch-free so that loops vectorise.
+
+    ``4u = k + r`` with k the nearest integer (exact), ``x = r pi / 2`` in [-pi/4, pi/4],
+    Taylor polynomials to x**17 and x**16, then the quarter turn k picks signs and order.
+    """
+    quarters = 4.0 * u
+    k = np.floor(quarters + 0.5)
+    x = (quarters - k) * 1.5707963267948966
+    x2 = x * x
+    sin_x = 1.0 / 355687428096000.0  # Horner on 1/17!, -1/15!, ..., 1
+    for m in (-1.0 / 1307674368000.0, 1.0 / 6227020800.0, -1.0 / 39916800.0,
+              1.0 / 362880.0, -1.0 / 5040.0, 1.0 / 120.0, -1.0 / 6.0, 1.0):
+        sin_x = sin_x * x2 + m
+    sin_x *= x
+    cos_x = 1.0 / 20922789888000.0  # Horner on 1/16!, -1/14!, ..., 1
+    for m in (-1.0 / 87178291200.0, 1.0 / 479001600.0, -1.0 / 3628800.0,
+              1.0 / 40320.0, -1.0 / 720.0, 1.0 / 24.0, -0.5, 1.0):
+        cos_x = cos_x * x2 + m
+    quadrant = np.int64(k) & 3
+    swap = (quadrant & 1) == 1
+    sin_value = cos_x if swap else sin_x
+    cos_value = sin_x if swap else cos_x
+    if quadrant >= 2:
+        sin_value = -sin_value
+    if quadrant == 1 or quadrant == 2:
+        cos_value = -cos_value
+    return sin_value, cos_value
+
+
+@jit()
+def fast_atan2(y, x):
+    """atan2(y, x) within a few ulp, branch-free so that loops vectorise (finite inputs;
+    atan2(0, 0) = 0).
+
+    ``t = min(|x|, |y|) / max(|x|, |y|)`` in [0, 1]; above tan(pi/8) it is mapped to
+    ``(t - 1) / (t + 1)`` with pi/4 added back; the odd Taylor series of atan to t**43 on
+    ``|t| <= tan(pi/8)``; then octant, quadrant and sign from |y| > |x|, x < 0 and y < 0.
+    """
+    ax = abs(x)
+    ay = abs(y)
+    big = max(ax, ay)
+    small = min(ax, ay)
+    t = small / max(big, 1e-300)
+    reduced = t > 0.41421356237309503
+    t = (t - 1.0) / (t + 1.0) if reduced else t
+    t2 = t * t
+    series = -1.0 / 43.0  # Horner on (-1)^k / (2k + 1), k = 21 .. 0, in two loops that
+    for c in (1.0 / 41.0, -1.0 / 39.0, 1.0 / 37.0, -1.0 / 35.0, 1.0 / 33.0,  # LLVM unrolls
+              -1.0 / 31.0, 1.0 / 29.0, -1.0 / 27.0, 1.0 / 25.0, -1.0 / 23.0):
+        series = series * t2 + c
+    for c in (1.0 / 21.0, -1.0 / 19.0, 1.0 / 17.0, -1.0 / 15.0, 1.0 / 13.0, -1.0 / 11.0,
+              1.0 / 9.0, -1.0 / 7.0, 1.0 / 5.0, -1.0 / 3.0, 1.0):
+        series = series * t2 + c
+    angle = t * series + (0.7853981633974483 if reduced else 0.0)
+    angle = 1.5707963267948966 - angle if ay > ax else angle
+    angle = 3.141592653589793 - angle if x < 0.0 else angle
+    return -angle if y < 0.0 else angle
+
+
+@jit()
+def fill_normals(key, first_pair, out):
+    """Standard normals of stream ``key`` into ``out`` (even size 2h), from the Box-Muller
+    pairs ``first_pair .. first_pair + h - 1``: ``out[j]`` and ``out[h + j]`` are the cosine
+    and sine normals of pair ``first_pair + j``.
+
+    Pair p turns the uniforms ``2p`` and ``2p + 1`` into
+    ``sqrt(-2 log(1 - u)) (cos 2 pi v, sin 2 pi v)``, in passes that each vectorise (a loop
+    doing all of it per pair does not), in place.
+    """
+    half = out.size // 2
+    radii = out[:half]
+    turns = out[half:2 * half]
+    for j in range(half):
+        radii[j] = uniform(key, 2 * (first_pair + j))
+        turns[j] = uniform(key, 2 * (first_pair + j) + 1)
+    for j in range(half):
+        radii[j] = np.sqrt(-2.0 * fast_log(1.0 - radii[j]))
+    for j in range(half):
+        sin_value, cos_value = sin_cos_turns(turns[j])
+        turns[j] = radii[j] * sin_value
+        radii[j] = radii[j] * cos_value
+
+
+@jit()
+def wrap_angle(a):
+    """``a`` wrapped to [-pi, pi): ``a - 2 pi floor((a + pi) / 2 pi)``."""
+    return a - 6.283185307179586 * np.floor((a + 3.141592653589793) * 0.15915494309189535)
 
 
 @jit()

@@ -125,3 +125,12 @@ def _sum_rows(partial):
         for j in range(partial.shape[1]):
             sums[j] += partial[c, j]
     return sums
+
+
+@jit(parallel=True)
+def normalise_in_place(log_w, log_w_max):
+    """Shift log weights so that their exponentials sum to 1; returns the shift (logsumexp)."""
+    shift = log_sum_exp(log_w, log_w_max)
+    for i in prange(log_w.size):
+        log_w[i] -= shift
+    return shift

@@ -1,0 +1,153 @@
+"""Measurement kernels: predicted measurements and log-likelihoods of particle clouds.
+
+Built-in models are described by a kind and three arrays, so no kernel takes a function:
+
+- SELECT: ``h(x) = x[mapping]`` (linear-Gaussian measurement of some state components);
+- BEARING_RANGE: ``(atan2(p_y, p_x), |p|)`` of ``p = R (x[mapping[:2]] - offset)``, with R the
+  top-left 2x2 block of the sensor rotation;
+- BEARING: the bearing alone.
+
+Angle rows are wrapped to [-pi, pi) in predictions and innovations. The log-likelihood of a
+measurement z is ``log_norm - |W (z - h(x))|^2 / 2`` with W the inverse of the Cholesky factor
+of the noise covariance. Particles go in blocks of BLOCK.
+"""
+import numpy as np
+from numba import prange
+
+from . import jit
+from .numeric import fast_atan2, wrap_angle
+
+SELECT, BEARING_RANGE, BEARING = 0, 1, 2
+BLOCK = 1024
+
+
+@jit()
+def _predict_block(kind, x, lo, hi, mapping, offset, rotation, out, at):
+    """Predicted measurements of particles ``lo:hi`` into ``out[:, at:at + hi - lo]``."""
+    if kind == SELECT:
+        for r in range(mapping.size):
+            row = out[r, at:at + hi - lo]
+            xr = x[mapping[r], lo:hi]
+            for i in range(row.size):
+                row[i] = xr[i]
+        return
+    xs = x[mapping[0], lo:hi]
+    ys = x[mapping[1], lo:hi]
+    bearings = out[0, at:at + hi - lo]
+    for i in range(bearings.size):
+        dx = xs[i] - offset[0]
+        dy = ys[i] - offset[1]
+        px = rotation[0, 0] * dx + rotation[0, 1] * dy
+        py = rotation[1, 0] * dx + rotation[1, 1] * dy
+        bearings[i] = wrap_angle(fast_atan2(py, px))
+        if kind == BEARING_RANGE:
+            out[1, at + i] = np.sqrt(px * px + py * py)
+
+
+@jit()
+def _wrap_rows(values, lo, hi, angles):
+    """Wrap ``values[r, lo:hi]`` for the rows r flagged in ``angles``."""
+    for r in range(angles.size):
+        if angles[r]:
+            row = values[r, lo:hi]
+            for i in range(row.size):
+                row[i] = wrap_angle(row[i])
+
+
+@jit()
+def _block_log_likelihoods(z, predicted, angles, whiten, log_norm, log_w, out):
+    """``out = log_w + log_norm - |W (z - predicted)|^2 / 2`` for the block's ``out.size``
+    particles (the first columns of ``predicted``, overwritten with the innovations);
+    returns the block's maximum, or NaN if any entry is NaN."""
+    m = z.size
+    count = out.size
+    for r in range(m):
+        row = predicted[r, :count]
+        for i in range(count):
+            row[i] = z[r] - row[i]
+    _wrap_rows(predicted, 0, count, angles)
+    whitened = np.empty(count)
+    for i in range(count):
+        out[i] = 0.0
+    for r in range(m):
+        for i in range(count):
+            whitened[i] = 0.0
+        for c in range(r + 1):
+            w = whiten[r, c]
+            innovation = predicted[c, :count]
+            for i in range(count):
+                whitened[i] += w * innovation[i]
+        for i in range(count):
+            out[i] += whitened[i] * whitened[i]
+    top = -np.inf
+    invalid = False
+    for i in range(count):
+        out[i] = log_w[i] + log_norm - 0.5 * out[i]
+        top = max(top, out[i])
+        invalid |= out[i] != out[i]
+    return np.nan if invalid else top
+
+
+@jit(parallel=True)
+def measure(kind, x, mapping, offset, rotation, out):
+    """Predicted measurements (m, N) of (d, N) particles."""
+    n = x.shape[1]
+    for b in prange((n + BLOCK - 1) // BLOCK):
+        lo = b * BLOCK
+        hi = min(lo + BLOCK, n)
+        _predict_block(kind, x, lo, hi, mapping, offset, rotation, out, lo)
+
+
+@jit(parallel=True)
+def log_likelihood(kind, z, x, mapping, offset, rotation, angles, whiten, log_norm, log_w,
+                   out):
+    """``out = log_w + log p(z | particle)`` for (d, N) particles; returns ``max(out)`` (NaN
+    if any entry is NaN)."""
+    n = x.shape[1]
+    blocks = (n + BLOCK - 1) // BLOCK
+    tops = np.empty(blocks)
+    for b in prange(blocks):
+        lo = b * BLOCK
+        hi = min(lo + BLOCK, n)
+        predicted = np.empty((z.size, BLOCK))
+        _predict_block(kind, x, lo, hi, mapping, offset, rotation, predicted, 0)
+        tops[b] = _block_log_likelihoods(z, predicted, angles, whiten, log_norm, log_w[lo:hi],
+                                         out[lo:hi])
+    return _max(tops)
+
+
+@jit(parallel=True)
+def measure_function(function, x, angles, out):
+    """Predicted measurements of a user model ``h((d, n) states) -> (m, n)``."""
+    n = x.shape[1]
+    for b in prange((n + BLOCK - 1) // BLOCK):
+        lo = b * BLOCK
+        hi = min(lo + BLOCK, n)
+        out[:, lo:hi] = function(x[:, lo:hi])
+        _wrap_rows(out, lo, hi, angles)
+
+
+@jit(parallel=True)
+def log_likelihood_function(function, z, x, angles, whiten, log_norm, log_w, out):
+    """:func:`log_likelihood` for a user model ``h((d, n) states) -> (m, n)``."""
+    n = x.shape[1]
+    blocks = (n + BLOCK - 1) // BLOCK
+    tops = np.empty(blocks)
+    for b in prange(blocks):
+        lo = b * BLOCK
+        hi = min(lo + BLOCK, n)
+        predicted = np.ascontiguousarray(function(x[:, lo:hi]))
+        tops[b] = _block_log_likelihoods(z, predicted, angles, whiten, log_norm, log_w[lo:hi],
+                                         out[lo:hi])
+    return _max(tops)
+
+
+@jit()
+def _max(values):
+    """The maximum, NaN if any value is NaN."""
+    top = -np.inf
+    for v in values:
+        if v != v:
+            return v
+        top = max(top, v)
+    return top

@@ -1,0 +1,12 @@
+"""Transition and measurement models (built-in, or built from a user's Numba function)."""
+from .measurement import (Cartesian2DToBearing, CartesianToBearingRange, LinearGaussian,
+                          MeasurementModel, NonlinearGaussianMeasurement)
+from .transition import (CombinedLinearGaussianTransitionModel, ConstantVelocity,
+                         LinearGaussianTransitionModel, NonlinearGaussianTransitionModel,
+                         TransitionModel)
+
+__all__ = [
+    "Cartesian2DToBearing", "CartesianToBearingRange", "CombinedLinearGaussianTransitionModel",
+    "ConstantVelocity", "LinearGaussian", "LinearGaussianTransitionModel", "MeasurementModel",
+    "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel", "TransitionModel",
+]

@@ -1,0 +1,238 @@
+"""Transition models: x_k = f(x_{k-1}, dt) + w, w ~ N(0, Q(dt)).
+
+Time intervals are ``datetime.timedelta`` or seconds. States are (d, N) arrays, one column per
+particle, or state objects (their ``state_vector``)."""
+import numbers
+
+import numpy as np
+
+from .. import _validate
+from ..types import seconds
+from .._jit import propagate as _kernels
+from .base import GaussianNoise, check_rows, gaussian_noise, scalar_or_array, state_columns
+
+
+class TransitionModel:
+    """Base class: ``function``, ``rvs``, ``logpdf`` and ``pdf`` from ``_mean`` and ``covar``.
+
+    Subclasses define ``ndim_state``, ``covar(time_interval)``, ``_mean(x, dt)`` and
+    ``_propagate(x, dt, key)`` (all particles through the transition with noise, in a kernel).
+    """
+
+    ndim_state = None
+
+    def _noise(self, dt):
+        return gaussian_noise(self.covar(dt), f"{type(self).__name__}.covar")
+
+    def _columns(self, state, name="state"):
+        x = state_columns(state, name)
+        check_rows(x, self.ndim_state, name)
+        return x
+
+    def function(self, state, noise=False, time_interval=None, rng=None):
+        """Propagate ``state`` over ``time_interval``.
+
+        Parameters
+        ----------
+        state : state object or (d,) / (d, N) array_like
+        noise : bool or (d, N) array_like
+            False: the noise-free transition; True: add a draw of the process noise from
+            ``rng``; an array: add it as given.
+        time_interval : datetime.timedelta or float seconds
+        rng : None, int or numpy.random.Generator
+
+        Returns
+        -------
+        (d, N) float64 ndarray
+        """
+        x = self._columns(state)
+        dt = self._seconds(time_interval)
+        mean = self._mean(x, dt)
+        if noise is True:
+            return mean + self._noise(dt).sample(x.shape[1], rng)
+        if noise is False or noise is None:
+            return mean
+        return mean + _validate.finite_array(noise, "noise")
+
+    def rvs(self, num_samples=1, time_interval=None, rng=None):
+        """(d, num_samples) draws of the process noise."""
+        num = _validate.count(num_samples, "num_samples")
+        return self._noise(self._seconds(time_interval)).sample(num, rng)
+
+    def logpdf(self, state1, state2, time_interval=None):
+        """Log density of ``state1`` given ``state2`` (columns pair up; a float for one)."""
+        x1 = self._columns(state1, "state1")
+        x2 = self._columns(state2, "state2")
+        dt = self._seconds(time_interval)
+        return scalar_or_array(self._noise(dt).logpdf(x1 - self._mean(x2, dt)))
+
+    def pdf(self, state1, state2, time_interval=None):
+        """Density of ``state1`` given ``state2``."""
+        return np.exp(self.logpdf(state1, state2, time_interval))
+
+    def _seconds(self, time_interval):
+        if time_interval is None:
+            raise TypeError(f"{type(self).__name__} needs a time_interval "
+                            f"(a datetime.timedelta or seconds)")
+        return seconds(time_interval)
+
+
+def _block_diag(blocks):
+    """Square blocks on the diagonal of a zero matrix."""
+    size = sum(block.shape[0] for block in blocks)
+    out = np.zeros((size, size))
+    start = 0
+    for block in blocks:
+        stop = start + block.shape[0]
+        out[start:stop, start:stop] = block
+        start = stop
+    return out
+
+
+class _LinearGaussian(TransitionModel):
+    """x_k = F(dt) x_{k-1} + w: subclasses define ``matrix(time_interval)``."""
+
+    def _mean(self, x, dt):
+        return self.matrix(dt) @ x
+
+    def _propagate(self, x, dt, key):
+        out = np.empty_like(x)
+        _kernels.propagate_linear(x, np.ascontiguousarray(self.matrix(dt)),
+                                  self._noise(dt).root, key, out)
+        return out
+
+    def jacobian(self, state=None, time_interval=None):
+        """The transition matrix F(dt) (the model is linear)."""
+        return self.matrix(self._seconds(time_interval))
+
+
+class LinearGaussianTransitionModel(_LinearGaussian):
+    """A time-invariant linear-Gaussian transition: x_k = F x_{k-1} + w, w ~ N(0, Q).
+
+    Parameters
+    ----------
+    transition_matrix : (d, d) array_like
+    covariance_matrix : (d, d) array_like
+        Symmetric positive semi-definite.
+    """
+
+    def __init__(self, transition_matrix, covariance_matrix):
+        self.transition_matrix = _validate.finite_array(transition_matrix, "transition_matrix", 2)
+        d = self.transition_matrix.shape[0]
+        _validate.square_matrix(self.transition_matrix, "transition_matrix", d)
+        self.covariance_matrix = _validate.covariance(covariance_matrix, "covariance_matrix", d)
+        self.ndim_state = d
+        GaussianNoise(self.covariance_matrix, "covariance_matrix")  # checks it is PSD
+
+    def matrix(self, time_interval=None):
+        """F (d, d); the time interval is ignored."""
+        return self.transition_matrix
+
+    def covar(self, time_interval=None):
+        """Q (d, d); the time interval is ignored."""
+        return self.covariance_matrix
+
+    def _seconds(self, time_interval):
+        return 0.0 if time_interval is None else seconds(time_interval)
+
+
+class ConstantVelocity(_LinearGaussian):
+    """Nearly constant velocity in one dimension, state (position, velocity).
+
+    ``F = [[1, dt], [0, 1]]``, ``Q = q [[t^3/3, t^2/2], [t^2/2, t]]`` with ``t = |dt|``.
+
+    Parameters
+    ----------
+    noise_diff_coeff : float
+        q >= 0, in (state units)^2 / s^3.
+    """
+
+    ndim_state = 2
+
+    def __init__(self, noise_diff_coeff):
+        if not isinstance(noise_diff_coeff, numbers.Real) or isinstance(noise_diff_coeff, bool):
+            raise TypeError(f"noise_diff_coeff must be a real number, "
+                            f"got {type(noise_diff_coeff).__name__}")
+        if not (np.isfinite(noise_diff_coeff) and noise_diff_coeff >= 0):
+            raise ValueError(f"noise_diff_coeff must be finite and >= 0, got {noise_diff_coeff}")
+        self.noise_diff_coeff = float(noise_diff_coeff)
+
+    def matrix(self, time_interval):
+        dt = self._seconds(time_interval)
+        return np.array([[1.0, dt], [0.0, 1.0]])
+
+    def covar(self, time_interval):
+        t = abs(self._seconds(time_interval))
+        return self.noise_diff_coeff * np.array([[t**3 / 3, t**2 / 2], [t**2 / 2, t]])
+
+
+class CombinedLinearGaussianTransitionModel(_LinearGaussian):
+    """Independent linear-Gaussian models stacked: block-diagonal F and Q.
+
+    Parameters
+    ----------
+    model_list : sequence of linear-Gaussian transition models
+    """
+
+    def __init__(self, model_list):
+        models = list(model_list)
+        if not models:
+            raise ValueError("model_list is empty")
+        for model in models:
+            if not isinstance(model, _LinearGaussian):
+                raise TypeError(f"model_list must hold linear-Gaussian transition models, "
+                                f"got {type(model).__name__}")
+        self.model_list = models
+        self.ndim_state = sum(model.ndim_state for model in models)
+
+    def matrix(self, time_interval):
+        dt = self._seconds(time_interval)
+        return _block_diag([model.matrix(dt) for model in self.model_list])
+
+    def covar(self, time_interval):
+        dt = self._seconds(time_interval)
+        return _block_diag([model.covar(dt) for model in self.model_list])
+
+
+class NonlinearGaussianTransitionModel(TransitionModel):
+    """A transition built from a user's Numba function, with additive Gaussian noise.
+
+    Parameters
+    ----------
+    function : numba.njit function ``f(states, dt) -> new_states``
+        ``states`` is a (d, n) float64 array (a block of particles, or one state as a column),
+        ``dt`` the time interval in seconds; returns a (d, n) float64 array.
+    covariance : (d, d) array_like or callable
+        Q, or ``covariance(dt) -> (d, d)`` for a Q that depends on the interval.
+    ndim_state : int
+        d.
+    """
+
+    def __init__(self, function, covariance, ndim_state):
+        if not hasattr(function, "py_func"):
+            raise TypeError("function must be a numba.njit function f(states, dt)")
+        self.transition_function = function
+        self.ndim_state = _validate.count(ndim_state, "ndim_state")
+        if callable(covariance):
+            self._covariance = covariance
+        else:
+            fixed = _validate.covariance(covariance, "covariance", self.ndim_state)
+            GaussianNoise(fixed, "covariance")
+            self._covariance = lambda dt: fixed
+
+    def covar(self, time_interval):
+        return _validate.covariance(self._covariance(self._seconds(time_interval)),
+                                    "covariance(dt)", self.ndim_state)
+
+    def _mean(self, x, dt):
+        out = np.asarray(self.transition_function(x, dt), dtype=np.float64)
+        if out.shape != x.shape:
+            raise ValueError(f"transition function returned shape {out.shape} for states of "
+                             f"shape {x.shape}")
+        return out
+
+    def _propagate(self, x, dt, key):
+        out = np.empty_like(x)
+        _kernels.propagate_function(self.transition_function, dt, x, self._noise(dt).root,
+                                    key, out)
+        return out

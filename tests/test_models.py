@@ -1,0 +1,191 @@
+"""Models against Stone Soup 1.9.1 on the same inputs, and their bad input."""
+import datetime
+
+import numpy as np
+import pytest
+
+import fasttrack as ft
+
+ss_linear = pytest.importorskip("stonesoup.models.transition.linear")
+ss_meas_linear = pytest.importorskip("stonesoup.models.measurement.linear")
+ss_nonlinear = pytest.importorskip("stonesoup.models.measurement.nonlinear")
+ss_state = pytest.importorskip("stonesoup.types.state")
+ss_array = pytest.importorskip("stonesoup.types.array")
+ss_detection = pytest.importorskip("stonesoup.types.detection")
+
+RTOL = 1e-12
+INTERVALS = [1.0, 0.25, 7.5, 0.0, -2.0]
+
+
+def _td(seconds):
+    return datetime.timedelta(seconds=seconds)
+
+
+def _ss_states(x):
+    return ss_state.State(ss_array.StateVectors(x)) if x.shape[1] > 1 else ss_state.State(x)
+
+
+def _cv_pair(q=0.05):
+    return (ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(q), ft.ConstantVelocity(2 * q)]),
+            ss_linear.CombinedLinearGaussianTransitionModel(
+                [ss_linear.ConstantVelocity(q), ss_linear.ConstantVelocity(2 * q)]))
+
+
+@pytest.mark.parametrize("dt", INTERVALS)
+def test_transition_matrices_and_covariances_match(dt):
+    ours, theirs = _cv_pair()
+    np.testing.assert_allclose(ours.matrix(_td(dt)), theirs.matrix(time_interval=_td(dt)), rtol=RTOL)
+    np.testing.assert_allclose(ours.covar(_td(dt)), theirs.covar(time_interval=_td(dt)), rtol=RTOL, atol=0)
+    np.testing.assert_allclose(ours.matrix(dt), ours.matrix(_td(dt)))  # seconds or timedelta
+    cv, ss_cv = ft.ConstantVelocity(0.3), ss_linear.ConstantVelocity(0.3)
+    np.testing.assert_allclose(cv.covar(dt), ss_cv.covar(time_interval=_td(dt)), rtol=RTOL)
+
+
+def test_transition_function_and_logpdf_match():
+    ours, theirs = _cv_pair()
+    rng = np.random.default_rng(0)
+    x1, x2 = rng.normal(size=(4, 6)), rng.normal(size=(4, 6))
+    dt = _td(1.5)
+    np.testing.assert_allclose(ours.function(x2, time_interval=dt),
+                               np.asarray(theirs.function(_ss_states(x2), time_interval=dt), float),
+                               rtol=RTOL)
+    np.testing.assert_allclose(
+        ours.logpdf(x1, x2, time_interval=dt),
+        theirs.logpdf(_ss_states(x1), _ss_states(x2), time_interval=dt), rtol=RTOL)
+    one = ours.logpdf(x1[:, :1], x2[:, :1], time_interval=dt)
+    assert isinstance(one, float)
+    assert one == pytest.approx(theirs.logpdf(ss_state.State(x1[:, :1]), ss_state.State(x2[:, :1]),
+                                              time_interval=dt), rel=RTOL)
+    noise = rng.normal(size=(4, 6))
+    np.testing.assert_allclose(ours.function(x2, noise=noise, time_interval=dt),
+                               ours.function(x2, time_interval=dt) + noise)
+
+
+def test_transition_noise_statistics():
+    ours, _ = _cv_pair()
+    draws = ours.rvs(200_000, time_interval=2.0, rng=1)
+    assert draws.shape == (4, 200_000)
+    np.testing.assert_allclose(np.cov(draws), ours.covar(2.0), rtol=0.02, atol=1e-3)
+    moved = ours.function(np.zeros((4, 100_000)), noise=True, time_interval=2.0, rng=2)
+    np.testing.assert_allclose(np.cov(moved), ours.covar(2.0), rtol=0.03, atol=1e-3)
+    assert ours.rvs(time_interval=1.0, rng=3).shape == (4, 1)
+
+
+def test_general_linear_gaussian_transition():
+    f = np.array([[1.0, 0.5], [0.0, 0.9]])
+    q = np.array([[0.2, 0.05], [0.05, 0.1]])
+    model = ft.LinearGaussianTransitionModel(f, q)
+    x = np.array([[1.0, -2.0], [3.0, 0.5]])
+    np.testing.assert_allclose(model.function(x), f @ x)
+    from scipy.stats import multivariate_normal
+    y = x + 0.1
+    np.testing.assert_allclose(model.logpdf(y, x),
+                               multivariate_normal.logpdf((y - f @ x).T, cov=q), rtol=RTOL)
+    assert np.array_equal(model.matrix(), f) and np.array_equal(model.covar(5.0), q)
+
+
+def _bearing_range_pair(**offsets):
+    noise = np.diag([np.radians(0.2), 1.0])
+    theirs_kwargs = {k: np.reshape(v, (-1, 1)) for k, v in offsets.items()}
+    return (ft.CartesianToBearingRange(4, (0, 2), noise, **offsets),
+            ss_nonlinear.CartesianToBearingRange(ndim_state=4, mapping=(0, 2), noise_covar=noise,
+                                                 **theirs_kwargs))
+
+
+@pytest.mark.parametrize("offsets", [
+    {}, {"translation_offset": [50.0, 0.0]},
+    {"translation_offset": [-3.0, 7.0], "rotation_offset": [0.0, 0.0, 0.7]},
+    {"rotation_offset": [0.2, -0.3, 1.1]},
+])
+def test_bearing_range_function_and_logpdf_match(offsets):
+    ours, theirs = _bearing_range_pair(**offsets)
+    rng = np.random.default_rng(1)
+    x = rng.normal(0, 30, size=(4, 50))
+    np.testing.assert_allclose(ours.function(x), np.asarray(theirs.function(_ss_states(x)), float),
+                               rtol=RTOL, atol=1e-13)
+    z = np.array([[3.1], [25.0]])  # a bearing near +pi: the innovation must wrap
+    det = ss_detection.Detection(z, measurement_model=theirs)
+    np.testing.assert_allclose(ours.logpdf(z, x), theirs.logpdf(det, _ss_states(x)), rtol=1e-10)
+    assert ours.angle_components == (0,)
+
+
+def test_bearing_range_inverse_function_matches():
+    ours, theirs = _bearing_range_pair(translation_offset=[5.0, -2.0], rotation_offset=[0, 0, 0.4])
+    z = np.array([[0.3], [12.0]])
+    det = ss_detection.Detection(z, measurement_model=theirs)
+    np.testing.assert_allclose(ours.inverse_function(z), np.asarray(theirs.inverse_function(det), float),
+                               rtol=RTOL, atol=1e-13)
+    np.testing.assert_allclose(ours.function(ours.inverse_function(z)), z, atol=1e-12)
+    tilted, _ = _bearing_range_pair(rotation_offset=[0.1, 0, 0])
+    with pytest.raises(ValueError, match="without roll or pitch"):
+        tilted.inverse_function(z)
+
+
+def test_bearing_only_and_linear_models_match():
+    x = np.random.default_rng(2).normal(0, 5, size=(4, 20))
+    noise = np.array([[0.005**2]])
+    ours = ft.Cartesian2DToBearing(4, (0, 2), noise)
+    theirs = ss_nonlinear.Cartesian2DToBearing(ndim_state=4, mapping=(0, 2), noise_covar=noise)
+    np.testing.assert_allclose(ours.function(x), np.asarray(theirs.function(_ss_states(x)), float),
+                               rtol=RTOL)
+    z = np.array([[-3.13]])
+    np.testing.assert_allclose(ours.logpdf(z, x), theirs.logpdf(
+        ss_detection.Detection(z, measurement_model=theirs), _ss_states(x)), rtol=1e-10)
+    noise2 = np.array([[2.0, 0.3], [0.3, 1.0]])
+    ours = ft.LinearGaussian(4, (0, 2), noise2)
+    theirs = ss_meas_linear.LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=noise2)
+    np.testing.assert_allclose(ours.matrix(), theirs.matrix())
+    np.testing.assert_allclose(ours.function(x), np.asarray(theirs.function(_ss_states(x)), float))
+    z = np.array([[1.0], [2.0]])
+    np.testing.assert_allclose(ours.logpdf(z, x), theirs.logpdf(
+        ss_detection.Detection(z, measurement_model=theirs), _ss_states(x)), rtol=RTOL)
+
+
+def test_measurement_noise_is_wrapped_and_sampled():
+    model = ft.CartesianToBearingRange(4, (0, 2), np.diag([4.0, 1.0]))
+    z = model.function(np.array([[-10.0], [0], [1e-9], [0]]), noise=True, rng=0)  # bearing ~ pi
+    assert -np.pi <= z[0, 0] < np.pi
+    draws = model.rvs(100_000, rng=1)
+    np.testing.assert_allclose(np.cov(draws), model.noise_covar, rtol=0.03, atol=0.01)
+
+
+@pytest.mark.parametrize("build,error,message", [
+    (lambda: ft.ConstantVelocity("fast"), TypeError, "noise_diff_coeff must be a real number"),
+    (lambda: ft.ConstantVelocity(-1.0), ValueError, "noise_diff_coeff must be finite and >= 0"),
+    (lambda: ft.CombinedLinearGaussianTransitionModel([]), ValueError, "model_list is empty"),
+    (lambda: ft.CombinedLinearGaussianTransitionModel([1]), TypeError, "model_list must hold"),
+    (lambda: ft.LinearGaussianTransitionModel(np.eye(2), [[1, 2], [3, 4]]), ValueError, "symmetric"),
+    (lambda: ft.LinearGaussianTransitionModel(np.eye(2), [[1, 0], [0, -1]]), ValueError,
+     "not positive semi-definite"),
+    (lambda: ft.LinearGaussianTransitionModel(np.eye(2), np.eye(3)), ValueError, r"shape \(2, 2\)"),
+    (lambda: ft.LinearGaussian(4, (0, 5), np.eye(2)), ValueError, r"mapping indices must lie in \[0, 4\)"),
+    (lambda: ft.LinearGaussian(4, (0, 2), np.eye(3)), ValueError, r"noise_covar must have shape \(2, 2\)"),
+    (lambda: ft.CartesianToBearingRange(4, (0,), np.eye(2)), ValueError, "at least 2 state indices"),
+    (lambda: ft.CartesianToBearingRange(4, (0, 2), np.eye(2), translation_offset=[1, 2, 3]),
+     ValueError, "translation_offset must have 2 components"),
+    (lambda: ft.CartesianToBearingRange(4, (0, 2), np.eye(2), rotation_offset=[1, 2]),
+     ValueError, "rotation_offset must have 3 angles"),
+    (lambda: ft.Cartesian2DToBearing(4, (0, 2), [[np.nan]]), ValueError, "noise_covar contains NaN"),
+    (lambda: ft.NonlinearGaussianTransitionModel(lambda x, dt: x, np.eye(2), 2), TypeError,
+     "numba.njit function"),
+])
+def test_bad_model_construction(build, error, message):
+    with pytest.raises(error, match=message):
+        build()
+
+
+def test_bad_model_calls():
+    cv = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(1.0)] * 2)
+    with pytest.raises(TypeError, match="needs a time_interval"):
+        cv.matrix(None)
+    with pytest.raises(TypeError, match="time_interval must be a datetime.timedelta or a number"):
+        cv.function(np.zeros(4), time_interval="1s")
+    with pytest.raises(ValueError, match="state must have 4 rows"):
+        cv.function(np.zeros(3), time_interval=1.0)
+    sensor = ft.CartesianToBearingRange(4, (0, 2), np.eye(2))
+    with pytest.raises(ValueError, match="measurement must have 2 components"):
+        sensor.logpdf([1.0, 2.0, 3.0], np.zeros(4))
+    with pytest.raises(ValueError, match="measurement contains NaN"):
+        sensor.logpdf([np.nan, 2.0], np.zeros(4))
+    with pytest.raises(ValueError, match="state contains NaN"):
+        sensor.function(np.full(4, np.nan))
