@@ -116,3 +116,34 @@ def test_caller_arrays_are_not_modified_or_aliased_for_weights():
     state = ParticleState(np.zeros((1, 3)), log_weight=log_w)
     state.log_weight[0] = -1.0
     assert log_w[0] == 0.0
+
+
+def test_tracks_keep_time_order_and_proxy_the_last_state():
+    import fasttrack as ft
+    states = [ft.GaussianState([k, 0.0], np.eye(2), timestamp=float(k)) for k in (0, 2, 1, 3)]
+    track = ft.Track(states)
+    assert [s.timestamp for s in track] == [0.0, 1.0, 2.0, 3.0]
+    assert track[-1] is states[3] and track.state is states[3]
+    assert np.array_equal(track.mean, states[3].state_vector) and track.covar is states[3].covar
+    assert len(track[1:3]) == 2 and isinstance(track[1:3], ft.Track)
+    with pytest.raises(AttributeError, match="empty"):
+        ft.Track().mean
+    with pytest.raises(TypeError, match="mix of datetimes and numbers"):
+        ft.Track([states[0], ft.GaussianState([0, 0], np.eye(2), timestamp=datetime.datetime(2026, 1, 1))])
+    path = ft.GroundTruthPath([ft.GroundTruthState([1, 2], timestamp=5.0, metadata={"id": 1})])
+    assert path.state.metadata == {"id": 1} and path.id
+
+
+def test_gaussian_state_detection_and_hypothesis():
+    import fasttrack as ft
+    g = ft.GaussianState([[1.0], [2.0]], [[2.0, 0.5], [0.5, 1.0]], timestamp=1.0)
+    assert g.state_vector.shape == (2, 1) and g.mean is g.state_vector and g.ndim == 2
+    with pytest.raises(ValueError, match="covar must be symmetric"):
+        ft.GaussianState([0.0, 0.0], [[1.0, 0.2], [0.0, 1.0]])
+    with pytest.raises(ValueError, match=r"covar must have shape \(2, 2\)"):
+        ft.GaussianState([0.0, 0.0], np.eye(3))
+    with pytest.raises(ValueError, match="state_vector contains NaN"):
+        ft.GaussianState([np.nan, 0.0], np.eye(2))
+    detection = ft.Detection([0.5, 10.0], timestamp=2.0)
+    assert detection.state_vector.shape == (2, 1) and detection.measurement_model is None
+    assert ft.SingleHypothesis(g, detection) and not ft.SingleHypothesis(g, None)
