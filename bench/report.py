@@ -23,7 +23,10 @@ TARGETS = [
     ("pf-step", 10**5, "stonesoup", 20.0),
     ("pf-step", 10**6, "stonesoup", 20.0),
     ("pf-step", 10**6, "floor", 1 / 1.5),
+    ("ekf-step", 1, "stonesoup", 60.0),
 ]
+# (workload, N, most microseconds per item): batches timed as one call over N items
+PER_ITEM_TARGETS = [("ekf-batch", 10**4, 0.5)]
 
 IMPLEMENTATIONS = ("fasttrack", "numpy_reference", "stonesoup")
 
@@ -90,7 +93,15 @@ def table(rows):
 def check(rows):
     """Messages for the targets that are missed or not measured."""
     found = {(w, n): r for w, n, _, r in rows}
+    times = {(w, n): t for w, n, t, _ in rows}
     failures = []
+    for workload, n, most in PER_ITEM_TARGETS:
+        seconds = times.get((workload, n), {}).get("fasttrack")
+        if seconds is None:
+            failures.append(f"{workload} N={n}: not measured")
+        elif seconds / n * 1e6 > most:
+            failures.append(f"{workload} N={n}: {seconds / n * 1e6:.3g} us per item > "
+                            f"target {most:.3g}")
     for workload, n, ratio, minimum in TARGETS:
         value = found.get((workload, n), {}).get(ratio)
         if value is None:

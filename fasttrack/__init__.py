@@ -12,19 +12,24 @@ from .models import (Cartesian2DToBearing, CartesianToBearingRange,
                      LinearGaussianTransitionModel, MeasurementModel,
                      NonlinearGaussianMeasurement, NonlinearGaussianTransitionModel,
                      TransitionModel)
+from .batch import BatchExtendedKalmanFilter
 from .memory import tune_allocator
-from .predictor import ParticlePredictor
+from .predictor import ExtendedKalmanPredictor, KalmanPredictor, ParticlePredictor
 from .simulate import detections, ground_truth
-from .types import (Detection, GaussianState, GroundTruthPath, GroundTruthState, Particle,
-                    ParticleState, ParticleStatePrediction, ParticleStateUpdate,
-                    SingleHypothesis, State, Track)
-from .updater import ParticleUpdater
+from .types import (Detection, GaussianMeasurementPrediction, GaussianState,
+                    GaussianStatePrediction, GaussianStateUpdate, GroundTruthPath,
+                    GroundTruthState, Particle, ParticleState, ParticleStatePrediction,
+                    ParticleStateUpdate, SingleHypothesis, State, Track)
+from .updater import ExtendedKalmanUpdater, KalmanUpdater, ParticleUpdater
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "Cartesian2DToBearing", "CartesianToBearingRange", "CombinedLinearGaussianTransitionModel",
-    "ConstantVelocity", "Detection", "ESSResampler", "GaussianState", "GroundTruthPath",
+    "BatchExtendedKalmanFilter", "Cartesian2DToBearing", "CartesianToBearingRange", "CombinedLinearGaussianTransitionModel",
+    "ConstantVelocity", "Detection", "ESSResampler", "ExtendedKalmanPredictor",
+    "ExtendedKalmanUpdater", "GaussianMeasurementPrediction", "GaussianState",
+    "GaussianStatePrediction", "GaussianStateUpdate", "GroundTruthPath", "KalmanPredictor",
+    "KalmanUpdater",
     "GroundTruthState", "LinearGaussian", "LinearGaussianTransitionModel", "MeasurementModel",
     "MultinomialResampler", "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel",
     "Particle", "ParticlePredictor", "ParticleState", "ParticleStatePrediction",

@@ -9,7 +9,7 @@ import numpy as np
 
 import fasttrack as ft
 from fasttrack.metrics import position_rmse
-from fasttrack.scenarios import particle_filter_tutorial
+from fasttrack.scenarios import extended_kalman_tutorial, particle_filter_tutorial
 
 TUTORIAL_WEIGHTS = np.array([1, 5, 1.5, 0.5, 2]) / 10
 
@@ -136,33 +136,43 @@ def _run_filter(predictor, updater, prior, detections, hypothesis):
     return track
 
 
-def _stonesoup_particle_filter(scenario):
-    """Stone Soup's particle filter on the same detections, or None if not installed."""
+def _stonesoup_scenario(scenario):
+    """Stone Soup's bearing-range tutorial models and the scenario's detections, or None if
+    Stone Soup is not installed."""
     try:
         from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
         from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
                                                         ConstantVelocity)
-        from stonesoup.predictor.particle import ParticlePredictor
-        from stonesoup.resampler.particle import SystematicResampler
-        from stonesoup.types.array import StateVectors
         from stonesoup.types.detection import Detection
-        from stonesoup.types.hypothesis import SingleHypothesis
-        from stonesoup.types.state import ParticleState
-        from stonesoup.updater.particle import ParticleUpdater
     except ImportError:
         return None
     sensor = scenario.measurement_model
     ss_sensor = CartesianToBearingRange(ndim_state=4, mapping=sensor.mapping,
                                         noise_covar=sensor.noise_covar,
                                         translation_offset=sensor.translation_offset)
-    ss_transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
     detections = [Detection(d.state_vector, timestamp=d.timestamp, measurement_model=ss_sensor)
                   for d in scenario.detections]
+    return transition, ss_sensor, detections
+
+
+def _stonesoup_particle_filter(scenario):
+    """Stone Soup's particle filter on the same detections, or None if not installed."""
+    models = _stonesoup_scenario(scenario)
+    if models is None:
+        return None
+    from stonesoup.predictor.particle import ParticlePredictor
+    from stonesoup.resampler.particle import SystematicResampler
+    from stonesoup.types.array import StateVectors
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.state import ParticleState
+    from stonesoup.updater.particle import ParticleUpdater
+    transition, sensor, detections = models
     n = len(scenario.prior)
     prior = ParticleState(StateVectors(scenario.prior.state_vector), weight=np.full(n, 1 / n),
                           timestamp=scenario.prior.timestamp)
-    predictor = ParticlePredictor(ss_transition)
-    updater = ParticleUpdater(ss_sensor, SystematicResampler())
+    predictor = ParticlePredictor(transition)
+    updater = ParticleUpdater(sensor, SystematicResampler())
     np.random.seed(0)
     start = time.perf_counter()
     track = _run_filter(predictor, updater, prior, detections, SingleHypothesis)
@@ -197,6 +207,50 @@ def particle_filter(sizes):
               f"   (Stone Soup RMSE {position_rmse(theirs[0], scenario.truth):.2f} m)")
 
 
+def _stonesoup_ekf(scenario):
+    """Stone Soup's extended Kalman filter on the same detections (time per step), or None."""
+    models = _stonesoup_scenario(scenario)
+    if models is None:
+        return None
+    from stonesoup.predictor.kalman import ExtendedKalmanPredictor
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.state import GaussianState
+    from stonesoup.updater.kalman import ExtendedKalmanUpdater
+    transition, sensor, detections = models
+    prior = GaussianState(scenario.prior.state_vector, scenario.prior.covar,
+                          timestamp=scenario.prior.timestamp)
+    predictor, updater = ExtendedKalmanPredictor(transition), ExtendedKalmanUpdater(sensor)
+    return _median_time(lambda: _run_filter(predictor, updater, prior, detections,
+                                            SingleHypothesis), 5) / len(detections)
+
+
+def extended_kalman_filter(repeats):
+    """The EKF tutorial: RMSE and time per step against Stone Soup, and the batch API."""
+    scenario = extended_kalman_tutorial()
+    predictor = ft.ExtendedKalmanPredictor(scenario.transition_model)
+    updater = ft.ExtendedKalmanUpdater(scenario.measurement_model)
+
+    def run():
+        return _run_filter(predictor, updater, scenario.prior, scenario.detections,
+                           ft.SingleHypothesis)
+
+    rmse = position_rmse(run(), scenario.truth)
+    ours = _median_time(run, repeats) / len(scenario.detections)
+    theirs = _stonesoup_ekf(scenario)
+    row = f"{'extended Kalman':<18}{1:>10}{rmse:>8.2f}m{ours * 1e6:>11.1f} us"
+    print(row + (f"{theirs * 1e6:>11.1f} us{theirs / ours:>9.1f}x" if theirs else f"{'n/a':>14}"))
+    k = 10_000
+    batch = ft.BatchExtendedKalmanFilter(scenario.transition_model, scenario.measurement_model)
+    rng = np.random.default_rng(0)
+    means = np.array([0.0, 1.0, 0.0, 1.0]) + rng.normal(0, 1, (k, 4))
+    covars = np.broadcast_to(scenario.prior.covar, (k, 4, 4)).copy()
+    measurements = np.column_stack([rng.normal(0, 0.1, k), rng.normal(49, 1, k)])
+    batch.step(means, covars, measurements, 1.0)
+    per_filter = _median_time(lambda: batch.step(means, covars, measurements, 1.0), repeats) / k
+    print(f"{'EKF batch':<18}{k:>10,}{'':>9}{per_filter * 1e6:>11.2f} us   per filter-step, "
+          f"{k:,} filters in one call")
+
+
 def run(quick=False):
     """Run the demo; ``quick`` uses smaller sizes and fewer repeats (well under a minute)."""
     start = time.perf_counter()
@@ -207,4 +261,5 @@ def run(quick=False):
     tutorial_examples(draws=2000 if quick else 10000)
     timing(10**5 if quick else 10**6, repeats=5 if quick else 9)
     particle_filter([1000, 10**4] if quick else [1000, 10**5])
+    extended_kalman_filter(repeats=5 if quick else 21)
     print(f"\nDemo finished in {time.perf_counter() - start:.1f} s")

@@ -1,7 +1,12 @@
 """Predictors: ``predictor.predict(prior, timestamp)``."""
+import numpy as np
+
 from . import random as _random
+from ._jit import jacobian as _jacobian
+from ._jit import kalman as _kalman
 from .models.transition import TransitionModel
-from .types import ParticleState, ParticleStatePrediction, check_timestamp, time_interval
+from .types import (GaussianState, GaussianStatePrediction, ParticleState,
+                    ParticleStatePrediction, check_timestamp, time_interval)
 
 
 def _interval(prior, timestamp):
@@ -57,3 +62,106 @@ class ParticlePredictor:
         return ParticleStatePrediction._trusted(
             particles, prior.log_weight, timestamp=timestamp, parent=prior, prior=prior,
             transition_model=self.transition_model, fixed_covar=prior.fixed_covar)
+
+
+_STATUS_ERRORS = {
+    _kalman.PRIOR_NOT_PD: "prior.covar is not positive definite",
+}
+
+JACOBIAN_METHODS = {"analytic": _jacobian.ANALYTIC, "forward": _jacobian.FORWARD,
+                    "central": _jacobian.CENTRAL}
+
+
+def jacobian_method(name, allowed=("analytic", "forward", "central")):
+    """The kernel code of a Jacobian method name."""
+    if name not in allowed:
+        raise ValueError(f"jacobian must be one of {', '.join(map(repr, allowed))}, got {name!r}")
+    return JACOBIAN_METHODS[name]
+
+
+def _gaussian_prior(prior, ndim):
+    if not isinstance(prior, GaussianState):
+        raise TypeError(f"prior must be a GaussianState, got {type(prior).__name__}")
+    if prior.state_vector.shape[0] != ndim:
+        raise ValueError(f"prior has {prior.ndim} state dimensions, the transition model {ndim}")
+
+
+class KalmanPredictor:
+    """Kalman prediction through a linear-Gaussian transition model:
+    ``x = F x``, ``P = F P F^T + Q``.
+
+    Parameters
+    ----------
+    transition_model : linear-Gaussian TransitionModel (with ``matrix``)
+    """
+
+    def __init__(self, transition_model):
+        if not isinstance(transition_model, TransitionModel):
+            raise TypeError(f"transition_model must be a TransitionModel, "
+                            f"got {type(transition_model).__name__}")
+        self._check_model(transition_model)
+        self.transition_model = transition_model
+
+    def _check_model(self, model):
+        if not hasattr(model, "matrix"):
+            raise TypeError(f"{type(self).__name__} needs a linear transition model (with "
+                            f"matrix); use ExtendedKalmanPredictor for "
+                            f"{type(model).__name__}")
+
+    def predict(self, prior, timestamp):
+        """Predict ``prior`` (a :class:`~fasttrack.GaussianState`) to ``timestamp``.
+
+        Returns
+        -------
+        GaussianStatePrediction
+            With ``transition_model``, ``prior`` and ``timestamp``.
+
+        Raises
+        ------
+        ValueError
+            If the prior's covariance is not positive definite.
+        """
+        model = self.transition_model
+        _gaussian_prior(prior, model.ndim_state)
+        dt = _interval(prior, timestamp)
+        d = prior.state_vector.shape[0]
+        x_out = np.empty((d, 1))
+        covar_out = np.empty((d, d))
+        status = self._predict(dt, prior.state_vector, prior.covar, x_out, covar_out)
+        if status != _kalman.OK:
+            raise ValueError(_STATUS_ERRORS[status])
+        return GaussianStatePrediction._trusted(
+            x_out, covar_out, timestamp, {"transition_model": model, "prior": prior})
+
+    def _predict(self, dt, x, covar, x_out, covar_out):
+        kind, rates, matrix, noise = self.transition_model._kalman_spec(dt)
+        return _kalman.predict_one(kind, rates, matrix, noise, dt, x, covar, x_out, covar_out)
+
+
+class ExtendedKalmanPredictor(KalmanPredictor):
+    """Kalman prediction through any transition model, linearised at the prior: the exact
+    matrix for linear models, a finite-difference Jacobian for models built from a Numba
+    function.
+
+    Parameters
+    ----------
+    transition_model : TransitionModel
+    jacobian : {'forward', 'central'}
+        Finite differences for function-built models (forward: Stone Soup's rule).
+    """
+
+    def __init__(self, transition_model, jacobian="forward"):
+        super().__init__(transition_model)
+        self._central = jacobian_method(jacobian, ("forward", "central")) == _jacobian.CENTRAL
+        self.jacobian = jacobian
+        if not hasattr(transition_model, "matrix"):
+            self._predict = self._predict_function
+
+    def _check_model(self, model):
+        pass
+
+    def _predict_function(self, dt, x, covar, x_out, covar_out):
+        model = self.transition_model
+        return _kalman.predict_function(model.transition_function, dt,
+                                        np.ascontiguousarray(model.covar(dt)), self._central,
+                                        x, covar, x_out, covar_out)

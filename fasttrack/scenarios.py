@@ -8,7 +8,7 @@ import numpy as np
 from .models import (CartesianToBearingRange, CombinedLinearGaussianTransitionModel,
                      ConstantVelocity)
 from .simulate import detections, ground_truth
-from .types import ParticleState
+from .types import GaussianState, ParticleState
 
 START = datetime.datetime(2026, 1, 1)
 
@@ -25,6 +25,14 @@ class Scenario:
     prior: object
 
 
+def _bearing_range_scenario(rng, steps):
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
+    sensor = CartesianToBearingRange(4, (0, 2), np.diag([np.radians(0.2), 1.0]),
+                                     translation_offset=[50.0, 0.0])
+    truth = ground_truth(transition, [0.0, 1.0, 0.0, 1.0], steps, start_time=START, rng=rng)
+    return transition, sensor, truth, detections(truth, sensor, rng=rng)
+
+
 def particle_filter_tutorial(n_particles=1000, seed=1991, steps=21):
     """The particle-filter tutorial: a nearly-constant-velocity target (q = 0.05) in 2-D,
     state (x, vx, y, vy), seen by a bearing-range sensor at (50, 0) with noise
@@ -34,12 +42,18 @@ def particle_filter_tutorial(n_particles=1000, seed=1991, steps=21):
     ``seed`` fixes the truth, the detections and the prior samples.
     """
     rng = np.random.default_rng(seed)
-    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
-    sensor = CartesianToBearingRange(4, (0, 2), np.diag([np.radians(0.2), 1.0]),
-                                     translation_offset=[50.0, 0.0])
-    truth = ground_truth(transition, [0.0, 1.0, 0.0, 1.0], steps, start_time=START, rng=rng)
-    measured = detections(truth, sensor, rng=rng)
+    transition, sensor, truth, measured = _bearing_range_scenario(rng, steps)
     samples = rng.multivariate_normal([0.0, 1.0, 0.0, 1.0], np.diag([1.5, 0.5, 1.5, 0.5]),
                                       size=n_particles)
     prior = ParticleState(samples.T, timestamp=START)
+    return Scenario(transition, sensor, truth, measured, prior)
+
+
+def extended_kalman_tutorial(seed=1991, steps=21):
+    """The extended-Kalman-filter tutorial: the target and sensor of
+    :func:`particle_filter_tutorial`, and the prior N((0, 1, 0, 1), diag(1.5, 0.5, 1.5, 0.5))
+    as a :class:`~fasttrack.GaussianState`."""
+    rng = np.random.default_rng(seed)
+    transition, sensor, truth, measured = _bearing_range_scenario(rng, steps)
+    prior = GaussianState([0.0, 1.0, 0.0, 1.0], np.diag([1.5, 0.5, 1.5, 0.5]), timestamp=START)
     return Scenario(transition, sensor, truth, measured, prior)

@@ -343,6 +343,44 @@ class GaussianState(State):
         """The mean, ``state_vector``."""
         return self.state_vector
 
+    @classmethod
+    def _trusted(cls, state_vector, covar, timestamp, extra=None):
+        """Build from arrays that a kernel produced (no validation, no copies), with the
+        ``extra`` attributes (a dict) if given."""
+        state = object.__new__(cls)
+        attributes = {"state_vector": state_vector, "covar": covar, "timestamp": timestamp}
+        if extra:
+            attributes.update(extra)
+        state.__dict__ = attributes
+        return state
+
+
+class GaussianStatePrediction(GaussianState):
+    """A predicted Gaussian state, with the ``transition_model`` that produced it and the
+    ``prior`` it came from."""
+
+    def __init__(self, state_vector, covar, timestamp=None, transition_model=None, prior=None):
+        super().__init__(state_vector, covar, timestamp)
+        self.transition_model = transition_model
+        self.prior = prior
+
+
+class GaussianMeasurementPrediction(GaussianState):
+    """A predicted measurement: mean ``state_vector`` (m, 1), innovation covariance
+    ``covar`` (m, m) and ``cross_covar`` (d, m) between state and measurement."""
+
+    def __init__(self, state_vector, covar, timestamp=None, cross_covar=None):
+        super().__init__(state_vector, covar, timestamp)
+        self.cross_covar = cross_covar
+
+
+class GaussianStateUpdate(GaussianState):
+    """An updated Gaussian state, with the ``hypothesis`` it was updated from."""
+
+    def __init__(self, state_vector, covar, hypothesis=None, timestamp=None):
+        super().__init__(state_vector, covar, timestamp)
+        self.hypothesis = hypothesis
+
 
 class GroundTruthState(State):
     """A true state, with optional ``metadata``."""

@@ -1,10 +1,14 @@
 """Updaters: ``updater.update(hypothesis)``."""
 import numpy as np
 
-from .models.measurement import MeasurementModel
-from .resampler import Resampler
-from .types import ParticleState, ParticleStateUpdate, SingleHypothesis
+from ._jit import jacobian as _jacobian
+from ._jit import kalman as _kalman
 from ._jit import weights as _weights
+from .models.measurement import LinearGaussian, MeasurementModel, NonlinearGaussianMeasurement
+from .predictor import jacobian_method
+from .resampler import Resampler
+from .types import (GaussianMeasurementPrediction, GaussianState, GaussianStateUpdate,
+                    ParticleState, ParticleStateUpdate, SingleHypothesis)
 
 
 def _measurement_model(hypothesis, default):
@@ -80,3 +84,153 @@ class ParticleUpdater:
         if self.resampler is not None:
             update = self.resampler.resample(update)
         return update
+
+
+_STATUS_ERRORS = {
+    _kalman.INNOVATION_NOT_PD: "the innovation covariance H P H^T + R is not positive "
+                               "definite (singular)",
+    _kalman.JACOBIAN_UNDEFINED: "the measurement Jacobian is undefined at the predicted state "
+                                "(for a polar sensor: the target is at the sensor)",
+    _kalman.MEASUREMENT_NOT_FINITE: "hypothesis.measurement contains NaN or infinite values",
+}
+
+
+class KalmanUpdater:
+    """Kalman update with a linear-Gaussian measurement model.
+
+    Parameters
+    ----------
+    measurement_model : MeasurementModel, optional
+        Used when the detection has none of its own.
+    force_symmetric_covariance : bool
+        Accepted for compatibility: covariances are always computed exactly symmetric.
+    use_joseph_cov : bool
+        Joseph form ``(I - K H) P (I - K H)^T + K R K^T`` instead of ``P - K S K^T``.
+    """
+
+    _method = _jacobian.ANALYTIC
+
+    def __init__(self, measurement_model=None, force_symmetric_covariance=False,
+                 use_joseph_cov=False):
+        if measurement_model is not None:
+            self._check_model(measurement_model)
+        self.measurement_model = measurement_model
+        self.force_symmetric_covariance = bool(force_symmetric_covariance)
+        self.use_joseph_cov = bool(use_joseph_cov)
+
+    def _check_model(self, model):
+        if not isinstance(model, LinearGaussian):
+            raise TypeError(f"{type(self).__name__} needs a LinearGaussian measurement model; "
+                            f"use ExtendedKalmanUpdater for {type(model).__name__}")
+
+    def _model(self, hypothesis_or_model, prediction):
+        model = hypothesis_or_model
+        if isinstance(hypothesis_or_model, SingleHypothesis):
+            model = _measurement_model(hypothesis_or_model, self.measurement_model)
+        elif model is None:
+            model = self.measurement_model
+            if model is None:
+                raise ValueError("no measurement model: give the updater one")
+        self._check_model(model)
+        if not isinstance(prediction, GaussianState):
+            raise TypeError(f"the prediction must be a GaussianState, "
+                            f"got {type(prediction).__name__}")
+        if model.ndim_state != prediction.state_vector.shape[0]:
+            raise ValueError(f"the measurement model expects {model.ndim_state} state "
+                             f"dimensions, the prediction has {prediction.ndim}")
+        return model
+
+    def predict_measurement(self, predicted_state, measurement_model=None):
+        """The predicted measurement of ``predicted_state``: mean ``h(x)``, innovation
+        covariance ``H P H^T + R`` and cross covariance ``P H^T``.
+
+        Returns
+        -------
+        GaussianMeasurementPrediction
+        """
+        model = self._model(measurement_model, predicted_state)
+        z = np.zeros((model.ndim_meas, 1))  # any: only the measurement prediction is kept
+        z_hat, s, cross = self._update(model, predicted_state, z)[2:]
+        return GaussianMeasurementPrediction._trusted(z_hat, s, predicted_state.timestamp,
+                                                      {"cross_covar": cross})
+
+    def _update(self, model, prediction, z):
+        """``(x, P, z_hat, S, cross)`` of one update (shapes (d, 1), (d, d), (m, 1), (m, m),
+        (d, m)); raises ValueError when the step is undefined."""
+        m, d = model.ndim_meas, model.ndim_state
+        x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
+        z_hat, s, cross = np.empty((m, 1)), np.empty((m, m)), np.empty((d, m))
+        arguments = (prediction.state_vector, prediction.covar, z, x_out, covar_out, z_hat, s,
+                     cross)
+        if isinstance(model, NonlinearGaussianMeasurement):
+            status = self._function_update(model, arguments)
+        else:
+            status = _kalman.update_one(*model._kalman_args, self._method, self.use_joseph_cov,
+                                        *arguments)
+        if status != _kalman.OK:
+            raise ValueError(_STATUS_ERRORS[status])
+        return x_out, covar_out, z_hat, s, cross
+
+    def update(self, hypothesis):
+        """The posterior of ``hypothesis.prediction`` given ``hypothesis.measurement``.
+
+        The innovation's angle components are wrapped. The measurement prediction is stored
+        on the hypothesis as ``measurement_prediction``.
+
+        Returns
+        -------
+        GaussianStateUpdate
+            With ``hypothesis``, timestamped at the measurement.
+
+        Raises
+        ------
+        ValueError
+            If the innovation covariance is singular or the Jacobian undefined.
+        """
+        if not isinstance(hypothesis, SingleHypothesis):
+            raise TypeError(f"hypothesis must be a SingleHypothesis, "
+                            f"got {type(hypothesis).__name__}")
+        if hypothesis.measurement is None:
+            raise ValueError("hypothesis.measurement is None: nothing to update with")
+        prediction = hypothesis.prediction
+        model = self._model(hypothesis, prediction)
+        z = model.measurement_column(hypothesis.measurement, "hypothesis.measurement")
+        x_out, covar_out, z_hat, s, cross = self._update(model, prediction, z)
+        timestamp = hypothesis.measurement.timestamp
+        hypothesis.measurement_prediction = GaussianMeasurementPrediction._trusted(
+            z_hat, s, timestamp, {"cross_covar": cross})
+        return GaussianStateUpdate._trusted(x_out, covar_out, timestamp,
+                                            {"hypothesis": hypothesis})
+
+    def _function_update(self, model, arguments):
+        raise TypeError("a function-built measurement model needs ExtendedKalmanUpdater")
+
+
+class ExtendedKalmanUpdater(KalmanUpdater):
+    """Extended Kalman update: the measurement model linearised at the prediction.
+
+    Parameters
+    ----------
+    measurement_model, force_symmetric_covariance, use_joseph_cov
+        As :class:`KalmanUpdater`.
+    jacobian : {'analytic', 'forward', 'central'}
+        The built-in polar sensors' analytic Jacobian, or finite differences ('forward':
+        Stone Soup's rule, bit for bit). Function-built models use finite differences
+        ('analytic' means 'forward' for them).
+    """
+
+    def __init__(self, measurement_model=None, force_symmetric_covariance=False,
+                 use_joseph_cov=False, jacobian="analytic"):
+        super().__init__(measurement_model, force_symmetric_covariance, use_joseph_cov)
+        self._method = jacobian_method(jacobian)
+        self.jacobian = jacobian
+
+    def _check_model(self, model):
+        if not isinstance(model, MeasurementModel):
+            raise TypeError(f"measurement model must be a MeasurementModel, "
+                            f"got {type(model).__name__}")
+
+    def _function_update(self, model, arguments):
+        return _kalman.update_function(model.measurement_function, model.noise_covar,
+                                       model._angles, self._method == _jacobian.CENTRAL,
+                                       self.use_joseph_cov, *arguments)

@@ -275,3 +275,195 @@ def scheme_starts(method, cdf, n, key):
         stratum_occupancy(points, n, occupancy)
         multinomial_starts(cdf, n, key, occupancy, starts)
     return starts
+
+
+# --- jacobian ------------------------------------------------------------------------------
+
+ANALYTIC, FORWARD, CENTRAL = 0, 1, 2
+
+
+def _mod_bearing(a):
+    return (a + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def _steps(x, central):
+    if central:
+        return np.cbrt(np.finfo(float).eps) * np.maximum(np.abs(x), 1.0)
+    steps = 1e8 * np.spacing(x)
+    steps[steps < 1e-8] = 1e-8
+    return steps
+
+
+def _difference_jacobian(evaluate, x, angles, central):
+    """Finite-difference Jacobian of ``evaluate((d, n)) -> (m, n)`` at x (d,)."""
+    d = x.size
+    steps = _steps(x, central)
+    plus = x[:, None] + np.diag(steps)
+    if central:
+        minus = x[:, None] - np.diag(steps)
+        delta = evaluate(plus) - evaluate(minus)
+        delta[angles] = wrap_angle(delta[angles])
+        return delta / (2 * steps)
+    values = evaluate(np.column_stack([plus, x]))
+    delta = values[:, :d] - values[:, d:]
+    delta[angles] = _mod_bearing(delta[angles])
+    return delta / steps
+
+
+def _polar(kind, points, mapping, offset, rotation):
+    """Stone Soup's arithmetic: bearing wrapped by mod_bearing, range by sqrt(x**2 + y**2)."""
+    p = rotation @ (points[list(mapping[:2])] - offset[:, None])
+    rows = [_mod_bearing(np.arctan2(p[1], p[0]))]
+    if kind == BEARING_RANGE:
+        rows.append(np.sqrt(p[0] ** 2 + p[1] ** 2))
+    return np.array(rows)
+
+
+def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out):
+    out[:] = 0.0
+    if kind == SELECT:
+        out[np.arange(mapping.size), mapping] = 1.0
+        return
+    if method == ANALYTIC:
+        p = rotation @ (x[list(mapping[:2])] - offset)
+        rho2 = p @ p
+        rows = [np.array([-p[1], p[0]]) / rho2]
+        if kind == BEARING_RANGE:
+            rows.append(p / np.sqrt(rho2))
+        out[:, list(mapping[:2])] = np.array(rows) @ rotation
+        return
+    evaluate = (lambda points: _polar(kind, points, mapping, offset, rotation))
+    if method == CENTRAL:
+        def evaluate(points):
+            values = np.empty((out.shape[0], points.shape[1]))
+            measure(kind, points, mapping, offset, rotation, values)
+            return values
+    out[:] = _difference_jacobian(evaluate, x, angles, method == CENTRAL)
+
+
+def measurement_jacobian_function(function, x, angles, central, out):
+    out[:] = _difference_jacobian(function, x, angles, central)
+
+
+def transition_jacobian_function(function, time_interval, x, central, out):
+    out[:] = _difference_jacobian(lambda points: function(points, time_interval), x,
+                                  np.zeros(x.size, dtype=bool), central)
+
+
+# --- kalman --------------------------------------------------------------------------------
+
+FIXED, CV = 0, 1
+OK, PRIOR_NOT_PD, INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE = 0, 1, 2, 3, 4
+
+
+def _transition(kind, rates, fixed_matrix, fixed_covar, dt, d):
+    if kind == FIXED:
+        return fixed_matrix, fixed_covar
+    blocks_f = [np.array([[1.0, dt], [0.0, 1.0]]) for _ in rates]
+    t = abs(dt)
+    blocks_q = [q * np.array([[t ** 3 / 3, t ** 2 / 2], [t ** 2 / 2, t]]) for q in rates]
+    from scipy.linalg import block_diag
+    return block_diag(*blocks_f), block_diag(*blocks_q)
+
+
+def _positive_definite(a):
+    try:
+        np.linalg.cholesky(a)
+        return True
+    except np.linalg.LinAlgError:
+        return False
+
+
+def predict_one(kind, rates, fixed_matrix, fixed_covar, dt, x, covariance, x_out,
+                covariance_out):
+    f, q = _transition(kind, rates, fixed_matrix, fixed_covar, dt, x.shape[0])
+    x_out[:] = f @ x
+    covariance_out[:] = f @ covariance @ f.T + q
+    return OK if _positive_definite(covariance) else PRIOR_NOT_PD
+
+
+def predict_function(function, dt, covar, central, x, covariance, x_out, covariance_out):
+    f = np.empty((x.shape[0], x.shape[0]))
+    transition_jacobian_function(function, dt, x[:, 0], central, f)
+    x_out[:] = function(x, dt)
+    covariance_out[:] = f @ covariance @ f.T + covar
+    return OK if _positive_definite(covariance) else PRIOR_NOT_PD
+
+
+def _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out, covariance_out,
+                   innovation_covar, cross):
+    cross[:] = covariance @ h.T
+    innovation_covar[:] = h @ cross + noise
+    if not np.isfinite(z).all():
+        return MEASUREMENT_NOT_FINITE
+    if not _positive_definite(innovation_covar):
+        return INNOVATION_NOT_PD
+    gain = cross @ np.linalg.inv(innovation_covar)
+    innovation = z - z_hat
+    innovation[angles] = wrap_angle(innovation[angles])
+    x_out[:] = x + gain @ innovation
+    if joseph:
+        a = np.eye(x.shape[0]) - gain @ h
+        covariance_out[:] = a @ covariance @ a.T + gain @ noise @ gain.T
+    else:
+        covariance_out[:] = covariance - gain @ innovation_covar @ gain.T
+    return OK
+
+
+def update_one(kind, mapping, offset, rotation, noise, angles, method, joseph, x, covariance,
+               z, x_out, covariance_out, z_hat, innovation_covar, cross):
+    m, d = noise.shape[0], x.shape[0]
+    measure(kind, x, mapping, offset, rotation, z_hat)
+    h = np.empty((m, d))
+    measurement_jacobian(kind, x[:, 0], mapping, offset, rotation, angles, method, h)
+    if not np.isfinite(h).all():
+        return JACOBIAN_UNDEFINED
+    return _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out,
+                          covariance_out, innovation_covar, cross)
+
+
+def update_function(function, noise, angles, central, joseph, x, covariance, z, x_out,
+                    covariance_out, z_hat, innovation_covar, cross):
+    z_hat[:] = function(x)
+    z_hat[angles] = wrap_angle(z_hat[angles])
+    h = np.empty((noise.shape[0], x.shape[0]))
+    measurement_jacobian_function(function, x[:, 0], angles, central, h)
+    return _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out,
+                          covariance_out, innovation_covar, cross)
+
+
+def _filter_step(t_spec, dt, m_spec, method, joseph, x, covariance, z):
+    d, m = x.size, z.size
+    x_pred, covariance_pred = np.empty((d, 1)), np.empty((d, d))
+    status = predict_one(*t_spec, dt, x[:, None], covariance, x_pred, covariance_pred)
+    x_out, covariance_out = np.empty((d, 1)), np.empty((d, d))
+    code = update_one(*m_spec, method, joseph, x_pred, covariance_pred, z[:, None], x_out,
+                      covariance_out, np.empty((m, 1)), np.empty((m, m)), np.empty((d, m)))
+    return status or code, x_out[:, 0], covariance_out
+
+
+def batch_step(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
+               rotation, noise, angles, method, joseph, means, covariances, measurements,
+               means_out, covariances_out, status):
+    t_spec = (t_kind, rates, fixed_matrix, fixed_covar)
+    m_spec = (m_kind, mapping, offset, rotation, noise, angles)
+    for k in range(means.shape[0]):
+        status[k], means_out[k], covariances_out[k] = _filter_step(
+            t_spec, dts[k], m_spec, method, joseph, means[k], covariances[k], measurements[k])
+
+
+def batch_run(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset, rotation,
+              noise, angles, method, joseph, mean0, covariance0, measurements, means_out,
+              covariances_out, status):
+    t_spec = (t_kind, rates, fixed_matrix, fixed_covar)
+    m_spec = (m_kind, mapping, offset, rotation, noise, angles)
+    steps = measurements.shape[0]
+    for k in range(mean0.shape[0]):
+        x, covariance = mean0[k], covariance0[k]
+        status[k] = (steps, OK)
+        for t in range(steps):
+            code, x, covariance = _filter_step(t_spec, dts[t, k], m_spec, method, joseph, x,
+                                               covariance, measurements[t, k])
+            means_out[t, k], covariances_out[t, k] = x, covariance
+            if code != OK and status[k][1] == OK:
+                status[k] = (t, code)

@@ -26,14 +26,20 @@ FASTMATH = frozenset({"nsz", "arcp", "contract", "afn"})
 OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 
-def jit(parallel=False):
+def jit(parallel=False, strict=False):
     """Return the decorator that compiles a fasttrack kernel.
 
     Parameters
     ----------
     parallel : bool
         Compile ``prange`` loops for multi-threaded execution.
+    strict : bool
+        IEEE arithmetic, no relaxations, for code that must reproduce another library's
+        results to the last bit (marked ``dispatcher.strict``).
     """
     def decorate(func):
-        return numba.njit(parallel=parallel, fastmath=set(FASTMATH), **OPTIONS)(func)
+        fastmath = False if strict else set(FASTMATH)
+        dispatcher = numba.njit(parallel=parallel, fastmath=fastmath, **OPTIONS)(func)
+        dispatcher.strict = strict
+        return dispatcher
     return decorate

@@ -61,6 +61,19 @@ class MeasurementModel:
         check_rows(x, self.ndim_state, name)
         return x
 
+    def measurement_column(self, measurement, name="measurement"):
+        """The measurement as an (m, 1) float64 C-contiguous array, not checked for NaN (the
+        Kalman kernels check it): the detection's own array when it is one."""
+        z = getattr(measurement, "state_vector", measurement)
+        if type(z) is np.ndarray and z.shape == (self.ndim_meas, 1) \
+                and z.dtype == np.float64 and z.flags.c_contiguous:
+            return z
+        z = _validate.float_array(z, name)
+        if z.size != self.ndim_meas or (z.ndim == 2 and z.shape[1] != 1) or z.ndim > 2:
+            raise ValueError(f"{name} must have {self.ndim_meas} components for "
+                             f"{type(self).__name__}, got shape {z.shape}")
+        return np.ascontiguousarray(z.reshape(-1, 1))
+
     def measurement_vector(self, measurement, name="measurement"):
         """A finite (m,) float64 vector from a Detection or array_like."""
         z = _validate.finite_array(getattr(measurement, "state_vector", measurement), name)
@@ -126,6 +139,16 @@ class _KernelModel(MeasurementModel):
     """A built-in model: a kernel kind plus mapping, offset and rotation arrays."""
 
     kind = None
+
+    @property
+    def _kalman_args(self):
+        """The model's arguments to the Kalman kernels."""
+        args = self.__dict__.get("_kalman_args_cache")
+        if args is None:
+            args = (self.kind, self._mapping, self._offset, self._rotation, self.noise_covar,
+                    self._angles)
+            self.__dict__["_kalman_args_cache"] = args
+        return args
 
     def _predict(self, x):
         out = np.empty((self.ndim_meas, x.shape[1]))

@@ -2,12 +2,14 @@
 
 Time intervals are ``datetime.timedelta`` or seconds. States are (d, N) arrays, one column per
 particle, or state objects (their ``state_vector``)."""
+import functools
 import numbers
 
 import numpy as np
 
 from .. import _validate
 from ..types import seconds
+from .._jit import kalman as _kalman
 from .._jit import propagate as _kernels
 from .base import GaussianNoise, check_rows, gaussian_noise, scalar_or_array, state_columns
 
@@ -77,6 +79,17 @@ class TransitionModel:
         return seconds(time_interval)
 
 
+_NO_RATES = np.empty(0)
+_NO_MATRIX = np.empty((0, 0))
+
+
+@functools.lru_cache(maxsize=64)
+def _rates_array(rates):
+    array = np.array(rates, dtype=np.float64)
+    array.flags.writeable = False
+    return array
+
+
 def _block_diag(blocks):
     """Square blocks on the diagonal of a zero matrix."""
     size = sum(block.shape[0] for block in blocks)
@@ -104,6 +117,21 @@ class _LinearGaussian(TransitionModel):
     def jacobian(self, state=None, time_interval=None):
         """The transition matrix F(dt) (the model is linear)."""
         return self.matrix(self._seconds(time_interval))
+
+    def _kalman_spec(self, dt):
+        """``(kind, rates, F, Q)`` for the Kalman kernels: CV blocks when every part is a
+        :class:`ConstantVelocity` (F and Q are built in the kernel, for any interval),
+        else FIXED with F(dt) and Q(dt)."""
+        rates = self._cv_rates()
+        if rates is not None:
+            return _kalman.CV, _rates_array(rates), _NO_MATRIX, _NO_MATRIX
+        return (_kalman.FIXED, _NO_RATES, np.ascontiguousarray(self.matrix(dt)),
+                np.ascontiguousarray(self.covar(dt)))
+
+    def _cv_rates(self):
+        """The rates q of the constant-velocity blocks, as a tuple, or None if a part is
+        not constant velocity."""
+        return None
 
 
 class LinearGaussianTransitionModel(_LinearGaussian):
@@ -165,6 +193,9 @@ class ConstantVelocity(_LinearGaussian):
         t = abs(self._seconds(time_interval))
         return self.noise_diff_coeff * np.array([[t**3 / 3, t**2 / 2], [t**2 / 2, t]])
 
+    def _cv_rates(self):
+        return (self.noise_diff_coeff,)
+
 
 class CombinedLinearGaussianTransitionModel(_LinearGaussian):
     """Independent linear-Gaussian models stacked: block-diagonal F and Q.
@@ -192,6 +223,15 @@ class CombinedLinearGaussianTransitionModel(_LinearGaussian):
     def covar(self, time_interval):
         dt = self._seconds(time_interval)
         return _block_diag([model.covar(dt) for model in self.model_list])
+
+    def _cv_rates(self):
+        rates = ()
+        for model in self.model_list:
+            part = model._cv_rates()
+            if part is None:
+                return None
+            rates += part
+        return rates
 
 
 class NonlinearGaussianTransitionModel(TransitionModel):

@@ -1,0 +1,429 @@
+"""Kalman and extended Kalman kernels, on blocks of filters.
+
+Filters are laid out component-major, the filter index last: means (d, B), covariances
+(d, d, B), measurements (m, B), so every loop below runs innermost over the B filters of a
+block and vectorises. One filter (B = 1) is a state's own (d, 1) column; a batch of K filters
+goes in blocks of BLOCK, in parallel.
+
+A transition is FIXED (F, Q given) or CV (nearly constant velocity blocks (position,
+velocity) with rates q: ``F = [[1, dt], [0, 1]]``, ``Q = q [[t^3/3, t^2/2], [t^2/2, t]]``,
+t = |dt|, per block), with an interval per filter. Measurements are the built-in kinds of
+:mod:`likelihood`; for other models the caller provides the predicted measurement and its
+Jacobian. Covariances are computed on the lower triangle and mirrored, so they are exactly
+symmetric. Each filter gets a status: OK, or why its step is undefined.
+"""
+import numpy as np
+from numba import prange
+
+from . import jit
+from .jacobian import (ANALYTIC, measurement_jacobian, measurement_jacobian_function,
+                       transition_jacobian_function)
+from .likelihood import BEARING_RANGE, SELECT, _predict_block
+from .numeric import fast_atan2, wrap_angle
+
+FIXED, CV = 0, 1
+OK, PRIOR_NOT_PD, INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE = 0, 1, 2, 3, 4
+BLOCK = 128
+
+
+@jit()
+def _transition(kind, rates, fixed_matrix, fixed_covar, dts, matrix, covar):
+    """F and Q (d, d, B) of a FIXED or CV transition for the intervals ``dts`` (B,)."""
+    d, _, nb = matrix.shape
+    for r in range(d):
+        for c in range(d):
+            for b in range(nb):
+                if kind == FIXED:
+                    matrix[r, c, b] = fixed_matrix[r, c]
+                    covar[r, c, b] = fixed_covar[r, c]
+                else:
+                    matrix[r, c, b] = 1.0 if r == c else 0.0
+                    covar[r, c, b] = 0.0
+    if kind == FIXED:
+        return
+    for block in range(rates.size):
+        i, q = 2 * block, rates[block]
+        for b in range(nb):
+            t = abs(dts[b])
+            matrix[i, i + 1, b] = dts[b]
+            covar[i, i, b] = q * t ** 3 / 3.0
+            covar[i, i + 1, b] = q * t ** 2 / 2.0
+            covar[i + 1, i, b] = q * t ** 2 / 2.0
+            covar[i + 1, i + 1, b] = q * t
+
+
+@jit()
+def _cholesky(a, lower, status, code):
+    """Lower Cholesky factors of the symmetric (n, n, B) ``a``; where one is not positive
+    definite, ``status`` becomes ``code`` (if still OK) and its factor is the identity."""
+    n, _, nb = a.shape
+    for j in range(n):
+        for b in range(nb):
+            s = a[j, j, b]
+            for k in range(j):
+                s -= lower[j, k, b] * lower[j, k, b]
+            good = s > 0.0
+            if not good and status[b] == OK:
+                status[b] = code
+            lower[j, j, b] = np.sqrt(s) if good else 1.0
+        for i in range(n):
+            for b in range(nb):
+                if i < j:
+                    lower[i, j, b] = 0.0
+                elif i > j:
+                    t = a[i, j, b]
+                    for k in range(j):
+                        t -= lower[i, k, b] * lower[j, k, b]
+                    lower[i, j, b] = t / lower[j, j, b]
+
+
+@jit()
+def _sandwich(left, middle, work, out):
+    """``out += left middle left^T`` per filter (lower triangle computed, mirrored)."""
+    rows, inner, nb = left.shape
+    for r in range(rows):
+        for c in range(inner):
+            for b in range(nb):
+                s = 0.0
+                for k in range(inner):
+                    s += left[r, k, b] * middle[k, c, b]
+                work[r, c, b] = s
+    for r in range(rows):
+        for c in range(r + 1):
+            for b in range(nb):
+                s = out[r, c, b]
+                for k in range(inner):
+                    s += work[r, k, b] * left[c, k, b]
+                out[r, c, b] = s
+                out[c, r, b] = s
+
+
+@jit()
+def _predict_covariance(matrix, covar, covariance, covariance_out, status):
+    """``P_out = F P F^T + Q`` per filter; the prior covariance must be positive definite
+    (else PRIOR_NOT_PD)."""
+    work = np.empty(covariance.shape)
+    _cholesky(covariance, work, status, PRIOR_NOT_PD)
+    covariance_out[:, :, :] = covar
+    _sandwich(matrix, covariance, work, covariance_out)
+
+
+@jit()
+def _predict(matrix, covar, x, covariance, x_out, covariance_out, status):
+    """``x_out = F x`` and :func:`_predict_covariance` per filter."""
+    d, nb = x.shape
+    for r in range(d):
+        for b in range(nb):
+            s = 0.0
+            for k in range(d):
+                s += matrix[r, k, b] * x[k, b]
+            x_out[r, b] = s
+    _predict_covariance(matrix, covar, covariance, covariance_out, status)
+
+
+@jit()
+def _measure(kind, mapping, offset, rotation, method, x, z_hat, jacobian, status):
+    """Predicted measurements ``z_hat`` (m, B) of a built-in kind and their Jacobians
+    (m, d, B); JACOBIAN_UNDEFINED where a bearing is taken at the sensor."""
+    d, nb = x.shape
+    m = z_hat.shape[0]
+    if kind == SELECT or method == ANALYTIC:
+        jacobian[:, :, :] = 0.0
+        if kind == SELECT:
+            for r in range(m):
+                for b in range(nb):
+                    z_hat[r, b] = x[mapping[r], b]
+                    jacobian[r, mapping[r], b] = 1.0
+            return
+        for b in range(nb):
+            dx = x[mapping[0], b] - offset[0]
+            dy = x[mapping[1], b] - offset[1]
+            px = rotation[0, 0] * dx + rotation[0, 1] * dy
+            py = rotation[1, 0] * dx + rotation[1, 1] * dy
+            rho2 = px * px + py * py
+            if rho2 == 0.0 and status[b] == OK:
+                status[b] = JACOBIAN_UNDEFINED
+            rho2 = rho2 if rho2 > 0.0 else 1.0
+            rho = np.sqrt(rho2)
+            z_hat[0, b] = wrap_angle(fast_atan2(py, px))
+            for c in range(2):  # d p / d x[mapping[c]] is column c of the rotation
+                jacobian[0, mapping[c], b] = (-py * rotation[0, c] + px * rotation[1, c]) / rho2
+            if kind == BEARING_RANGE:
+                z_hat[1, b] = rho
+                for c in range(2):
+                    jacobian[1, mapping[c], b] = (px * rotation[0, c] + py * rotation[1, c]) / rho
+        return
+    column = np.empty((d, 1))
+    values = np.empty((m, 1))
+    one = np.empty((m, d))
+    angles = np.zeros(m, dtype=np.bool_)
+    angles[0] = True
+    for b in range(nb):
+        column[:, 0] = x[:, b]
+        _predict_block(kind, column, 0, 1, mapping, offset, rotation, values, 0)
+        z_hat[:, b] = values[:, 0]
+        measurement_jacobian(kind, column[:, 0], mapping, offset, rotation, angles, method, one)
+        jacobian[:, :, b] = one
+        if not np.isfinite(one).all() and status[b] == OK:
+            status[b] = JACOBIAN_UNDEFINED
+
+
+@jit()
+def _update(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, covariance_out,
+           innovation_covar, cross, status):
+    """The Kalman update of each filter given its predicted measurement and Jacobian H.
+
+    ``cross = P H^T``, ``S = H P H^T + R``, ``K = cross S^-1`` (by Cholesky), innovation
+    ``z - z_hat`` with angle rows wrapped, ``x_out = x + K v`` and ``P_out = P - K S K^T``
+    (``K S K^T = W^T W`` with ``W = L^-1 cross^T``), or with ``joseph``
+    ``(I - K H) P (I - K H)^T + K R K^T``. Filters whose S is not positive definite get
+    INNOVATION_NOT_PD, non-finite measurements MEASUREMENT_NOT_FINITE.
+    """
+    d, nb = x.shape
+    m = z.shape[0]
+    for r in range(d):
+        for c in range(m):
+            for b in range(nb):
+                s = 0.0
+                for k in range(d):
+                    s += covariance[r, k, b] * jacobian[c, k, b]
+                cross[r, c, b] = s
+    for r in range(m):
+        for c in range(r + 1):
+            for b in range(nb):
+                s = noise[r, c]
+                for k in range(d):
+                    s += jacobian[r, k, b] * cross[k, c, b]
+                innovation_covar[r, c, b] = s
+                innovation_covar[c, r, b] = s
+    lower = np.empty((m, m, nb))
+    _cholesky(innovation_covar, lower, status, INNOVATION_NOT_PD)
+    whitened = np.empty((m, d, nb))  # L^-1 cross^T
+    gain_t = np.empty((m, d, nb))  # S^-1 cross^T = K^T
+    for c in range(d):
+        for r in range(m):
+            for b in range(nb):
+                s = cross[c, r, b]
+                for k in range(r):
+                    s -= lower[r, k, b] * whitened[k, c, b]
+                whitened[r, c, b] = s / lower[r, r, b]
+        for r in range(m - 1, -1, -1):
+            for b in range(nb):
+                s = whitened[r, c, b]
+                for k in range(r + 1, m):
+                    s -= lower[k, r, b] * gain_t[k, c, b]
+                gain_t[r, c, b] = s / lower[r, r, b]
+    innovation = np.empty((m, nb))
+    for r in range(m):
+        for b in range(nb):
+            if not np.isfinite(z[r, b]) and status[b] == OK:
+                status[b] = MEASUREMENT_NOT_FINITE
+            v = z[r, b] - z_hat[r, b]
+            innovation[r, b] = wrap_angle(v) if angles[r] else v
+    for r in range(d):
+        for b in range(nb):
+            s = x[r, b]
+            for k in range(m):
+                s += gain_t[k, r, b] * innovation[k, b]
+            x_out[r, b] = s
+    if not joseph:
+        for r in range(d):
+            for c in range(r + 1):
+                for b in range(nb):
+                    s = covariance[r, c, b]
+                    for k in range(m):
+                        s -= whitened[k, r, b] * whitened[k, c, b]
+                    covariance_out[r, c, b] = s
+                    covariance_out[c, r, b] = s
+        return
+    square = np.empty((d, d, nb))  # I - K H
+    for r in range(d):
+        for c in range(d):
+            for b in range(nb):
+                s = 1.0 if r == c else 0.0
+                for k in range(m):
+                    s -= gain_t[k, r, b] * jacobian[k, c, b]
+                square[r, c, b] = s
+    covariance_out[:, :, :] = 0.0
+    _sandwich(square, covariance, np.empty((d, d, nb)), covariance_out)
+    gain = np.empty((d, m, nb))
+    noises = np.empty((m, m, nb))
+    for r in range(d):
+        for c in range(m):
+            for b in range(nb):
+                gain[r, c, b] = gain_t[c, r, b]
+    for r in range(m):
+        for c in range(m):
+            for b in range(nb):
+                noises[r, c, b] = noise[r, c]
+    _sandwich(gain, noises, np.empty((d, m, nb)), covariance_out)
+
+
+@jit()
+def _step_block(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
+                rotation, noise, angles, method, joseph, x, covariance, z, x_out,
+                covariance_out, status):
+    """Predict and update one block of filters (all in the block layout)."""
+    d, nb = x.shape
+    m = z.shape[0]
+    matrix, covar = np.empty((d, d, nb)), np.empty((d, d, nb))
+    _transition(t_kind, rates, fixed_matrix, fixed_covar, dts, matrix, covar)
+    x_pred, covariance_pred = np.empty((d, nb)), np.empty((d, d, nb))
+    _predict(matrix, covar, x, covariance, x_pred, covariance_pred, status)
+    z_hat, jacobian = np.empty((m, nb)), np.empty((m, d, nb))
+    _measure(m_kind, mapping, offset, rotation, method, x_pred, z_hat, jacobian, status)
+    _update(x_pred, covariance_pred, z, z_hat, jacobian, noise, angles, joseph, x_out,
+           covariance_out, np.empty((m, m, nb)), np.empty((d, m, nb)), status)
+
+
+@jit()
+def _to_block(rows, lo, hi, out):
+    """``out[..., b] = rows[lo + b]`` for (K, ...) rows, out (..., hi - lo) as (n, hi - lo)."""
+    flat = out.reshape((-1, out.shape[-1]))
+    for b in range(hi - lo):
+        row = rows[lo + b].ravel()
+        for i in range(row.size):
+            flat[i, b] = row[i]
+
+
+@jit()
+def _from_block(block, lo, hi, rows):
+    flat = block.reshape((-1, block.shape[-1]))
+    for b in range(hi - lo):
+        row = rows[lo + b].reshape(-1)
+        for i in range(row.size):
+            row[i] = flat[i, b]
+
+
+@jit(parallel=True)
+def batch_step(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
+               rotation, noise, angles, method, joseph, means, covariances, measurements,
+               means_out, covariances_out, status):
+    """Predict and update K independent filters (means (K, d), covariances (K, d, d),
+    measurements (K, m), intervals dts (K,)) in blocks, in parallel; ``status[k]`` says how
+    each went."""
+    k_filters, d = means.shape
+    m = measurements.shape[1]
+    for block in prange((k_filters + BLOCK - 1) // BLOCK):
+        lo = block * BLOCK
+        hi = min(lo + BLOCK, k_filters)
+        nb = hi - lo
+        x, covariance, z = np.empty((d, nb)), np.empty((d, d, nb)), np.empty((m, nb))
+        _to_block(means, lo, hi, x)
+        _to_block(covariances, lo, hi, covariance)
+        _to_block(measurements, lo, hi, z)
+        block_status = np.zeros(nb, dtype=np.int64)
+        x_out, covariance_out = np.empty((d, nb)), np.empty((d, d, nb))
+        _step_block(t_kind, rates, fixed_matrix, fixed_covar, dts[lo:hi], m_kind, mapping,
+                    offset, rotation, noise, angles, method, joseph, x, covariance, z, x_out,
+                    covariance_out, block_status)
+        _from_block(x_out, lo, hi, means_out)
+        _from_block(covariance_out, lo, hi, covariances_out)
+        status[lo:hi] = block_status
+
+
+@jit(parallel=True)
+def batch_run(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset, rotation,
+              noise, angles, method, joseph, mean0, covariance0, measurements, means_out,
+              covariances_out, status):
+    """K filters over T steps (measurements (T, K, m), intervals dts (T, K)): outputs
+    (T, K, d) and (T, K, d, d). A filter's first failing step and its code go to
+    ``status[k] = (step, code)``; ``(T, OK)`` if it finished (a failed filter's later
+    outputs are not meaningful)."""
+    steps, k_filters, m = measurements.shape
+    d = mean0.shape[1]
+    for block in prange((k_filters + BLOCK - 1) // BLOCK):
+        lo = block * BLOCK
+        hi = min(lo + BLOCK, k_filters)
+        nb = hi - lo
+        x, covariance, z = np.empty((d, nb)), np.empty((d, d, nb)), np.empty((m, nb))
+        x_out, covariance_out = np.empty((d, nb)), np.empty((d, d, nb))
+        _to_block(mean0, lo, hi, x)
+        _to_block(covariance0, lo, hi, covariance)
+        block_status = np.zeros(nb, dtype=np.int64)
+        first_failure = np.full(nb, steps, dtype=np.int64)
+        for t in range(steps):
+            _to_block(measurements[t], lo, hi, z)
+            _step_block(t_kind, rates, fixed_matrix, fixed_covar, dts[t, lo:hi], m_kind,
+                        mapping, offset, rotation, noise, angles, method, joseph, x, covariance,
+                        z, x_out, covariance_out, block_status)
+            for b in range(nb):
+                if block_status[b] != OK and first_failure[b] == steps:
+                    first_failure[b] = t
+            _from_block(x_out, lo, hi, means_out[t])
+            _from_block(covariance_out, lo, hi, covariances_out[t])
+            x[:, :] = x_out
+            covariance[:, :, :] = covariance_out
+        for b in range(nb):
+            status[lo + b, 0] = first_failure[b]
+            status[lo + b, 1] = block_status[b]
+
+
+# --- one filter: a state's (d, 1) column, its (d, d) covariance (a block of one) -----------
+
+
+@jit()
+def predict_one(kind, rates, fixed_matrix, fixed_covar, dt, x, covariance, x_out,
+                covariance_out):
+    """One filter through a FIXED or CV transition; returns its status."""
+    d = x.shape[0]
+    matrix, covar = np.empty((d, d, 1)), np.empty((d, d, 1))
+    status = np.zeros(1, dtype=np.int64)
+    _transition(kind, rates, fixed_matrix, fixed_covar, np.full(1, dt), matrix, covar)
+    _predict(matrix, covar, x, covariance.reshape((d, d, 1)), x_out,
+            covariance_out.reshape((d, d, 1)), status)
+    return status[0]
+
+
+@jit()
+def predict_function(function, dt, covar, central, x, covariance, x_out, covariance_out):
+    """One filter through a user transition ``f((d, n), dt)``: ``x_out = f(x)``, and F its
+    finite-difference Jacobian at x; returns the status."""
+    d = x.shape[0]
+    matrix = np.empty((d, d, 1))
+    jacobian = np.empty((d, d))
+    transition_jacobian_function(function, dt, x[:, 0].copy(), central, jacobian)
+    matrix[:, :, 0] = jacobian
+    x_out[:, :] = function(x, dt)
+    status = np.zeros(1, dtype=np.int64)
+    _predict_covariance(matrix, covar.reshape((d, d, 1)), covariance.reshape((d, d, 1)),
+                       covariance_out.reshape((d, d, 1)), status)
+    return status[0]
+
+
+@jit()
+def update_one(kind, mapping, offset, rotation, noise, angles, method, joseph, x, covariance,
+               z, x_out, covariance_out, z_hat, innovation_covar, cross):
+    """One filter's update with a built-in measurement kind; returns its status."""
+    d = x.shape[0]
+    m = z.shape[0]
+    status = np.zeros(1, dtype=np.int64)
+    jacobian = np.empty((m, d, 1))
+    _measure(kind, mapping, offset, rotation, method, x, z_hat, jacobian, status)
+    _update(x, covariance.reshape((d, d, 1)), z, z_hat, jacobian, noise, angles, joseph, x_out,
+           covariance_out.reshape((d, d, 1)), innovation_covar.reshape((m, m, 1)),
+           cross.reshape((d, m, 1)), status)
+    return status[0]
+
+
+@jit()
+def update_function(function, noise, angles, central, joseph, x, covariance, z, x_out,
+                    covariance_out, z_hat, innovation_covar, cross):
+    """One filter's update with a user measurement ``h((d, n)) -> (m, n)`` (Jacobian by
+    finite differences); returns its status."""
+    d = x.shape[0]
+    m = z.shape[0]
+    status = np.zeros(1, dtype=np.int64)
+    values = function(x)
+    for r in range(m):
+        z_hat[r, 0] = wrap_angle(values[r, 0]) if angles[r] else values[r, 0]
+    one = np.empty((m, d))
+    measurement_jacobian_function(function, x[:, 0].copy(), angles, central, one)
+    if not np.isfinite(one).all():
+        status[0] = JACOBIAN_UNDEFINED
+    jacobian = np.empty((m, d, 1))
+    jacobian[:, :, 0] = one
+    _update(x, covariance.reshape((d, d, 1)), z, z_hat, jacobian, noise, angles, joseph, x_out,
+           covariance_out.reshape((d, d, 1)), innovation_covar.reshape((m, m, 1)),
+           cross.reshape((d, m, 1)), status)
+    return status[0]

@@ -1,0 +1,164 @@
+"""Many independent Kalman filters advanced together: one kernel call, parallel over
+filters."""
+import numpy as np
+
+from . import _validate
+from ._jit import kalman as _kalman
+from .models.measurement import NonlinearGaussianMeasurement, MeasurementModel
+from .models.transition import LinearGaussianTransitionModel, TransitionModel
+from .predictor import _STATUS_ERRORS as _PREDICT_ERRORS
+from .predictor import jacobian_method
+from .updater import _STATUS_ERRORS as _UPDATE_ERRORS
+
+_ERRORS = {**_PREDICT_ERRORS, **_UPDATE_ERRORS}
+
+
+class BatchExtendedKalmanFilter:
+    """K independent (extended) Kalman filters sharing a transition and a measurement model,
+    each with its own state, covariance, measurements and time intervals.
+
+    Exact Kalman filtering for linear models. Built-in models only: a linear-Gaussian
+    transition (constant-velocity blocks may take a different interval per filter), and a
+    built-in measurement model.
+
+    Parameters
+    ----------
+    transition_model : linear-Gaussian TransitionModel
+    measurement_model : built-in MeasurementModel
+    use_joseph_cov : bool
+        Joseph-form covariance update.
+    jacobian : {'analytic', 'forward', 'central'}
+        As :class:`~fasttrack.ExtendedKalmanUpdater`.
+    """
+
+    def __init__(self, transition_model, measurement_model, use_joseph_cov=False,
+                 jacobian="analytic"):
+        if not isinstance(transition_model, TransitionModel) \
+                or not hasattr(transition_model, "matrix"):
+            raise TypeError(f"transition_model must be a linear-Gaussian TransitionModel, "
+                            f"got {type(transition_model).__name__}")
+        if not isinstance(measurement_model, MeasurementModel) \
+                or isinstance(measurement_model, NonlinearGaussianMeasurement):
+            raise TypeError(f"measurement_model must be a built-in MeasurementModel, "
+                            f"got {type(measurement_model).__name__}")
+        if measurement_model.ndim_state != transition_model.ndim_state:
+            raise ValueError(f"the models disagree on the state dimension: "
+                             f"{transition_model.ndim_state} and {measurement_model.ndim_state}")
+        self.transition_model = transition_model
+        self.measurement_model = measurement_model
+        self.use_joseph_cov = bool(use_joseph_cov)
+        self._method = jacobian_method(jacobian)
+
+    def _arrays(self, means, covars, measurements, leading):
+        """Validated float64 arrays: means (*leading, K, d) etc."""
+        d, m = self.transition_model.ndim_state, self.measurement_model.ndim_meas
+        means = _validate.finite_array(means, "means", 2)
+        k = means.shape[0]
+        if means.shape[1] != d:
+            raise ValueError(f"means must have shape (K, {d}), got {means.shape}")
+        covars = _validate.finite_array(covars, "covars", 3)
+        if covars.shape != (k, d, d):
+            raise ValueError(f"covars must have shape ({k}, {d}, {d}), got {covars.shape}")
+        measurements = _validate.finite_array(measurements, "measurements", len(leading) + 2)
+        if measurements.shape != (*leading, k, m):
+            raise ValueError(f"measurements must have shape {(*leading, k, m)}, "
+                             f"got {measurements.shape}")
+        return means, covars, measurements
+
+    def _spec(self, intervals):
+        """The kernel transition for these intervals (seconds)."""
+        model = self.transition_model
+        first = float(intervals.flat[0])
+        kind, rates, matrix, covar = model._kalman_spec(first)
+        if kind == _kalman.FIXED and not isinstance(model, LinearGaussianTransitionModel) \
+                and np.any(intervals != first):
+            raise ValueError(f"{type(model).__name__} mixes constant-velocity and other "
+                             f"parts, so its filters need one common time interval")
+        return kind, rates, matrix, covar
+
+    def _intervals(self, time_intervals, shape):
+        intervals = _validate.finite_array(time_intervals, "time_intervals")
+        try:
+            return np.ascontiguousarray(np.broadcast_to(intervals, shape))
+        except ValueError:
+            raise ValueError(f"time_intervals (seconds) must broadcast to {shape}, "
+                             f"got shape {intervals.shape}") from None
+
+    def _measurement_spec(self):
+        model = self.measurement_model
+        return (model.kind, model._mapping, model._offset, model._rotation, model.noise_covar,
+                model._angles, self._method, self.use_joseph_cov)
+
+    def step(self, means, covars, measurements, time_intervals):
+        """One predict + update of every filter.
+
+        Parameters
+        ----------
+        means : (K, d) array_like
+        covars : (K, d, d) array_like
+            Positive definite.
+        measurements : (K, m) array_like
+        time_intervals : float or (K,) array_like
+            Seconds from each filter's state to its measurement.
+
+        Returns
+        -------
+        means : (K, d) ndarray
+        covars : (K, d, d) ndarray
+
+        Raises
+        ------
+        ValueError
+            If any filter's step is undefined (naming the first such filter and why).
+        """
+        means, covars, measurements = self._arrays(means, covars, measurements, ())
+        k, d = means.shape
+        intervals = self._intervals(time_intervals, (k,))
+        means_out, covars_out = np.empty_like(means), np.empty_like(covars)
+        status = np.empty(k, dtype=np.int64)
+        _kalman.batch_step(*self._spec(intervals), intervals, *self._measurement_spec(), means,
+                           covars, measurements, means_out, covars_out, status)
+        failed = np.flatnonzero(status)
+        if failed.size:
+            raise ValueError(f"{failed.size} of {k} filters failed; filter {failed[0]}: "
+                             f"{_ERRORS[status[failed[0]]]}")
+        return means_out, covars_out
+
+    def run(self, means, covars, measurements, time_intervals):
+        """Filter every filter over T measurements.
+
+        Parameters
+        ----------
+        means : (K, d) array_like, covars : (K, d, d) array_like
+            The priors.
+        measurements : (T, K, m) array_like
+        time_intervals : float, (T,) or (T, K) array_like
+            Seconds before each measurement.
+
+        Returns
+        -------
+        means : (T, K, d) ndarray
+        covars : (T, K, d, d) ndarray
+            The posterior after each measurement.
+        """
+        measurements = np.asarray(measurements, dtype=np.float64)
+        if measurements.ndim != 3:
+            raise ValueError(f"measurements must be 3-D (T, K, m), got shape {measurements.shape}")
+        steps = measurements.shape[0]
+        means, covars, measurements = self._arrays(means, covars, measurements, (steps,))
+        k, d = means.shape
+        intervals = np.asarray(time_intervals, dtype=np.float64)
+        if intervals.ndim == 1:
+            intervals = intervals[:, None]
+        intervals = self._intervals(intervals, (steps, k))
+        means_out = np.empty((steps, k, d))
+        covars_out = np.empty((steps, k, d, d))
+        status = np.empty((k, 2), dtype=np.int64)
+        _kalman.batch_run(*self._spec(intervals), intervals, *self._measurement_spec(), means,
+                          covars, measurements, means_out, covars_out, status)
+        failed = np.flatnonzero(status[:, 1])
+        if failed.size:
+            first = failed[0]
+            raise ValueError(f"{failed.size} of {k} filters failed; filter {first} at step "
+                             f"{status[first, 0]}: {_ERRORS[status[first, 1]]}")
+        return means_out, covars_out

@@ -1,0 +1,384 @@
+"""Kalman and extended Kalman filters: kernels against mirrors, Stone Soup parity, the batch
+API, numerics and bad input."""
+import datetime
+
+import numpy as np
+import pytest
+
+import fasttrack as ft
+from fasttrack._jit import jacobian as jac_kernels
+from fasttrack._jit import kalman as kernels
+
+import reference
+from user_models import bearing_range_from_50_0, coordinated_turn
+
+START = datetime.datetime(2026, 1, 1)
+NOISE = np.diag([np.radians(0.2), 1.0])
+PRIOR_COVAR = np.diag([1.5, 0.5, 1.5, 0.5])
+
+
+def _models():
+    return (ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2),
+            ft.CartesianToBearingRange(4, (0, 2), NOISE, translation_offset=[50, 0]))
+
+
+# --- Jacobians ---------------------------------------------------------------------------------
+
+def _sensors():
+    rotated = dict(translation_offset=[5.0, -3.0], rotation_offset=[0.0, 0.0, 0.6])
+    return [ft.CartesianToBearingRange(4, (0, 2), NOISE, **rotated),
+            ft.Cartesian2DToBearing(4, (2, 0), [[1e-4]], **rotated),
+            ft.LinearGaussian(4, (0, 2), np.eye(2))]
+
+
+@pytest.mark.parametrize("sensor", _sensors())
+@pytest.mark.parametrize("x", [[1.3, 0.9, 2.2, 1.1], [-30.0, 1.0, 0.5, -1.0],
+                               [-20.0, 0.0, -1e-9, 0.0]])  # the last sits on the +-pi cut
+def test_jacobians_match_mirrors_and_each_other(sensor, x):
+    x = np.array(x)
+    results = {}
+    for method in (jac_kernels.ANALYTIC, jac_kernels.FORWARD, jac_kernels.CENTRAL):
+        got, want = np.empty((sensor.ndim_meas, 4)), np.empty((sensor.ndim_meas, 4))
+        args = (sensor.kind, x, sensor._mapping, sensor._offset, sensor._rotation, sensor._angles,
+                method)
+        jac_kernels.measurement_jacobian(*args, got)
+        reference.measurement_jacobian(*args, want)
+        # finite differences amplify the last bit of atan2 (NumPy's and libm's may differ)
+        tolerance = 1e-12 if method == jac_kernels.ANALYTIC else 4e-16 * np.pi / 1e-8
+        np.testing.assert_allclose(got, want, rtol=1e-9, atol=tolerance)
+        results[method] = got
+    # central differences agree with the analytic derivative to O(step^2); forward to O(step)
+    np.testing.assert_allclose(results[jac_kernels.CENTRAL], results[jac_kernels.ANALYTIC],
+                               rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(results[jac_kernels.FORWARD], results[jac_kernels.ANALYTIC],
+                               rtol=1e-4, atol=1e-6)
+
+
+def test_forward_jacobian_is_stone_soups():
+    nonlinear = pytest.importorskip("stonesoup.models.measurement.nonlinear")
+    from stonesoup.types.state import State
+    theirs = nonlinear.CartesianToBearingRange(ndim_state=4, mapping=(0, 2), noise_covar=NOISE,
+                                              translation_offset=np.array([[50], [0]]))
+    _, ours = _models()
+    rng = np.random.default_rng(0)
+    exact = 0
+    for x in list(rng.normal(0, 30, (20, 4))) + [np.array([-10.0, 0.0, -1e-9, 0.0]) + [50, 0, 0, 0]]:
+        got = np.empty((2, 4))
+        jac_kernels.measurement_jacobian(ours.kind, x, ours._mapping, ours._offset, ours._rotation,
+                                         ours._angles, jac_kernels.FORWARD, got)
+        want = theirs.jacobian(State(x.reshape(-1, 1)))
+        # the same steps, points and wrapping: equal up to one ulp of atan2 over the step
+        steps = np.maximum(1e8 * np.spacing(x), 1e-8)
+        assert np.all(np.abs(got - want) <= 2 * np.spacing(np.pi) / steps)
+        exact += np.array_equal(got, want)
+    assert exact >= 15
+
+
+def test_user_function_jacobians_match_mirrors():
+    x = np.array([3.0, 1.0, -4.0, 0.5])
+    for central in (False, True):
+        got, want = np.empty((2, 4)), np.empty((2, 4))
+        angles = np.array([True, False])
+        jac_kernels.measurement_jacobian_function(bearing_range_from_50_0, x, angles, central, got)
+        reference.measurement_jacobian_function(bearing_range_from_50_0, x, angles, central, want)
+        np.testing.assert_allclose(got, want, rtol=1e-12)
+        got, want = np.empty((4, 4)), np.empty((4, 4))
+        jac_kernels.transition_jacobian_function(coordinated_turn, 2.0, x, central, got)
+        reference.transition_jacobian_function(coordinated_turn, 2.0, x, central, want)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+
+
+# --- one-filter kernels against mirrors ----------------------------------------------------------
+
+def test_kalman_kernels_match_mirrors():
+    transition, sensor = _models()
+    x = np.array([[1.0], [0.8], [2.0], [1.2]])
+    covariance = PRIOR_COVAR + 0.1
+    for dt in (1.0, 0.3, -2.0):
+        kind, rates, matrix, covar = transition._kalman_spec(dt)
+        outs = [(np.empty((4, 1)), np.empty((4, 4))) for _ in range(2)]
+        assert kernels.predict_one(kind, rates, matrix, covar, dt, x, covariance, *outs[0]) == 0
+        assert reference.predict_one(kind, rates, matrix, covar, dt, x, covariance, *outs[1]) == 0
+        for a, b in zip(*outs):
+            np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-15)
+    z = np.array([[0.05], [48.0]])
+    for method in (0, 1, 2):
+        for joseph in (False, True):
+            outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
+                     np.empty((4, 2))) for _ in range(2)]
+            args = (*sensor._kalman_args, method, joseph, x, covariance, z)
+            assert kernels.update_one(*args, *outs[0]) == reference.update_one(*args, *outs[1]) == 0
+            rtol = 1e-10 if method == 0 else 1e-7  # finite differences: see above
+            for a, b in zip(*outs):
+                np.testing.assert_allclose(a, b, rtol=rtol, atol=1e-12)
+    outs = [(np.empty((4, 1)), np.empty((4, 4))) for _ in range(2)]
+    q = np.eye(4) * 0.01
+    assert kernels.predict_function(coordinated_turn, 1.0, q, False, x, covariance, *outs[0]) == 0
+    reference.predict_function(coordinated_turn, 1.0, q, False, x, covariance, *outs[1])
+    for a, b in zip(*outs):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
+    outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
+             np.empty((4, 2))) for _ in range(2)]
+    z_ub = np.array([[0.05], [48.0]])
+    args = (bearing_range_from_50_0, NOISE, np.array([True, False]), True, False, x, covariance, z_ub)
+    assert kernels.update_function(*args, *outs[0]) == reference.update_function(*args, *outs[1]) == 0
+    for a, b in zip(*outs):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
+
+
+# --- the EKF tutorial against Stone Soup ----------------------------------------------------------
+
+def _stonesoup_ekf_run(exact_jacobian):
+    from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
+    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                    ConstantVelocity)
+    from stonesoup.predictor.kalman import ExtendedKalmanPredictor
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.groundtruth import GroundTruthPath, GroundTruthState
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.state import GaussianState
+    from stonesoup.updater.kalman import ExtendedKalmanUpdater
+
+    class ExactBearingRange(CartesianToBearingRange):
+        def jacobian(self, state, **kwargs):
+            x = np.asarray(state.state_vector, float).ravel()
+            dx, dy = x[0] - 50.0, x[2]
+            rho2 = dx * dx + dy * dy
+            out = np.zeros((2, 4))
+            out[0, 0], out[0, 2] = -dy / rho2, dx / rho2
+            out[1, 0], out[1, 2] = dx / np.sqrt(rho2), dy / np.sqrt(rho2)
+            return out
+
+    np.random.seed(1991)
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05), ConstantVelocity(0.05)])
+    truth = GroundTruthPath([GroundTruthState([0, 1, 0, 1], timestamp=START)])
+    for k in range(1, 21):
+        truth.append(GroundTruthState(transition.function(truth[k - 1], noise=True,
+                                                          time_interval=datetime.timedelta(seconds=1)),
+                                      timestamp=START + datetime.timedelta(seconds=k)))
+    cls = ExactBearingRange if exact_jacobian else CartesianToBearingRange
+    sensor = cls(ndim_state=4, mapping=(0, 2), noise_covar=NOISE,
+                 translation_offset=np.array([[50], [0]]))
+    detections = [Detection(sensor.function(s, noise=True), timestamp=s.timestamp,
+                            measurement_model=sensor) for s in truth]
+    predictor, updater = ExtendedKalmanPredictor(transition), ExtendedKalmanUpdater(sensor)
+    prior = GaussianState([[0], [1], [0], [1]], PRIOR_COVAR, timestamp=START)
+    states = []
+    for detection in detections:
+        prior = updater.update(SingleHypothesis(predictor.predict(prior, timestamp=detection.timestamp),
+                                                detection))
+        states.append(prior)
+    return [np.asarray(d.state_vector, float) for d in detections], states
+
+
+def _fasttrack_ekf_run(measurements, jacobian):
+    transition, sensor = _models()
+    predictor = ft.ExtendedKalmanPredictor(transition)
+    updater = ft.ExtendedKalmanUpdater(sensor, jacobian=jacobian)
+    prior = ft.GaussianState([0, 1, 0, 1], PRIOR_COVAR, timestamp=START)
+    states = []
+    for k, z in enumerate(measurements):
+        detection = ft.Detection(z, timestamp=START + datetime.timedelta(seconds=k))
+        prior = updater.update(ft.SingleHypothesis(predictor.predict(prior, detection.timestamp),
+                                                   detection))
+        states.append(prior)
+    return states
+
+
+def _worst(ours, theirs):
+    worst = 0.0
+    for a, b in zip(ours, theirs):
+        for mine, their in ((a.state_vector, b.state_vector), (a.covar, b.covar)):
+            their = np.asarray(their, float)
+            worst = max(worst, np.abs(mine - their).max() / np.abs(their).max())
+    return worst
+
+
+def test_ekf_tutorial_equals_stone_soup():
+    """With the exact Jacobian on both sides the filters agree to 1e-9 at every step; with
+    Stone Soup's own finite differences (accurate to ~1e-6, and chaotic in the last bits of
+    the state) they agree to that accuracy."""
+    pytest.importorskip("stonesoup")
+    measurements, theirs = _stonesoup_ekf_run(exact_jacobian=True)
+    assert _worst(_fasttrack_ekf_run(measurements, "analytic"), theirs) < 1e-9
+    measurements, theirs = _stonesoup_ekf_run(exact_jacobian=False)
+    assert _worst(_fasttrack_ekf_run(measurements, "forward"), theirs) < 1e-5
+    ours = _fasttrack_ekf_run(measurements, "forward")
+    assert ours[0].hypothesis.measurement_prediction.cross_covar.shape == (4, 2)
+    assert ours[-1].timestamp == START + datetime.timedelta(seconds=20)
+
+
+def test_kalman_filter_matches_the_textbook():
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.1)] * 2)
+    sensor = ft.LinearGaussian(4, (0, 2), [[0.5, 0.1], [0.1, 0.8]])
+    predictor, updater = ft.KalmanPredictor(transition), ft.KalmanUpdater(sensor)
+    state = ft.GaussianState([0, 1, 0, 1], PRIOR_COVAR, timestamp=0.0)
+    x, p = state.state_vector.copy(), state.covar.copy()
+    rng = np.random.default_rng(2)
+    for k in range(1, 30):
+        z = rng.normal(k, 1.0, (2, 1))
+        prediction = predictor.predict(state, float(k))
+        hypothesis = ft.SingleHypothesis(prediction, ft.Detection(z, timestamp=float(k)))
+        state = updater.update(hypothesis)
+        f, q, h, r = transition.matrix(1.0), transition.covar(1.0), sensor.matrix(), sensor.noise_covar
+        x, p = f @ x, f @ p @ f.T + q
+        s = h @ p @ h.T + r
+        gain = p @ h.T @ np.linalg.inv(s)
+        x, p = x + gain @ (z - h @ x), p - gain @ s @ gain.T
+        np.testing.assert_allclose(state.state_vector, x, rtol=1e-11, atol=1e-11)
+        np.testing.assert_allclose(state.covar, p, rtol=1e-11, atol=1e-13)
+        assert isinstance(prediction, ft.GaussianStatePrediction) and prediction.prior is not None
+        assert isinstance(state, ft.GaussianStateUpdate) and state.hypothesis is hypothesis
+        np.testing.assert_allclose(hypothesis.measurement_prediction.covar, s, rtol=1e-11)
+    mp = updater.predict_measurement(prediction)
+    assert isinstance(mp, ft.GaussianMeasurementPrediction) and mp.state_vector.shape == (2, 1)
+
+
+def test_joseph_form_agrees_and_stays_positive_definite():
+    transition, sensor = _models()
+    measurements = ft.detections(ft.ground_truth(transition, [0, 1, 0, 1], 50, rng=3), sensor, rng=4)
+    states = {}
+    for joseph in (False, True):
+        predictor = ft.ExtendedKalmanPredictor(transition)
+        updater = ft.ExtendedKalmanUpdater(sensor, use_joseph_cov=joseph)
+        state = ft.GaussianState([0, 1, 0, 1], PRIOR_COVAR, timestamp=0.0)
+        for detection in measurements:
+            state = updater.update(ft.SingleHypothesis(predictor.predict(state, detection.timestamp),
+                                                       detection))
+        states[joseph] = state
+    np.testing.assert_allclose(states[True].covar, states[False].covar, rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(states[True].state_vector, states[False].state_vector, rtol=1e-9)
+
+
+def test_covariance_stays_symmetric_positive_definite_over_ten_thousand_steps():
+    transition, sensor = _models()
+    batch = ft.BatchExtendedKalmanFilter(transition, sensor)
+    truth = ft.ground_truth(transition, [0, 1, 0, 1], 10_000, rng=5)
+    z = np.hstack([d.state_vector for d in ft.detections(truth, sensor, rng=6)]).T[1:, None, :]
+    means, covars = batch.run(np.array([[0, 1, 0, 1.0]]), PRIOR_COVAR[None], z, 1.0)
+    covars = covars[:, 0]
+    assert np.array_equal(covars, np.swapaxes(covars, 1, 2))
+    assert np.linalg.eigvalsh(covars).min() > 0 and np.isfinite(means).all()
+    # near the sensor the filter is consistent: position errors match its covariance (NEES ~ 2)
+    errors = means[:500, 0, [0, 2]] - np.array([s.state_vector[[0, 2], 0] for s in truth][1:501])
+    position = covars[:500, [0, 2]][:, :, [0, 2]]
+    nees = np.einsum("ti,tij,tj->t", errors, np.linalg.inv(position), errors)
+    assert 1.0 < nees.mean() < 4.0
+
+
+# --- the batch API --------------------------------------------------------------------------------
+
+def _batch_inputs(k, seed=0):
+    rng = np.random.default_rng(seed)
+    means = np.array([0, 1, 0, 1.0]) + rng.normal(0, 1, (k, 4))
+    covars = np.array([PRIOR_COVAR + np.diag(rng.uniform(0, 1, 4)) for _ in range(k)])
+    measurements = np.column_stack([rng.normal(0.0, 0.1, k), rng.normal(49.0, 1.0, k)])
+    return means, covars, measurements, rng.uniform(0.5, 1.5, k)
+
+
+@pytest.mark.parametrize("joseph", [False, True])
+def test_batch_step_equals_the_class_api_and_its_mirror(joseph):
+    transition, sensor = _models()
+    means, covars, measurements, intervals = _batch_inputs(300)
+    got_means, got_covars = ft.BatchExtendedKalmanFilter(transition, sensor, use_joseph_cov=joseph).step(
+        means, covars, measurements, intervals)
+    predictor, updater = ft.ExtendedKalmanPredictor(transition), ft.ExtendedKalmanUpdater(
+        sensor, use_joseph_cov=joseph)
+    for k in range(300):
+        prior = ft.GaussianState(means[k], covars[k], timestamp=0.0)
+        state = updater.update(ft.SingleHypothesis(predictor.predict(prior, intervals[k]),
+                                                   ft.Detection(measurements[k], timestamp=intervals[k])))
+        np.testing.assert_allclose(got_means[k], state.state_vector[:, 0], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(got_covars[k], state.covar, rtol=1e-12, atol=1e-13)
+    want_means, want_covars, status = np.empty_like(means), np.empty_like(covars), np.empty(300, int)
+    reference.batch_step(*transition._kalman_spec(1.0), intervals, *sensor._kalman_args, 0, joseph,
+                         means, covars, measurements, want_means, want_covars, status)
+    np.testing.assert_allclose(got_means, want_means, rtol=1e-10)
+    np.testing.assert_allclose(got_covars, want_covars, rtol=1e-10, atol=1e-12)
+
+
+def test_batch_run_equals_stepping_and_its_mirror():
+    transition, sensor = _models()
+    means, covars, _, _ = _batch_inputs(130, seed=1)
+    rng = np.random.default_rng(2)
+    steps = 7
+    measurements = np.stack([np.column_stack([rng.normal(0, 0.1, 130), rng.normal(49, 1, 130)])
+                             for _ in range(steps)])
+    intervals = rng.uniform(0.5, 1.5, (steps, 130))
+    batch = ft.BatchExtendedKalmanFilter(transition, sensor)
+    run_means, run_covars = batch.run(means, covars, measurements, intervals)
+    m, p = means, covars
+    for t in range(steps):
+        m, p = batch.step(m, p, measurements[t], intervals[t])
+        np.testing.assert_allclose(run_means[t], m, rtol=1e-13)
+        np.testing.assert_allclose(run_covars[t], p, rtol=1e-13)
+    want_means, want_covars = np.empty_like(run_means), np.empty_like(run_covars)
+    status = [None] * 130
+    reference.batch_run(*transition._kalman_spec(1.0), intervals, *sensor._kalman_args, 0, False,
+                        means, covars, measurements, want_means, want_covars, status)
+    np.testing.assert_allclose(run_means, want_means, rtol=1e-9)
+    np.testing.assert_allclose(run_covars, want_covars, rtol=1e-9, atol=1e-12)
+    same = batch.run(means, covars, measurements, 1.0)  # one interval for all
+    assert same[0].shape == (steps, 130, 4)
+
+
+# --- user models and bad input ------------------------------------------------------------------
+
+def test_user_njit_models_through_the_ekf():
+    turn = ft.NonlinearGaussianTransitionModel(coordinated_turn, np.eye(4) * 0.01, 4)
+    user_sensor = ft.NonlinearGaussianMeasurement(bearing_range_from_50_0, 4, NOISE, angle_components=(0,))
+    _, sensor = _models()
+    truth = ft.ground_truth(turn, [0, 1, 0, 1], 30, rng=7)
+    measurements = ft.detections(truth, sensor, rng=8)
+    results = {}
+    for name, model in (("user", user_sensor), ("built-in", sensor)):
+        predictor = ft.ExtendedKalmanPredictor(turn, jacobian="central")
+        updater = ft.ExtendedKalmanUpdater(model, jacobian="central")
+        state = ft.GaussianState([0, 1, 0, 1], PRIOR_COVAR, timestamp=0.0)
+        for detection in measurements:
+            d = ft.Detection(detection.state_vector, timestamp=detection.timestamp)
+            state = updater.update(ft.SingleHypothesis(predictor.predict(state, d.timestamp), d))
+        results[name] = state
+    np.testing.assert_allclose(results["user"].state_vector, results["built-in"].state_vector, rtol=1e-6)
+    assert np.linalg.norm(results["user"].state_vector[[0, 2], 0] - truth[-1].state_vector[[0, 2], 0]) < 3
+
+
+def test_bad_input_is_a_clear_error():
+    transition, sensor = _models()
+    predictor, updater = ft.ExtendedKalmanPredictor(transition), ft.ExtendedKalmanUpdater(sensor)
+    with pytest.raises(ValueError, match="prior.covar is not positive definite"):
+        predictor.predict(ft.GaussianState([0, 1, 0, 1], np.diag([1, 0, 1, 1.0]), timestamp=0.0), 1.0)
+    prediction = predictor.predict(ft.GaussianState([50, 0, 0, 0], PRIOR_COVAR, timestamp=0.0), 1e-9)
+    with pytest.raises(ValueError, match="Jacobian is undefined"):
+        updater.update(ft.SingleHypothesis(prediction, ft.Detection([0.0, 1.0], timestamp=1.0)))
+    prediction = predictor.predict(ft.GaussianState([0, 1, 0, 1], PRIOR_COVAR, timestamp=0.0), 1.0)
+    detection = ft.Detection([0.0, 1.0], timestamp=1.0)
+    detection.state_vector[0, 0] = np.nan  # corrupted after construction
+    with pytest.raises(ValueError, match="measurement contains NaN"):
+        updater.update(ft.SingleHypothesis(prediction, detection))
+    singular = ft.KalmanUpdater(ft.LinearGaussian(4, (0, 2), np.zeros((2, 2))))
+    flat = ft.GaussianState([0, 1, 0, 1], np.diag([0, 1, 0, 1.0]), timestamp=1.0)
+    with pytest.raises(ValueError, match="innovation covariance .* not positive definite"):
+        singular.update(ft.SingleHypothesis(flat, ft.Detection([0.0, 0.0], timestamp=1.0)))
+    with pytest.raises(ValueError, match="must have 2 components"):
+        updater.update(ft.SingleHypothesis(prediction, ft.Detection([0.0, 1.0, 2.0], timestamp=1.0)))
+    with pytest.raises(TypeError, match="needs a LinearGaussian measurement model"):
+        ft.KalmanUpdater(sensor)
+    with pytest.raises(TypeError, match="needs a linear transition model"):
+        ft.KalmanPredictor(ft.NonlinearGaussianTransitionModel(coordinated_turn, np.eye(4), 4))
+    with pytest.raises(TypeError, match="prior must be a GaussianState"):
+        predictor.predict(ft.ParticleState(np.zeros((4, 3)), timestamp=0.0), 1.0)
+    with pytest.raises(ValueError, match="jacobian must be one of"):
+        ft.ExtendedKalmanUpdater(sensor, jacobian="symbolic")
+    batch = ft.BatchExtendedKalmanFilter(transition, sensor)
+    means, covars, measurements, intervals = _batch_inputs(5)
+    covars[3] = np.diag([1, -1, 1, 1.0])
+    with pytest.raises(ValueError, match="1 of 5 filters failed; filter 3: prior.covar is not positive"):
+        batch.step(means, covars, measurements, intervals)
+    with pytest.raises(ValueError, match=r"covars must have shape \(5, 4, 4\)"):
+        batch.step(means, covars[:, :3], measurements, intervals)
+    with pytest.raises(ValueError, match="time_intervals .* must broadcast"):
+        batch.step(means, covars, measurements, np.ones(4))
+    with pytest.raises(TypeError, match="built-in MeasurementModel"):
+        ft.BatchExtendedKalmanFilter(transition, ft.NonlinearGaussianMeasurement(
+            bearing_range_from_50_0, 4, NOISE))
