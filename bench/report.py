@@ -24,6 +24,9 @@ TARGETS = [
     ("pf-step", 10**6, "stonesoup", 20.0),
     ("pf-step", 10**6, "floor", 1 / 1.5),
     ("ekf-step", 1, "stonesoup", 60.0),
+    ("akkf-quadratic", 30, "stonesoup", 10.0),
+    ("akkf-quadratic", 1000, "stonesoup", 20.0),
+    ("akkf-quartic", 1000, "stonesoup", 20.0),
 ]
 # (workload, N, most microseconds per item): batches timed as one call over N items
 PER_ITEM_TARGETS = [("ekf-batch", 10**4, 0.5)]

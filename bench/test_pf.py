@@ -48,7 +48,7 @@ def test_numpy_reference(benchmark, n):
     benchmark.group = f"pf-step N={n}"
     transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
     sensor = CartesianToBearingRange(4, (0, 2), NOISE, translation_offset=[50, 0])
-    matrix, root = transition.matrix(1.0), sensor._noise.root
+    matrix = transition.matrix(1.0)
     noise_root = transition._noise(1.0).root
     whiten, log_norm = sensor._noise.whitening()
     x = _prior_samples(n)

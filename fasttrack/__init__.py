@@ -14,29 +14,40 @@ from .models import (Cartesian2DToBearing, CartesianToBearingRange,
                      TransitionModel)
 from .batch import BatchExtendedKalmanFilter
 from .memory import tune_allocator
-from .predictor import ExtendedKalmanPredictor, KalmanPredictor, ParticlePredictor
+from .kernel import (GaussianKernel, Kernel, LinearKernel, PolynomialKernel, QuadraticKernel,
+                     QuarticKernel)
+from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
+                        ParticlePredictor)
 from .simulate import detections, ground_truth
 from .types import (Detection, GaussianMeasurementPrediction, GaussianState,
                     GaussianStatePrediction, GaussianStateUpdate, GroundTruthPath,
-                    GroundTruthState, Particle, ParticleState, ParticleStatePrediction,
+                    GroundTruthState, KernelParticleState,
+                    KernelParticleStateMeasurementPrediction, KernelParticleStatePrediction,
+                    KernelParticleStateUpdate, Particle, ParticleState, ParticleStatePrediction,
                     ParticleStateUpdate, SingleHypothesis, State, Track)
-from .updater import ExtendedKalmanUpdater, KalmanUpdater, ParticleUpdater
+from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, KalmanUpdater,
+                      ParticleUpdater)
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "BatchExtendedKalmanFilter", "Cartesian2DToBearing", "CartesianToBearingRange", "CombinedLinearGaussianTransitionModel",
-    "ConstantVelocity", "Detection", "ESSResampler", "ExtendedKalmanPredictor",
-    "ExtendedKalmanUpdater", "GaussianMeasurementPrediction", "GaussianState",
-    "GaussianStatePrediction", "GaussianStateUpdate", "GroundTruthPath", "KalmanPredictor",
-    "KalmanUpdater",
-    "GroundTruthState", "LinearGaussian", "LinearGaussianTransitionModel", "MeasurementModel",
-    "MultinomialResampler", "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel",
-    "Particle", "ParticlePredictor", "ParticleState", "ParticleStatePrediction",
-    "ParticleStateUpdate", "ParticleUpdater", "Resampler", "ResidualMethod",
-    "ResidualResampler", "SingleHypothesis", "State", "StratifiedResampler",
+    "AdaptiveKernelKalmanPredictor", "AdaptiveKernelKalmanUpdater",
+    "BatchExtendedKalmanFilter", "Cartesian2DToBearing", "CartesianToBearingRange",
+    "CombinedLinearGaussianTransitionModel", "ConstantVelocity", "Detection", "ESSResampler",
+    "ExtendedKalmanPredictor", "ExtendedKalmanUpdater", "GaussianKernel",
+    "GaussianMeasurementPrediction", "GaussianState", "GaussianStatePrediction",
+    "GaussianStateUpdate", "GroundTruthPath", "GroundTruthState", "KalmanPredictor",
+    "KalmanUpdater", "Kernel", "KernelParticleState",
+    "KernelParticleStateMeasurementPrediction", "KernelParticleStatePrediction",
+    "KernelParticleStateUpdate", "LinearGaussian", "LinearGaussianTransitionModel",
+    "LinearKernel", "MeasurementModel", "MultinomialResampler",
+    "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel", "Particle",
+    "ParticlePredictor", "ParticleState", "ParticleStatePrediction", "ParticleStateUpdate",
+    "ParticleUpdater", "PolynomialKernel", "QuadraticKernel", "QuarticKernel", "Resampler",
+    "ResidualMethod", "ResidualResampler", "SingleHypothesis", "State", "StratifiedResampler",
     "SystematicResampler", "Track", "TransitionModel", "detections", "ess", "ground_truth",
-    "multinomial", "normalise", "residual", "seed", "stratified", "systematic", "tune_allocator", "warmup",
+    "multinomial", "normalise", "residual", "seed", "stratified", "systematic",
+    "tune_allocator", "warmup",
 ]
 
 

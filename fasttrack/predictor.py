@@ -1,12 +1,16 @@
 """Predictors: ``predictor.predict(prior, timestamp)``."""
 import numpy as np
 
+from . import _validate
 from . import random as _random
+from ._jit import akkf as _akkf
 from ._jit import jacobian as _jacobian
 from ._jit import kalman as _kalman
+from .kernel import Kernel, as_kernel
 from .models.transition import TransitionModel
-from .types import (GaussianState, GaussianStatePrediction, ParticleState,
-                    ParticleStatePrediction, check_timestamp, time_interval)
+from .types import (GaussianState, GaussianStatePrediction, KernelParticleState,
+                    KernelParticleStatePrediction, ParticleState, ParticleStatePrediction,
+                    check_timestamp, time_interval)
 
 
 def _interval(prior, timestamp):
@@ -165,3 +169,75 @@ class ExtendedKalmanPredictor(KalmanPredictor):
         return _kalman.predict_function(model.transition_function, dt,
                                         np.ascontiguousarray(model.covar(dt)), self._central,
                                         x, covar, x_out, covar_out)
+
+
+def finite_weights(weight, which):
+    """Raise if kernel filter weights are not finite (the kernel values overflowed)."""
+    if not np.isfinite(weight).all():
+        raise ValueError(f"the {which} kernel weights are not finite: the kernel values "
+                         f"overflow (rescale the states or use a lower-degree kernel)")
+
+
+class AdaptiveKernelKalmanPredictor:
+    """Prediction of the adaptive kernel Kalman filter: the proposal particles are moved
+    through the transition model (without noise) and the weights and kernel covariance
+    carried over by the kernel embedding.
+
+    Parameters
+    ----------
+    transition_model : TransitionModel
+    kernel : Kernel, optional
+        Kernel on states (default ``QuadraticKernel()``).
+    lambda_predictor : float
+        Regularisation of the kernel matrix inverse, > 0.
+    """
+
+    def __init__(self, transition_model, kernel=None, lambda_predictor=1e-3):
+        if not isinstance(transition_model, TransitionModel):
+            raise TypeError(f"transition_model must be a TransitionModel, "
+                            f"got {type(transition_model).__name__}")
+        self.transition_model = transition_model
+        self.kernel = as_kernel(kernel)
+        self.lambda_predictor = _validate.positive(lambda_predictor, "lambda_predictor")
+
+    def predict(self, prior, timestamp, proposal=None):
+        """Predict ``prior`` to ``timestamp``.
+
+        Parameters
+        ----------
+        prior : KernelParticleState
+        timestamp : datetime.datetime or float seconds
+        proposal : (d, M) array_like, optional
+            Proposal particles; by default the prior's ``proposal`` if it is an update, else
+            its particles.
+
+        Returns
+        -------
+        KernelParticleStatePrediction
+            The propagated proposal as ``state_vector``, the predicted ``weight`` and kernel
+            covariance, ``transition_model`` and ``timestamp``.
+        """
+        if not isinstance(prior, KernelParticleState):
+            raise TypeError(f"prior must be a KernelParticleState, got {type(prior).__name__}")
+        model = self.transition_model
+        if prior.ndim != model.ndim_state:
+            raise ValueError(f"prior has {prior.ndim} state dimensions, the transition model "
+                             f"{model.ndim_state}")
+        dt = _interval(prior, timestamp)
+        x = prior.state_vector
+        if proposal is None:
+            proposal = getattr(prior, "proposal", None)
+            proposal = x if proposal is None else proposal
+        else:
+            proposal = _validate.state_array(proposal, "proposal")
+            if proposal.shape != x.shape:
+                raise ValueError(f"proposal must have the prior's shape {x.shape}, "
+                                 f"got {proposal.shape}")
+        kind, params = self.kernel._spec()
+        w, lt, v1t, v2t = _akkf.predict_embedding(
+            kind, params, Kernel.angle_mask(x.shape[0]), proposal, x, prior.weight,
+            *prior._factors, self.lambda_predictor)
+        finite_weights(w, "predicted")
+        return KernelParticleStatePrediction._trusted(
+            model._mean(proposal, dt), w, (lt, 1.0 / w.size, v1t, v2t), timestamp,
+            transition_model=model)

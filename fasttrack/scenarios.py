@@ -5,10 +5,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .models import (CartesianToBearingRange, CombinedLinearGaussianTransitionModel,
-                     ConstantVelocity)
+from .models import (Cartesian2DToBearing, CartesianToBearingRange,
+                     CombinedLinearGaussianTransitionModel, ConstantVelocity)
 from .simulate import detections, ground_truth
-from .types import GaussianState, ParticleState
+from .types import GaussianState, KernelParticleState, ParticleState
 
 START = datetime.datetime(2026, 1, 1)
 
@@ -56,4 +56,25 @@ def extended_kalman_tutorial(seed=1991, steps=21):
     rng = np.random.default_rng(seed)
     transition, sensor, truth, measured = _bearing_range_scenario(rng, steps)
     prior = GaussianState([0.0, 1.0, 0.0, 1.0], np.diag([1.5, 0.5, 1.5, 0.5]), timestamp=START)
+    return Scenario(transition, sensor, truth, measured, prior)
+
+
+def adaptive_kernel_tutorial(n_particles=30, seed=50, steps=30):
+    """The adaptive-kernel-Kalman-filter tutorial: a nearly-constant-velocity target
+    (q = 1e-4) from (-0.3, 0.001, 0.7, -0.055), seen once a second by a bearing-only sensor
+    at the origin with noise 0.005 rad (the first detection at the start time); the prior is
+    ``n_particles`` samples of N(truth[0], diag(0.1, 0.005, 0.1, 0.01)^2) with weights 1/M
+    and kernel covariance I/M.
+
+    ``seed`` fixes the truth, the detections and the prior samples.
+    """
+    rng = np.random.default_rng(seed)
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(1e-4)] * 2)
+    sensor = Cartesian2DToBearing(4, (0, 2), np.array([[0.005 ** 2]]))
+    start = [-0.3, 0.001, 0.7, -0.055]
+    truth = ground_truth(transition, start, steps, start_time=START, rng=rng)
+    measured = detections(truth, sensor, rng=rng)
+    samples = rng.multivariate_normal(start, np.diag([0.1, 0.005, 0.1, 0.01]) ** 2,
+                                      size=n_particles)
+    prior = KernelParticleState(samples.T, timestamp=START)
     return Scenario(transition, sensor, truth, measured, prior)

@@ -8,6 +8,8 @@ import uuid
 import numpy as np
 
 from . import _validate
+from ._jit import akkf as _akkf
+from ._jit import gram as _gram
 from ._jit import weights as _weights
 from ._jit.resample import take_columns as _take_columns
 
@@ -300,6 +302,132 @@ class ParticleStateUpdate(ParticleState):
         super().__init__(state_vector, timestamp, weight, log_weight, parent, particle_list,
                          fixed_covar)
         self.hypothesis = hypothesis
+
+
+class KernelParticleState:
+    """Particles with kernel weights and a kernel covariance (the adaptive kernel Kalman
+    filter's state).
+
+    Parameters
+    ----------
+    state_vector : (d, M) array_like
+        Particles, one column each; finite.
+    timestamp : datetime.datetime or float, optional
+    weight : (M,) array_like, optional
+        Kernel weights, finite (any sign; they need not sum to 1). Default 1/M each.
+    kernel_covar : (M, M) array_like, optional
+        Kernel covariance S, symmetric positive semi-definite. Default I/M.
+
+    Attributes
+    ----------
+    mean : (d, 1) ndarray
+        ``X w``.
+    covar : (d, d) ndarray
+        ``X S X^T``.
+
+    Notes
+    -----
+    S is held in factored form (see ``fasttrack._jit.akkf``); ``kernel_covar`` builds the
+    (M, M) matrix on first access.
+    """
+
+    def __init__(self, state_vector, timestamp=None, weight=None, kernel_covar=None):
+        self.state_vector = _validate.state_array(state_vector, "state_vector")
+        m = self.state_vector.shape[1]
+        if weight is None:
+            self.weight = np.full(m, 1.0 / m)
+        else:
+            self.weight = _validate.finite_array(weight, "weight", 1).copy()
+            if self.weight.size != m:
+                raise ValueError(f"weight must have length {m}, got {self.weight.size}")
+        self.timestamp = check_timestamp(timestamp)
+        self._factors = _default_kernel_factors(m) if kernel_covar is None else \
+            _kernel_factors(kernel_covar, m)
+        self._kernel_covar = None
+
+    @classmethod
+    def _trusted(cls, state_vector, weight, factors, timestamp, **attributes):
+        """Build from arrays that a kernel produced (no validation, no copies)."""
+        state = object.__new__(cls)
+        state.__dict__.update(state_vector=state_vector, weight=weight, _factors=factors,
+                              timestamp=timestamp, _kernel_covar=None, **attributes)
+        return state
+
+    @property
+    def kernel_covar(self):
+        """The kernel covariance S (M, M)."""
+        if self._kernel_covar is None:
+            self._kernel_covar = _akkf.dense_covariance(*self._factors)
+        return self._kernel_covar
+
+    @property
+    def mean(self):
+        """``X w`` (d, 1)."""
+        return (self.state_vector @ self.weight).reshape(-1, 1)
+
+    @property
+    def covar(self):
+        """``X S X^T`` (d, d)."""
+        return _akkf.sandwich(self.state_vector, *self._factors)
+
+    def __len__(self):
+        return self.state_vector.shape[1]
+
+    @property
+    def ndim(self):
+        """Number of state dimensions d."""
+        return self.state_vector.shape[0]
+
+    def __repr__(self):
+        return (f"{type(self).__name__}(ndim={self.ndim}, M={len(self)}, "
+                f"timestamp={self.timestamp!r})")
+
+
+def _default_kernel_factors(m):
+    """Factors of S = I/M."""
+    empty = np.empty((0, m))
+    return empty, 1.0 / m, empty, empty
+
+
+def _kernel_factors(kernel_covar, m):
+    """Factors of a user's S: its pivoted Cholesky factor, checked to reproduce it."""
+    s = _validate.covariance(kernel_covar, "kernel_covar", m)
+    lt = _gram.factor(_gram.MATRIX, np.empty(0), np.zeros(0, dtype=np.bool_), s)
+    scale = max(np.abs(s).max(), np.finfo(float).tiny)
+    if np.abs(lt.T @ lt - s).max() > 1e-8 * scale:
+        raise ValueError("kernel_covar must be positive semi-definite")
+    empty = np.empty((0, m))
+    return np.ascontiguousarray(lt), 0.0, empty, empty
+
+
+class KernelParticleStatePrediction(KernelParticleState):
+    """A predicted :class:`KernelParticleState`, with the ``transition_model`` that produced
+    it."""
+
+    def __init__(self, state_vector, timestamp=None, weight=None, kernel_covar=None,
+                 transition_model=None):
+        super().__init__(state_vector, timestamp, weight, kernel_covar)
+        self.transition_model = transition_model
+
+
+class KernelParticleStateMeasurementPrediction(KernelParticleState):
+    """Predicted measurements (m, M) of a :class:`KernelParticleState`'s particles, with its
+    weights and kernel covariance."""
+
+
+class KernelParticleStateUpdate(KernelParticleState):
+    """An updated :class:`KernelParticleState`, with the ``hypothesis`` it came from and the
+    ``proposal`` (d, M) particles that the next prediction propagates."""
+
+    def __init__(self, state_vector, timestamp=None, weight=None, kernel_covar=None,
+                 hypothesis=None, proposal=None):
+        super().__init__(state_vector, timestamp, weight, kernel_covar)
+        self.hypothesis = hypothesis
+        self.proposal = None if proposal is None else _validate.state_array(proposal,
+                                                                              "proposal")
+        if self.proposal is not None and self.proposal.shape != self.state_vector.shape:
+            raise ValueError(f"proposal must have shape {self.state_vector.shape}, "
+                             f"got {self.proposal.shape}")
 
 
 def column_vector(value, name="state_vector"):

@@ -1,14 +1,20 @@
 """Updaters: ``updater.update(hypothesis)``."""
 import numpy as np
 
+from . import _validate
+from . import random as _random
+from ._jit import akkf as _akkf
 from ._jit import jacobian as _jacobian
 from ._jit import kalman as _kalman
 from ._jit import weights as _weights
 from .models.measurement import LinearGaussian, MeasurementModel, NonlinearGaussianMeasurement
-from .predictor import jacobian_method
+from .kernel import as_kernel
+from .predictor import finite_weights, jacobian_method
 from .resampler import Resampler
 from .types import (GaussianMeasurementPrediction, GaussianState, GaussianStateUpdate,
-                    ParticleState, ParticleStateUpdate, SingleHypothesis)
+                    KernelParticleState, KernelParticleStateMeasurementPrediction,
+                    KernelParticleStateUpdate, ParticleState, ParticleStateUpdate,
+                    SingleHypothesis)
 
 
 def _measurement_model(hypothesis, default):
@@ -21,6 +27,14 @@ def _measurement_model(hypothesis, default):
         raise TypeError(f"measurement model must be a MeasurementModel, "
                         f"got {type(model).__name__}")
     return model
+
+
+def _check_hypothesis(hypothesis):
+    if not isinstance(hypothesis, SingleHypothesis):
+        raise TypeError(f"hypothesis must be a SingleHypothesis, "
+                        f"got {type(hypothesis).__name__}")
+    if hypothesis.measurement is None:
+        raise ValueError("hypothesis.measurement is None: nothing to update with")
 
 
 class ParticleUpdater:
@@ -55,15 +69,11 @@ class ParticleUpdater:
             Sharing the prediction's ``state_vector`` (unless resampled), with ``hypothesis``,
             ``parent`` = the prediction's parent (its prior), and the prediction's timestamp.
         """
-        if not isinstance(hypothesis, SingleHypothesis):
-            raise TypeError(f"hypothesis must be a SingleHypothesis, "
-                            f"got {type(hypothesis).__name__}")
+        _check_hypothesis(hypothesis)
         prediction = hypothesis.prediction
         if not isinstance(prediction, ParticleState):
             raise TypeError(f"hypothesis.prediction must be a ParticleState, "
                             f"got {type(prediction).__name__}")
-        if hypothesis.measurement is None:
-            raise ValueError("hypothesis.measurement is None: nothing to update with")
         model = _measurement_model(hypothesis, self.measurement_model)
         if model.ndim_state != prediction.ndim:
             raise ValueError(f"the measurement model expects {model.ndim_state} state "
@@ -187,11 +197,7 @@ class KalmanUpdater:
         ValueError
             If the innovation covariance is singular or the Jacobian undefined.
         """
-        if not isinstance(hypothesis, SingleHypothesis):
-            raise TypeError(f"hypothesis must be a SingleHypothesis, "
-                            f"got {type(hypothesis).__name__}")
-        if hypothesis.measurement is None:
-            raise ValueError("hypothesis.measurement is None: nothing to update with")
+        _check_hypothesis(hypothesis)
         prediction = hypothesis.prediction
         model = self._model(hypothesis, prediction)
         z = model.measurement_column(hypothesis.measurement, "hypothesis.measurement")
@@ -234,3 +240,91 @@ class ExtendedKalmanUpdater(KalmanUpdater):
         return _kalman.update_function(model.measurement_function, model.noise_covar,
                                        model._angles, self._method == _jacobian.CENTRAL,
                                        self.use_joseph_cov, *arguments)
+
+
+class AdaptiveKernelKalmanUpdater:
+    """Update of the adaptive kernel Kalman filter: kernel weights and covariance from the
+    measurement's embedding, then new proposal particles drawn around the posterior.
+
+    Parameters
+    ----------
+    measurement_model : MeasurementModel, optional
+        Used when the detection has none of its own.
+    kernel : Kernel, optional
+        Kernel on measurements (default ``QuadraticKernel()``); the Gaussian kernel wraps the
+        model's angle components.
+    lambda_updater : float
+        Regularisation, > 0.
+    rng : None, int or numpy.random.Generator
+        Source of the proposal draws.
+    """
+
+    def __init__(self, measurement_model=None, kernel=None, lambda_updater=1e-3, rng=None):
+        if measurement_model is not None and not isinstance(measurement_model, MeasurementModel):
+            raise TypeError(f"measurement_model must be a MeasurementModel, "
+                            f"got {type(measurement_model).__name__}")
+        self.measurement_model = measurement_model
+        self.kernel = as_kernel(kernel)
+        self.lambda_updater = _validate.positive(lambda_updater, "lambda_updater")
+        self.rng = _random.check_rng(rng)
+
+    def predict_measurement(self, predicted_state, measurement_model=None):
+        """Noise-free measurements of every predicted particle.
+
+        Returns
+        -------
+        KernelParticleStateMeasurementPrediction
+            ``state_vector`` (m, M), with the prediction's weights and kernel covariance.
+        """
+        model = measurement_model or self.measurement_model
+        if model is None:
+            raise ValueError("no measurement model: give the updater one")
+        return self._measurement_prediction(model, predicted_state)
+
+    @staticmethod
+    def _measurement_prediction(model, prediction):
+        if not isinstance(prediction, KernelParticleState):
+            raise TypeError(f"the prediction must be a KernelParticleState, "
+                            f"got {type(prediction).__name__}")
+        if model.ndim_state != prediction.ndim:
+            raise ValueError(f"the measurement model expects {model.ndim_state} state "
+                             f"dimensions, the prediction has {prediction.ndim}")
+        y = model.wrap(model._predict(prediction.state_vector))
+        return KernelParticleStateMeasurementPrediction._trusted(
+            y, prediction.weight, prediction._factors, prediction.timestamp)
+
+    def update(self, hypothesis):
+        """The posterior of ``hypothesis.prediction`` given ``hypothesis.measurement``.
+
+        The measurement prediction is computed unless the hypothesis has one, and stored on
+        it.
+
+        Returns
+        -------
+        KernelParticleStateUpdate
+            The predicted particles as ``state_vector``, the posterior ``weight`` and kernel
+            covariance, the ``proposal`` particles for the next prediction, ``hypothesis``,
+            timestamped at the measurement.
+        """
+        _check_hypothesis(hypothesis)
+        prediction = hypothesis.prediction
+        model = _measurement_model(hypothesis, self.measurement_model)
+        z = model.measurement_vector(hypothesis.measurement, "hypothesis.measurement")
+        if hypothesis.measurement_prediction is None:
+            hypothesis.measurement_prediction = self._measurement_prediction(model, prediction)
+        y = hypothesis.measurement_prediction.state_vector
+        x = prediction.state_vector
+        if y.shape != (model.ndim_meas, x.shape[1]):
+            raise ValueError(f"hypothesis.measurement_prediction must have shape "
+                             f"{(model.ndim_meas, x.shape[1])}, got {y.shape}")
+        kind, params = self.kernel._spec()
+        proposal = np.empty_like(x)
+        w, lt, v1t, v2t = _akkf.update_embedding(
+            kind, params, model._angles, y, z.reshape(-1, 1), prediction.weight,
+            *prediction._factors, self.lambda_updater, x, _random.stream_key(self.rng),
+            proposal)
+        finite_weights(w, "updated")
+        sigma = prediction._factors[1]
+        return KernelParticleStateUpdate._trusted(
+            x, w, (lt, sigma, v1t, v2t), hypothesis.measurement.timestamp,
+            hypothesis=hypothesis, proposal=proposal)

@@ -332,12 +332,12 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
             rows.append(p / np.sqrt(rho2))
         out[:, list(mapping[:2])] = np.array(rows) @ rotation
         return
-    evaluate = (lambda points: _polar(kind, points, mapping, offset, rotation))
-    if method == CENTRAL:
-        def evaluate(points):
-            values = np.empty((out.shape[0], points.shape[1]))
-            measure(kind, points, mapping, offset, rotation, values)
-            return values
+    def evaluate(points):
+        if method != CENTRAL:
+            return _polar(kind, points, mapping, offset, rotation)
+        values = np.empty((out.shape[0], points.shape[1]))
+        measure(kind, points, mapping, offset, rotation, values)
+        return values
     out[:] = _difference_jacobian(evaluate, x, angles, method == CENTRAL)
 
 
@@ -467,3 +467,105 @@ def batch_run(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, of
             means_out[t, k], covariances_out[t, k] = x, covariance
             if code != OK and status[k][1] == OK:
                 status[k] = (t, code)
+
+
+# Kernels and the adaptive kernel Kalman filter (contract formulas, dense matrices).
+POLYNOMIAL, GAUSSIAN, MATRIX = 0, 1, 2
+
+
+def gram(kind, params, angles, x1, x2, out):
+    if kind == POLYNOMIAL:
+        out[:] = (x1.T @ x2 / params[2] + params[1]) ** int(params[0])
+        return
+    diff = x1[:, :, None] - x2[:, None, :]
+    diff[angles] = 2 * np.sin(diff[angles] / 2)
+    variance = params[0]
+    out[:] = np.exp(-np.sum(diff ** 2, axis=0) / (2 * variance)) / np.sqrt(2 * np.pi * variance)
+
+
+def factor(kind, params, angles, points):
+    """Diagonally pivoted Cholesky on the dense matrix, stopped at n eps max(diag)."""
+    if kind == MATRIX:
+        k = points.copy()
+    else:
+        k = np.empty((points.shape[1], points.shape[1]))
+        gram(kind, params, angles, points, points, k)
+    n = k.shape[0]
+    tol = n * np.finfo(float).eps * max(np.diag(k).max(), 0.0)
+    rows = []
+    residual = np.diag(k).copy()
+    while len(rows) < n:
+        p = int(np.argmax(residual))
+        if residual[p] <= tol:
+            break
+        previous = np.array(rows).reshape(len(rows), n)
+        row = (k[p] - previous[:, p] @ previous) / np.sqrt(residual[p])
+        residual -= row ** 2
+        residual[p] = 0.0
+        rows.append(row)
+    return np.array(rows).reshape(len(rows), n)
+
+
+def dense_covariance(lt, sigma, v1t, v2t):
+    """S = Lt^T Lt + sigma Z Z^T, Z = I - V1t^T V2t."""
+    z = np.eye(lt.shape[1]) - v1t.T @ v2t
+    return lt.T @ lt + sigma * z @ z.T
+
+
+def sandwich(a, lt, sigma, v1t, v2t):
+    return a @ dense_covariance(lt, sigma, v1t, v2t) @ a.T
+
+
+def predict_embedding(kind, params, angles, proposal, x, w, lt, sigma, v1t, v2t, lam):
+    """Contract 5.3 on dense matrices. Returns the weights and the dense kernel covariance
+    (the kernel returns it factored)."""
+    return predict_dense(kind, params, angles, proposal, x, w,
+                         dense_covariance(lt, sigma, v1t, v2t), lam)
+
+
+def predict_dense(kind, params, angles, proposal, x, w, s, lam):
+    """``(w-, S-)`` from a dense S, with A = (K + lam I)^-1 by inversion."""
+    m = w.size
+    k = np.empty((m, m))
+    kx = np.empty((m, m))
+    gram(kind, params, angles, proposal, proposal, k)
+    gram(kind, params, angles, proposal, x, kx)
+    a = np.linalg.inv(k + lam * np.eye(m))
+    gamma = a @ kx
+    r = a @ k - np.eye(m)
+    return gamma @ w, gamma @ s @ gamma.T + r @ r.T / m
+
+
+def update_embedding(kind, params, angles, y, z, w, lt, sigma, v1t, v2t, lam, x, key,
+                     proposal_out):
+    """Contract 5.4 on dense matrices; draws the proposal. Returns the weights and the dense
+    kernel covariance."""
+    w_post, s_post = update_dense(kind, params, angles, y, z, w,
+                                  dense_covariance(lt, sigma, v1t, v2t), lam)
+    proposal_dense(x, w_post, s_post, key, proposal_out)
+    return w_post, s_post
+
+
+def update_dense(kind, params, angles, y, z, w, s, lam):
+    """``(w+, S+)`` from a dense S, with Q = S (G S + lam I)^-1 by a solve."""
+    m = w.size
+    g_mat = np.empty((m, m))
+    g_vec = np.empty((m, 1))
+    gram(kind, params, angles, y, y, g_mat)
+    gram(kind, params, angles, y, z, g_vec)
+    q = np.linalg.solve((g_mat @ s + lam * np.eye(m)).T, s.T).T
+    return w + q @ (g_vec[:, 0] - g_mat @ w), s - q @ g_mat @ s
+
+
+def proposal_dense(x, w, s, key, out):
+    """The proposal draw from a dense S."""
+    d, m = x.shape
+    normals = np.empty(d * m + (d * m) % 2)
+    fill_normals(key, 0, normals)
+    scale = np.sqrt(np.diag(x @ s @ x.T))
+    out[:] = (x @ w)[:, None] + scale[:, None] * normals[:d * m].reshape(d, m)
+
+
+def draw_proposal(x, w, lt, sigma, v1t, v2t, key, out):
+    """``x w + sqrt(diag(x S x^T)) * normals`` (normals of stream ``key``, row-major)."""
+    proposal_dense(x, w, dense_covariance(lt, sigma, v1t, v2t), key, out)

@@ -1,7 +1,6 @@
 """Propagation and likelihood kernels against their mirrors; the numeric helpers they use."""
 import numpy as np
 import pytest
-from numba import njit
 from scipy import stats
 
 from fasttrack._jit import likelihood, numeric, propagate, weights

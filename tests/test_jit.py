@@ -7,7 +7,6 @@ import subprocess
 import sys
 
 import numpy as np
-import pytest
 from numba.core.caching import FunctionCache
 from numba.core.registry import CPUDispatcher
 
@@ -176,7 +175,7 @@ def test_every_kernel_has_a_mirror_with_the_same_arguments():
 def test_public_names_are_importable_from_the_package_and_their_module():
     import importlib
     domains = [importlib.import_module(f"fasttrack.{name}") for name in (
-        "batch", "memory", "models", "predictor", "random", "resampler", "resampling", "simulate",
+        "batch", "kernel", "memory", "models", "predictor", "random", "resampler", "resampling", "simulate",
         "types", "updater")]
     for name in fasttrack.__all__:
         obj = getattr(fasttrack, name)

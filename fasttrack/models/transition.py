@@ -106,12 +106,20 @@ class _LinearGaussian(TransitionModel):
     """x_k = F(dt) x_{k-1} + w: subclasses define ``matrix(time_interval)``."""
 
     def _mean(self, x, dt):
-        return self.matrix(dt) @ x
+        return self._matrix(dt) @ x
+
+    def _matrix(self, dt):
+        """F(dt) as a C-contiguous array, memoised for the last interval (filters step at
+        a constant interval, and building F costs more than applying it)."""
+        memo = self.__dict__.get("_matrix_memo")
+        if memo is None or memo[0] != dt:
+            memo = (dt, np.ascontiguousarray(self.matrix(dt), dtype=np.float64))
+            self.__dict__["_matrix_memo"] = memo
+        return memo[1]
 
     def _propagate(self, x, dt, key):
         out = np.empty_like(x)
-        _kernels.propagate_linear(x, np.ascontiguousarray(self.matrix(dt)),
-                                  self._noise(dt).root, key, out)
+        _kernels.propagate_linear(x, self._matrix(dt), self._noise(dt).root, key, out)
         return out
 
     def jacobian(self, state=None, time_interval=None):
@@ -155,6 +163,9 @@ class LinearGaussianTransitionModel(_LinearGaussian):
     def matrix(self, time_interval=None):
         """F (d, d); the time interval is ignored."""
         return self.transition_matrix
+
+    def _matrix(self, dt):
+        return np.ascontiguousarray(self.transition_matrix, dtype=np.float64)
 
     def covar(self, time_interval=None):
         """Q (d, d); the time interval is ignored."""

@@ -1,0 +1,325 @@
+"""Kernels and the adaptive kernel Kalman filter: Gram matrices and factors against the
+reference, the factored filter against the contract's dense formulas and Stone Soup, and the
+tutorial scenario at every size with every kernel."""
+import numpy as np
+import pytest
+
+import fasttrack as ft
+from fasttrack._jit import akkf, gram
+from fasttrack.metrics import position_rmse
+from fasttrack.scenarios import adaptive_kernel_tutorial
+
+import reference
+from conftest import stream_key
+
+KERNELS = {
+    "linear": ft.LinearKernel(),
+    "quadratic": ft.QuadraticKernel(c=1, ialpha=1),
+    "quartic": ft.QuarticKernel(c=0.5, ialpha=3),
+    "gaussian": ft.GaussianKernel(variance=0.7),
+}
+
+
+def _points(rng, d, n, scale=1.0):
+    return rng.normal(size=(d, n)) * scale
+
+
+def _reference_gram(kernel, x1, x2, angles=()):
+    out = np.empty((x1.shape[1], x2.shape[1]))
+    reference.gram(kernel._kind, kernel._parameters(), ft.Kernel.angle_mask(x1.shape[0], angles),
+                   x1, x2, out)
+    return out
+
+
+@pytest.mark.parametrize("name", KERNELS)
+def test_gram_matches_reference(name):
+    rng = np.random.default_rng(1)
+    kernel = KERNELS[name]
+    x1, x2 = _points(rng, 3, 17), _points(rng, 3, 9)
+    k = kernel(x1, x2)
+    assert k.shape == (17, 9)
+    np.testing.assert_allclose(k, _reference_gram(kernel, x1, x2), rtol=1e-13, atol=1e-15)
+
+
+@pytest.mark.parametrize("name", KERNELS)
+def test_gram_is_symmetric_positive_semidefinite(name):
+    kernel = KERNELS[name]
+    x = _points(np.random.default_rng(2), 4, 40)
+    k = kernel(x)
+    np.testing.assert_allclose(k, k.T, rtol=1e-14)
+    assert np.linalg.eigvalsh(k).min() >= -1e-12 * np.abs(k).max()
+
+
+def test_kernel_formulas_and_defaults():
+    x, y = np.array([[1.0], [2.0]]), np.array([[3.0], [-1.0]])
+    assert ft.PolynomialKernel(3)(x, y)[0, 0] == pytest.approx((1 / 10 + 1) ** 3)
+    assert ft.QuadraticKernel()(x, y)[0, 0] == pytest.approx((1 / 10 + 1) ** 2)
+    assert ft.QuarticKernel(c=2, ialpha=4)(x, y)[0, 0] == pytest.approx((1 / 4 + 2) ** 4)
+    assert ft.LinearKernel()(x, y)[0, 0] == pytest.approx(1.0)
+    expected = np.exp(-13 / 20) / np.sqrt(20 * np.pi)
+    assert ft.GaussianKernel()(x, y)[0, 0] == pytest.approx(expected)
+
+
+def test_kernel_accepts_states_and_defaults_second_argument():
+    x = _points(np.random.default_rng(3), 4, 6)
+    state = ft.KernelParticleState(x)
+    kernel = KERNELS["quadratic"]
+    np.testing.assert_array_equal(kernel(state), kernel(x, x))
+    np.testing.assert_array_equal(kernel(state, ft.State(x[:, 0])), kernel(x, x[:, :1]))
+
+
+def test_gaussian_kernel_wraps_angle_components():
+    kernel = ft.GaussianKernel(variance=0.01)
+    near_pi = kernel(np.array([[np.pi - 0.01]]), np.array([[-np.pi + 0.01]]), [0])
+    near_zero = kernel(np.array([[0.0]]), np.array([[0.02]]), [0])
+    assert near_pi[0, 0] == pytest.approx(near_zero[0, 0], rel=1e-9)
+    assert kernel(np.array([[np.pi - 0.01]]), np.array([[-np.pi + 0.01]]))[0, 0] < 1e-100
+
+
+def test_calling_a_kernel_never_changes_it():
+    kernel = ft.GaussianKernel(variance=3.0)
+    with pytest.raises(TypeError):
+        kernel(np.ones((2, 2)), variance=5)
+    assert kernel.variance == 3.0
+    with pytest.raises(AttributeError):
+        kernel.variance = 5
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: ft.PolynomialKernel(0), "power"),
+    (lambda: ft.PolynomialKernel(2.5), "power"),
+    (lambda: ft.QuadraticKernel(ialpha=0), "ialpha"),
+    (lambda: ft.QuarticKernel(c=-1), "c must"),
+    (lambda: ft.GaussianKernel(variance=0), "variance"),
+    (lambda: ft.GaussianKernel(variance=np.nan), "variance"),
+])
+def test_bad_kernel_parameters(make, message):
+    with pytest.raises((ValueError, TypeError), match=message):
+        make()
+
+
+def test_kernel_input_errors():
+    kernel = ft.QuadraticKernel()
+    with pytest.raises(ValueError, match="same number of rows"):
+        kernel(np.ones((2, 3)), np.ones((3, 3)))
+    with pytest.raises(ValueError, match="NaN"):
+        kernel(np.array([[np.nan]]))
+    with pytest.raises(ValueError, match="angle_components"):
+        ft.GaussianKernel()(np.ones((2, 3)), angle_components=[2])
+
+
+@pytest.mark.parametrize("name", KERNELS)
+def test_factor_matches_reference_and_reproduces_the_gram_matrix(name):
+    kernel = KERNELS[name]
+    x = _points(np.random.default_rng(4), 3, 50, scale=0.5)
+    angles = ft.Kernel.angle_mask(3)
+    f = gram.factor(kernel._kind, kernel._parameters(), angles, x)
+    expected = reference.factor(kernel._kind, kernel._parameters(), angles, x)
+    assert f.shape == expected.shape
+    np.testing.assert_allclose(f, expected, atol=1e-10 * np.abs(expected).max())
+    k = kernel(x)
+    np.testing.assert_allclose(f.T @ f, k, atol=1e-11 * np.abs(k).max())
+    assert f.shape[0] <= {"linear": 3, "quadratic": 10, "quartic": 35}.get(name, 50)
+
+
+def _dense_factors(s):
+    return ft.KernelParticleState(np.zeros((1, s.shape[0])), kernel_covar=s)._factors
+
+
+def _random_prior(rng, m, d=4, dense=False):
+    x = _points(rng, d, m, scale=0.4)
+    w = rng.uniform(-0.2, 1.0, m) / m
+    if not dense:
+        return x, w, ft.KernelParticleState(x, weight=w)._factors
+    root = rng.normal(size=(m, m + 2)) / m
+    return x, w, _dense_factors(root @ root.T)
+
+
+@pytest.mark.parametrize("name", KERNELS)
+@pytest.mark.parametrize("m", [12, 40])
+@pytest.mark.parametrize("dense", [False, True])
+def test_filter_kernels_match_dense_reference(name, m, dense):
+    """Two filter cycles: each factored step against the contract's dense formulas on the
+    same input (quartic at M = 12 has more features than particles, so the particle-space
+    branch runs)."""
+    kernel = KERNELS[name]
+    kind, params = kernel._kind, kernel._parameters()
+    rng = np.random.default_rng(5)
+    x, w, factors = _random_prior(rng, m, dense=dense)
+    proposal = x + _points(rng, 4, m, scale=0.1)
+    lam = 1e-2
+    state_angles, meas_angles = ft.Kernel.angle_mask(4), ft.Kernel.angle_mask(2, [0])
+    for cycle in range(2):
+        arguments = (kind, params, state_angles, proposal, x, w, *factors, lam)
+        w, lt, v1t, v2t = akkf.predict_embedding(*arguments)
+        w_ref, s_ref = reference.predict_embedding(*arguments)
+        factors = (lt, 1.0 / m, v1t, v2t)
+        _assert_close(w, w_ref)
+        _assert_close(akkf.dense_covariance(*factors), s_ref)
+        _assert_close(akkf.sandwich(x, *factors), reference.sandwich(x, *factors))
+        x = proposal + 0.05
+        y = np.vstack([np.arctan2(x[2], x[0]), x[1]])
+        z = np.array([[0.4], [0.1]])
+        proposal, expected = np.empty_like(x), np.empty_like(x)
+        arguments = (kind, params, meas_angles, y, z, w, *factors, lam, x, stream_key(cycle))
+        w, lt, v1t, v2t = akkf.update_embedding(*arguments, proposal)
+        w_ref, s_ref = reference.update_embedding(*arguments, expected)
+        factors = (lt, 1.0 / m, v1t, v2t)
+        _assert_close(w, w_ref)
+        _assert_close(akkf.dense_covariance(*factors), s_ref)
+        np.testing.assert_allclose(proposal, expected, rtol=1e-7, atol=1e-9)
+        again = np.empty_like(x)
+        reference.draw_proposal(x, w, *factors, stream_key(cycle), again)
+        np.testing.assert_allclose(proposal, again, rtol=1e-7, atol=1e-9)
+
+
+def _assert_close(actual, expected, rtol=1e-7):
+    np.testing.assert_allclose(actual, expected, atol=rtol * np.abs(expected).max())
+
+
+def test_proposal_is_distributed_as_the_posterior_embedding():
+    """Column draws have mean X w and variances diag(X S X^T)."""
+    rng = np.random.default_rng(6)
+    m = 20000
+    x = rng.normal(size=(2, m))
+    w = np.full(m, 1.0 / m)
+    lt = rng.normal(size=(3, m)) / m
+    factors = (lt, 0.5 / m, np.zeros((0, m)), np.zeros((0, m)))
+    out = np.empty_like(x)
+    akkf.draw_proposal(x, w, *factors, stream_key(7), out)
+    variance = np.diag(akkf.sandwich(x, *factors))
+    assert (np.abs(out.mean(axis=1) - x @ w) < 5 * np.sqrt(variance / m)).all()
+    np.testing.assert_allclose(out.var(axis=1), variance, rtol=5 * np.sqrt(2 / m))
+
+
+def test_kernel_particle_state_defaults_and_moments():
+    x = _points(np.random.default_rng(8), 3, 5)
+    state = ft.KernelParticleState(x, timestamp=2.0)
+    np.testing.assert_array_equal(state.weight, np.full(5, 0.2))
+    np.testing.assert_allclose(state.kernel_covar, np.eye(5) / 5, atol=1e-17)
+    np.testing.assert_allclose(state.mean, x.mean(axis=1, keepdims=True), rtol=1e-14)
+    np.testing.assert_allclose(state.covar, x @ x.T / 5, rtol=1e-13)
+    assert (len(state), state.ndim, state.timestamp) == (5, 3, 2.0)
+    s = np.diag([0.1, 0.2, 0.3, 0.4, 0.5])
+    given = ft.KernelParticleState(x, weight=np.arange(5.0), kernel_covar=s)
+    np.testing.assert_allclose(given.kernel_covar, s, atol=1e-15)
+    np.testing.assert_allclose(given.covar, x @ s @ x.T, rtol=1e-13)
+    np.testing.assert_allclose(given.mean[:, 0], x @ np.arange(5.0), rtol=1e-14)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"weight": np.ones(4)}, "weight must have length 5"),
+    ({"weight": np.array([1, 2, np.nan, 1, 1])}, "weight contains NaN"),
+    ({"kernel_covar": np.eye(4)}, r"kernel_covar must have shape \(5, 5\)"),
+    ({"kernel_covar": np.triu(np.ones((5, 5)))}, "symmetric"),
+    ({"kernel_covar": np.eye(5) - 2 * np.ones((5, 5)) / 5}, "positive semi-definite"),
+    ({"kernel_covar": np.ones((5, 5)) - np.eye(5)}, "positive semi-definite"),
+    ({"timestamp": "now"}, "timestamp"),
+])
+def test_kernel_particle_state_errors(kwargs, message):
+    with pytest.raises((ValueError, TypeError), match=message):
+        ft.KernelParticleState(np.zeros((2, 5)), **kwargs)
+    with pytest.raises(ValueError, match="NaN"):
+        ft.KernelParticleState(np.full((2, 5), np.nan))
+
+
+def _tutorial_filter(kernel, scenario, rng=0):
+    return (ft.AdaptiveKernelKalmanPredictor(scenario.transition_model, kernel),
+            ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, kernel, rng=rng))
+
+
+def _track(predictor, updater, prior, detections):
+    track = ft.Track()
+    for detection in detections:
+        prediction = predictor.predict(prior, detection.timestamp)
+        prior = updater.update(ft.SingleHypothesis(prediction, detection))
+        track.append(prior)
+    return track
+
+
+def test_filter_types_links_and_measurement_prediction():
+    scenario = adaptive_kernel_tutorial(20, seed=1, steps=3)
+    predictor, updater = _tutorial_filter(ft.QuadraticKernel(), scenario)
+    detection = scenario.detections[1]
+    prediction = predictor.predict(scenario.prior, detection.timestamp)
+    assert isinstance(prediction, ft.KernelParticleStatePrediction)
+    assert prediction.transition_model is scenario.transition_model
+    assert prediction.timestamp == detection.timestamp
+    hypothesis = ft.SingleHypothesis(prediction, detection)
+    update = updater.update(hypothesis)
+    assert isinstance(update, ft.KernelParticleStateUpdate)
+    assert update.hypothesis is hypothesis and update.state_vector is prediction.state_vector
+    assert update.proposal.shape == prediction.state_vector.shape
+    measured = hypothesis.measurement_prediction
+    assert isinstance(measured, ft.KernelParticleStateMeasurementPrediction)
+    np.testing.assert_array_equal(
+        measured.state_vector, scenario.measurement_model.function(prediction))
+    again = updater.predict_measurement(prediction)
+    np.testing.assert_array_equal(again.state_vector, measured.state_vector)
+    following = predictor.predict(update, scenario.detections[2].timestamp)
+    np.testing.assert_allclose(
+        following.state_vector,
+        scenario.transition_model.function(update.proposal, time_interval=1.0))
+
+
+def test_filter_is_reproducible_for_a_seed():
+    scenario = adaptive_kernel_tutorial(30, seed=2, steps=5)
+    tracks = [_track(*_tutorial_filter(ft.QuadraticKernel(), scenario, rng=4), scenario.prior,
+                     scenario.detections) for _ in range(2)]
+    for a, b in zip(*tracks):
+        np.testing.assert_array_equal(a.weight, b.weight)
+        np.testing.assert_array_equal(a.proposal, b.proposal)
+
+
+def test_filter_errors():
+    scenario = adaptive_kernel_tutorial(10, seed=3, steps=2)
+    predictor, updater = _tutorial_filter(ft.QuadraticKernel(), scenario)
+    prior, detection = scenario.prior, scenario.detections[1]
+    with pytest.raises(ValueError, match="lambda_predictor"):
+        ft.AdaptiveKernelKalmanPredictor(scenario.transition_model, lambda_predictor=0)
+    with pytest.raises(ValueError, match="lambda_updater"):
+        ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, lambda_updater=-1e-3)
+    with pytest.raises(TypeError, match="kernel must be a Kernel"):
+        ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, kernel=lambda x, y: x)
+    with pytest.raises(TypeError, match="prior must be a KernelParticleState"):
+        predictor.predict(ft.ParticleState(prior.state_vector, timestamp=prior.timestamp),
+                          detection.timestamp)
+    with pytest.raises(ValueError, match="4"):
+        predictor.predict(ft.KernelParticleState(np.zeros((3, 10)), timestamp=prior.timestamp),
+                          detection.timestamp)
+    with pytest.raises(ValueError, match="no timestamp"):
+        predictor.predict(ft.KernelParticleState(prior.state_vector), detection.timestamp)
+    with pytest.raises(ValueError, match="proposal must have"):
+        predictor.predict(prior, detection.timestamp, proposal=np.zeros((4, 9)))
+    prediction = predictor.predict(prior, detection.timestamp)
+    for bad, message in [([0.1, 0.2], "1 components"), ([np.nan], "NaN")]:
+        with pytest.raises(ValueError, match=message):
+            updater.update(ft.SingleHypothesis(
+                prediction, ft.Detection(bad, timestamp=detection.timestamp)))
+    with pytest.raises(ValueError, match="nothing to update"):
+        updater.update(ft.SingleHypothesis(prediction, None))
+    huge = ft.KernelParticleState(prior.state_vector * 1e80, timestamp=prior.timestamp)
+    with pytest.raises(ValueError, match="not finite"):
+        ft.AdaptiveKernelKalmanPredictor(scenario.transition_model, ft.QuarticKernel()).predict(
+            huge, detection.timestamp)
+
+
+SIZES = [30, 300, 1000]
+TUTORIAL_KERNELS = {"quadratic": ft.QuadraticKernel(c=1, ialpha=1),
+                    "quartic": ft.QuarticKernel(c=1, ialpha=1),
+                    "gaussian": ft.GaussianKernel()}
+
+
+@pytest.mark.parametrize("m", SIZES)
+@pytest.mark.parametrize("name", TUTORIAL_KERNELS)
+def test_tutorial_runs_to_the_end_for_ten_seeds(name, m):
+    for seed in range(10):
+        scenario = adaptive_kernel_tutorial(m, seed=seed)
+        track = _track(*_tutorial_filter(TUTORIAL_KERNELS[name], scenario, rng=seed),
+                       scenario.prior, scenario.detections)
+        assert len(track) == 30
+        for state in track:
+            assert np.isfinite(state.mean).all()
+            assert (np.diag(state.covar) >= 0).all()
+            assert np.isfinite(state.proposal).all()
+        assert position_rmse(track, scenario.truth) < 5.0
