@@ -12,6 +12,8 @@ import re
 import sys
 from collections import defaultdict
 
+import numpy as np
+
 # (workload, N, ratio, minimum): ratio "stonesoup" = Stone Soup time / fasttrack time,
 # "floor" = floor time / fasttrack time (so 1/3 means "within 3x of the floor")
 TARGETS = [
@@ -31,7 +33,7 @@ TARGETS = [
 # (workload, N, most microseconds per item): batches timed as one call over N items
 PER_ITEM_TARGETS = [("ekf-batch", 10**4, 0.5)]
 
-IMPLEMENTATIONS = ("fasttrack", "numpy_reference", "stonesoup")
+IMPLEMENTATIONS = ("fasttrack", "numpy_reference", "stonesoup", "dropin")
 
 
 def load(path):
@@ -47,8 +49,9 @@ def load(path):
             floors[(group[: -len("-floor")], bench["extra_info"]["n"])] = median
             continue
         match = re.fullmatch(r"(.+) N=(\d+)", group)
-        impl = next((i for i in IMPLEMENTATIONS if bench["name"].startswith(f"test_{i}")
-                     or f"_{i}[" in bench["name"] or bench["name"].endswith(f"_{i}")), None)
+        impl = (bench.get("params") or {}).get("implementation") or next(
+            (i for i in IMPLEMENTATIONS if bench["name"].startswith(f"test_{i}")
+             or f"_{i}[" in bench["name"] or bench["name"].endswith(f"_{i}")), None)
         if match and impl:
             medians[(match[1], int(match[2]))][impl] = median
     return medians, floors, data.get("machine_info", {})
@@ -65,6 +68,9 @@ def ratios(medians, floors):
                 found["stonesoup"] = times["stonesoup"] / ours
             if "numpy_reference" in times:
                 found["numpy"] = times["numpy_reference"] / ours
+            if "dropin" in times:
+                found["dropin"] = times.get("stonesoup", np.nan) / times["dropin"]
+                found["overhead"] = times["dropin"] / ours
             family = workload.split("-")[0]
             if (family, n) in floors:
                 found["floor"] = floors[(family, n)] / ours
@@ -84,6 +90,8 @@ def table(rows):
     lines = ["| workload | N | fasttrack | NumPy ref | Stone Soup | vs Stone Soup | vs NumPy "
              "| fasttrack / floor |", "|---|---|---|---|---|---|---|---|"]
     for workload, n, times, found in rows:
+        if "dropin" in times:
+            continue
         floor = found.get("floor")
         lines.append(
             f"| {workload} | {n:.0e} | {_ms(times.get('fasttrack'))} "
@@ -91,6 +99,21 @@ def table(rows):
             f"| {_x(found.get('stonesoup'))} | {_x(found.get('numpy'))} "
             f"| {_x(1 / floor) if floor else ''} |")
     return "\n".join(lines)
+
+
+def dropin_table(rows):
+    """The drop-in layer's rows: its time against Stone Soup's and the native API's."""
+    lines = ["| workload | N | fasttrack (native) | fasttrack.stonesoup | Stone Soup "
+             "| drop-in vs Stone Soup | drop-in / native |", "|---|---|---|---|---|---|---|"]
+    for workload, n, times, found in rows:
+        if "dropin" in times:
+            speedup = found.get("dropin")
+            lines.append(
+                f"| {workload} | {n:.0e} | {_ms(times.get('fasttrack'))} "
+                f"| {_ms(times['dropin'])} | {_ms(times.get('stonesoup'))} "
+                f"| {_x(speedup) if speedup == speedup else ''} "
+                f"| {_x(found.get('overhead'))} |")
+    return "\n".join(lines) if len(lines) > 2 else ""
 
 
 def check(rows):
@@ -122,6 +145,9 @@ def main(argv=None):
     medians, floors, machine = load(args.json)
     rows = ratios(medians, floors)
     print(table(rows))
+    extra = dropin_table(rows)
+    if extra:
+        print("\n" + extra)
     cpu = machine.get("cpu", {}).get("brand_raw", "")
     print(f"\nMedians from {args.json} ({cpu}, {machine.get('cpu', {}).get('count', '?')} cores).")
     if args.check:

@@ -19,31 +19,36 @@ def seed(n):
 
 
 def check_rng(rng, name="rng"):
-    """Validate an ``rng`` argument (``None``, an int seed or a ``numpy.random.Generator``).
+    """Validate an ``rng`` argument: ``None``, an int seed, a ``numpy.random.Generator``, or a
+    legacy ``numpy.random.RandomState`` (such as the global one that ``np.random.seed``
+    seeds).
 
     Returns
     -------
-    None or numpy.random.Generator
+    None, numpy.random.Generator or numpy.random.RandomState
         ``None`` is kept, so that :func:`generator` finds the default at each call; an int
         becomes a new Generator seeded with it.
     """
-    if rng is None or isinstance(rng, np.random.Generator):
+    if rng is None or isinstance(rng, (np.random.Generator, np.random.RandomState)):
         return rng
     if isinstance(rng, numbers.Integral) and not isinstance(rng, bool):
         if rng < 0:
             raise ValueError(f"{name} must be a non-negative seed, got {rng}")
         return np.random.default_rng(int(rng))
-    raise TypeError(f"{name} must be None, an int seed or a numpy.random.Generator, "
-                    f"got {type(rng).__name__}")
+    raise TypeError(f"{name} must be None, an int seed, a numpy.random.Generator or a "
+                    f"RandomState, got {type(rng).__name__}")
 
 
 def generator(rng, name="rng"):
-    """The Generator an ``rng`` argument stands for (``None``: the package default)."""
+    """The generator an ``rng`` argument stands for (``None``: the package default)."""
     rng = check_rng(rng, name)
     return _default if rng is None else rng
 
 
 def stream_key(rng, name="rng"):
     """A fresh 63-bit key for the counter-based uniform stream of the kernels, drawn from
-    the Generator that ``rng`` stands for."""
-    return int(generator(rng, name).integers(0, 2**63 - 1))
+    the generator that ``rng`` stands for."""
+    source = generator(rng, name)
+    if isinstance(source, np.random.RandomState):
+        return int(source.randint(0, 2**63 - 1, dtype=np.int64))
+    return int(source.integers(0, 2**63 - 1))

@@ -341,8 +341,8 @@ class KernelParticleState:
             if self.weight.size != m:
                 raise ValueError(f"weight must have length {m}, got {self.weight.size}")
         self.timestamp = check_timestamp(timestamp)
-        self._factors = _default_kernel_factors(m) if kernel_covar is None else \
-            _kernel_factors(kernel_covar, m)
+        self._factors = isotropic_factors(m, 1.0 / m) if kernel_covar is None else \
+            factor_kernel_covar(kernel_covar, m)
         self._kernel_covar = None
 
     @classmethod
@@ -357,7 +357,7 @@ class KernelParticleState:
     def kernel_covar(self):
         """The kernel covariance S (M, M)."""
         if self._kernel_covar is None:
-            self._kernel_covar = _akkf.dense_covariance(*self._factors)
+            self._kernel_covar = dense_kernel_covar(self._factors)
         return self._kernel_covar
 
     @property
@@ -383,13 +383,29 @@ class KernelParticleState:
                 f"timestamp={self.timestamp!r})")
 
 
-def _default_kernel_factors(m):
-    """Factors of S = I/M."""
+def dense_kernel_covar(factors):
+    """The (M, M) kernel covariance ``S = Lt^T Lt + sigma Z Z^T``, ``Z = I - V1 V2^T``, of
+    factors ``(Lt, sigma, V1t, V2t)``, as ``sigma I + U B U^T`` with ``U = [Lt^T, V1, V2]``
+    (M, p): one NumPy matrix product, O(M^2 p)."""
+    lt, sigma, v1t, v2t = factors
+    k, r, m = lt.shape[0], v1t.shape[0], lt.shape[1]
+    u = np.vstack((lt, v1t, v2t))
+    middle = np.zeros((k + 2 * r, k + 2 * r))
+    middle[:k, :k] = np.eye(k)
+    middle[k:k + r, k:k + r] = sigma * (v2t @ v2t.T)
+    middle[k:k + r, k + r:] = middle[k + r:, k:k + r] = -sigma * np.eye(r)
+    covar = u.T @ (middle @ u)
+    covar[np.diag_indices(m)] += sigma
+    return covar
+
+
+def isotropic_factors(m, sigma):
+    """Factors of S = sigma I (M, M)."""
     empty = np.empty((0, m))
-    return empty, 1.0 / m, empty, empty
+    return empty, sigma, empty, empty
 
 
-def _kernel_factors(kernel_covar, m):
+def factor_kernel_covar(kernel_covar, m):
     """Factors of a user's S: its pivoted Cholesky factor, checked to reproduce it."""
     s = _validate.covariance(kernel_covar, "kernel_covar", m)
     lt = _gram.factor(_gram.MATRIX, np.empty(0), np.zeros(0, dtype=np.bool_), s)

@@ -155,7 +155,7 @@ def test_filter_kernels_match_dense_reference(name, m, dense):
         w_ref, s_ref = reference.predict_embedding(*arguments)
         factors = (lt, 1.0 / m, v1t, v2t)
         _assert_close(w, w_ref)
-        _assert_close(akkf.dense_covariance(*factors), s_ref)
+        _assert_close(ft.types.dense_kernel_covar(factors), s_ref)
         _assert_close(akkf.sandwich(x, *factors), reference.sandwich(x, *factors))
         x = proposal + 0.05
         y = np.vstack([np.arctan2(x[2], x[0]), x[1]])
@@ -166,7 +166,7 @@ def test_filter_kernels_match_dense_reference(name, m, dense):
         w_ref, s_ref = reference.update_embedding(*arguments, expected)
         factors = (lt, 1.0 / m, v1t, v2t)
         _assert_close(w, w_ref)
-        _assert_close(akkf.dense_covariance(*factors), s_ref)
+        _assert_close(ft.types.dense_kernel_covar(factors), s_ref)
         np.testing.assert_allclose(proposal, expected, rtol=1e-7, atol=1e-9)
         again = np.empty_like(x)
         reference.draw_proposal(x, w, *factors, stream_key(cycle), again)
@@ -175,6 +175,13 @@ def test_filter_kernels_match_dense_reference(name, m, dense):
 
 def _assert_close(actual, expected, rtol=1e-7):
     np.testing.assert_allclose(actual, expected, atol=rtol * np.abs(expected).max())
+
+
+def test_dense_kernel_covariance_of_factors():
+    rng = np.random.default_rng(9)
+    factors = (rng.normal(size=(3, 7)), 0.3, rng.normal(size=(2, 7)), rng.normal(size=(2, 7)))
+    np.testing.assert_allclose(ft.types.dense_kernel_covar(factors),
+                               reference.dense_covariance(*factors), rtol=1e-12, atol=1e-13)
 
 
 def test_proposal_is_distributed_as_the_posterior_embedding():

@@ -237,13 +237,6 @@ def update_embedding(kind, params, angles, y, z, w, lt, sigma, v1t, v2t, lam, x,
 
 
 @jit()
-def dense_covariance(lt, sigma, v1t, v2t):
-    """The kernel covariance S (M, M)."""
-    m = lt.shape[1]
-    return _gram(np.ascontiguousarray(lt.T), _deviation(np.eye(m), v1t, v2t), sigma)
-
-
-@jit()
 def draw_proposal(x, w, lt, sigma, v1t, v2t, key, out):
     """Draw ``out`` (d, M): column j is ``mu + sqrt(diag(Sigma)) * n_j``, ``mu = x w``,
     ``Sigma = x S x^T``, n_j standard normals of stream ``key``."""

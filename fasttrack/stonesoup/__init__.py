@@ -1,0 +1,34 @@
+"""Drop-in replacements for Stone Soup 1.9 classes.
+
+Change ``from stonesoup.resampler.particle import SystematicResampler`` into
+``from fasttrack.stonesoup import SystematicResampler`` (likewise for the classes below) and
+a Stone Soup script runs unchanged, faster. Each class is a subclass of the Stone Soup class
+it replaces, takes and returns Stone Soup's own types, memoises ``predict`` as Stone Soup
+does and draws its random numbers from NumPy's global state (``np.random.seed``).
+
+Stone Soup's built-in models ``ConstantVelocity``, ``CombinedLinearGaussianTransitionModel``,
+``LinearGaussian``, ``CartesianToBearingRange`` and ``Cartesian2DToBearing`` run through
+fasttrack's kernels; other models work through their own Python code.
+"""
+try:
+    import stonesoup  # noqa: F401
+except ImportError as error:  # pragma: no cover - depends on the environment
+    raise ImportError("fasttrack.stonesoup needs Stone Soup: pip install 'fasttrack[stonesoup]'"
+                      ) from error
+
+from .kernel import (GaussianKernel, LinearKernel, PolynomialKernel, QuadraticKernel,
+                     QuarticKernel)
+from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
+                        ParticlePredictor)
+from .resampler import (ESSResampler, MultinomialResampler, ResidualMethod, ResidualResampler,
+                        StratifiedResampler, SystematicResampler)
+from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, KalmanUpdater,
+                      ParticleUpdater)
+
+__all__ = [
+    "AdaptiveKernelKalmanPredictor", "AdaptiveKernelKalmanUpdater", "ESSResampler",
+    "ExtendedKalmanPredictor", "ExtendedKalmanUpdater", "GaussianKernel", "KalmanPredictor",
+    "KalmanUpdater", "LinearKernel", "MultinomialResampler", "ParticlePredictor",
+    "ParticleUpdater", "PolynomialKernel", "QuadraticKernel", "QuarticKernel",
+    "ResidualMethod", "ResidualResampler", "StratifiedResampler", "SystematicResampler",
+]

@@ -1,0 +1,151 @@
+"""What the drop-in classes share: Stone Soup models and kernels recognised as fasttrack ones,
+Stone Soup arrays as float64 arrays, and Stone Soup's random state."""
+import weakref
+
+import numpy as np
+from stonesoup.base import Base
+from stonesoup.kernel import GaussianKernel, LinearKernel, PolynomialKernel
+from stonesoup.models.control.linear import LinearControlModel
+from stonesoup.models.measurement import linear as ss_measurement_linear
+from stonesoup.models.measurement import nonlinear as ss_nonlinear
+from stonesoup.models.transition import linear as ss_transition_linear
+from stonesoup.types.angle import Angle, Bearing
+from stonesoup.types.array import StateVector
+
+from .. import models as ft_models
+from .. import random as _random
+from .._jit import gram as _gram
+
+
+def _polar(cls):
+    def build(model):
+        return cls(model.ndim_state, model.mapping, floats(model.noise_covar),
+                   translation_offset=floats(model.translation_offset).ravel(),
+                   rotation_offset=floats(model.rotation_offset).ravel())
+    return build
+
+
+def _combined(model):
+    parts = [fast_model(part) for part in model.model_list]
+    return None if None in parts else ft_models.CombinedLinearGaussianTransitionModel(parts)
+
+
+#: Stone Soup model classes (exactly these, not subclasses) and their fasttrack builders.
+_BUILDERS = {
+    ss_transition_linear.ConstantVelocity:
+        lambda model: ft_models.ConstantVelocity(model.noise_diff_coeff),
+    ss_transition_linear.CombinedLinearGaussianTransitionModel: _combined,
+    ss_measurement_linear.LinearGaussian:
+        lambda model: ft_models.LinearGaussian(model.ndim_state, model.mapping,
+                                               floats(model.noise_covar)),
+    ss_nonlinear.CartesianToBearingRange: _polar(ft_models.CartesianToBearingRange),
+    ss_nonlinear.Cartesian2DToBearing: _polar(ft_models.Cartesian2DToBearing),
+}
+
+_FAST_MODELS = weakref.WeakKeyDictionary()
+
+
+def _snapshot(value):
+    """A comparable copy of a model's parameters (arrays by value)."""
+    if isinstance(value, Base):  # its properties are stored as ``_property_<name>``
+        return type(value), tuple(_snapshot(item) for name, item in vars(value).items()
+                                  if name.startswith("_property_"))
+    if isinstance(value, np.ndarray):
+        return value.shape, value.dtype.str, value.tobytes()
+    if isinstance(value, (list, tuple)):
+        return tuple(_snapshot(item) for item in value)
+    return value
+
+
+def fast_model(model):
+    """The fasttrack model computing what the Stone Soup ``model`` computes, or None if it
+    is not one of the recognised classes.
+
+    Built once per model object and rebuilt when one of its parameters changes.
+    """
+    builder = _BUILDERS.get(type(model))
+    if builder is None:
+        return None
+    snapshot = _snapshot(model)
+    cached = _FAST_MODELS.get(model)
+    if cached is None or cached[0] != snapshot:
+        cached = (snapshot, builder(model))
+        _FAST_MODELS[model] = cached
+    return cached[1]
+
+
+def model_rng(model):
+    """Where Stone Soup draws a model's noise: its own random state if it has a seed, else
+    NumPy's global one (so ``np.random.seed`` makes runs repeatable)."""
+    if getattr(model, "seed", None) is not None:
+        return model.random_state
+    return np.random.mtrand._rand
+
+
+def global_rng():
+    """NumPy's global random state, which ``np.random.seed`` seeds."""
+    return np.random.mtrand._rand
+
+
+def stream_key(rng):
+    """A key for the kernels' random stream, drawn from ``rng``."""
+    return _random.stream_key(rng)
+
+
+def floats(array):
+    """A C-contiguous float64 ndarray view (or copy) of a Stone Soup array, ``Angle``
+    entries as their float values."""
+    return np.ascontiguousarray(np.asarray(array, dtype=np.float64))
+
+
+def angle_rows(array):
+    """Rows of an object array whose entries are Stone Soup angles."""
+    if array.dtype != object or array.size == 0:
+        return ()
+    return tuple(row for row in range(array.shape[0]) if isinstance(array[row, 0], Angle))
+
+
+def typed_measurement(values, model):
+    """A (m, 1) ``StateVector`` as Stone Soup's measurement functions give it: the model's
+    angle rows as ``Bearing`` objects."""
+    vector = StateVector(values)
+    if not model.angle_components:
+        return vector
+    vector = vector.astype(object)
+    for row in model.angle_components:
+        vector[row, 0] = Bearing(values[row, 0])
+    return vector
+
+
+def zero_control(control_model):
+    """Whether a Kalman predictor's control model contributes nothing without an input (the
+    default it builds)."""
+    return (type(control_model) is LinearControlModel
+            and not np.any(control_model.control_matrix))
+
+
+def kernel_spec(kernel):
+    """``(kind, params)`` of a Stone Soup polynomial or Gaussian kernel for the compiled
+    filters, or None (another kernel, or parameters outside the positive semi-definite
+    range)."""
+    if isinstance(kernel, GaussianKernel) and type(kernel).__call__ in _CALLS:
+        if kernel.variance > 0:
+            return _gram.GAUSSIAN, np.array([float(kernel.variance)])
+        return None
+    if isinstance(kernel, PolynomialKernel) and type(kernel).__call__ in _CALLS:
+        power, c, ialpha = kernel.power, kernel.c, kernel.ialpha
+        if int(power) == power >= 1 and c >= 0 and ialpha > 0:
+            return _gram.POLYNOMIAL, np.array([power, c, ialpha], dtype=np.float64)
+    return None
+
+
+#: The ``__call__`` methods whose formulas :func:`kernel_spec` knows (Stone Soup's and the
+#: drop-in kernels', registered by the kernel module).
+_CALLS = {PolynomialKernel.__call__, GaussianKernel.__call__, LinearKernel.__call__}
+
+
+def uncached(method):
+    """The plain function under Stone Soup's memoising decorators."""
+    while hasattr(method, "__wrapped__"):
+        method = method.__wrapped__
+    return method

@@ -1,0 +1,119 @@
+"""Stone Soup's predictors, with fasttrack's kernels.
+
+Each ``predict`` is memoised as Stone Soup's is (the same prior and timestamp give the same
+prediction object, and draw no new random numbers). A model, kernel, control input or
+keyword the fast path does not know goes through Stone Soup's own code instead.
+"""
+import numpy as np
+from stonesoup.predictor import kalman as ss_kalman
+from stonesoup.predictor import kernel as ss_kernel
+from stonesoup.predictor import particle as ss_particle
+from stonesoup.predictor._utils import predict_lru_cache
+from stonesoup.proposal.simple import DynamicsProposal
+from stonesoup.types.array import StateVectors
+from stonesoup.types.prediction import GaussianStatePrediction, Prediction
+from stonesoup.types.state import GaussianState
+from stonesoup.types.update import GaussianStateUpdate, KernelParticleStateUpdate
+
+from .. import predictor as ft_predictor
+from .._jit import akkf as _akkf
+from .._jit import kalman as _kalman
+from ._convert import (fast_model, floats, kernel_spec, model_rng, stream_key, uncached,
+                       zero_control)
+from .resampler import _plain
+from ..types import dense_kernel_covar
+from .state import kernel_factors, remember_factors
+
+#: Gaussian state types whose predictions the Kalman kernel builds (not the square-root or
+#: other specialised ones, which go through Stone Soup).
+_GAUSSIAN_STATES = (GaussianState, GaussianStatePrediction, GaussianStateUpdate)
+
+
+def _seconds(later, earlier):
+    return (later - earlier).total_seconds()
+
+
+class ParticlePredictor(ss_particle.ParticlePredictor):
+    """Stone Soup's ``ParticlePredictor``, compiled for its built-in linear models."""
+
+    @predict_lru_cache()
+    def predict(self, prior, timestamp=None, measurement=None, **kwargs):
+        proposal = self.proposal
+        model = fast_model(proposal.transition_model) \
+            if type(proposal) is DynamicsProposal and proposal.control_model is None else None
+        if measurement is not None:
+            timestamp = measurement.timestamp
+        if (model is None or kwargs or not _plain(prior) or timestamp is None
+                or prior.timestamp is None):
+            return uncached(ss_particle.ParticlePredictor.predict)(
+                self, prior, timestamp, measurement, **kwargs)
+        state = model._propagate(floats(prior.state_vector), _seconds(timestamp, prior.timestamp),
+                                 stream_key(model_rng(proposal.transition_model)))
+        return Prediction.from_state(prior, parent=prior, state_vector=StateVectors(state),
+                                     timestamp=timestamp,
+                                     transition_model=proposal.transition_model, prior=prior)
+
+
+class _Kalman:
+    """``predict`` of the Kalman predictors through fasttrack's Kalman kernel."""
+
+    _stonesoup = ss_kalman.KalmanPredictor
+
+    @predict_lru_cache()
+    def predict(self, prior, timestamp=None, control_input=None, **kwargs):
+        model = fast_model(self.transition_model)
+        if (model is None or kwargs or control_input is not None
+                or not zero_control(self.control_model) or type(prior) not in _GAUSSIAN_STATES
+                or timestamp is None or prior.timestamp is None):
+            return uncached(self._stonesoup.predict)(self, prior, timestamp, control_input,
+                                                     **kwargs)
+        d = prior.state_vector.shape[0]
+        x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
+        status = ft_predictor.KalmanPredictor(model)._predict(_seconds(timestamp, prior.timestamp),
+                                              floats(prior.state_vector), floats(prior.covar),
+                                              x_out, covar_out)
+        if status != _kalman.OK:
+            raise ValueError(ft_predictor._STATUS_ERRORS[status])
+        return Prediction.from_state(prior, x_out, covar_out, timestamp=timestamp,
+                                     transition_model=self.transition_model, prior=prior)
+
+
+class KalmanPredictor(_Kalman, ss_kalman.KalmanPredictor):
+    """Stone Soup's ``KalmanPredictor``, compiled for its built-in linear models."""
+
+
+class ExtendedKalmanPredictor(_Kalman, ss_kalman.ExtendedKalmanPredictor):
+    """Stone Soup's ``ExtendedKalmanPredictor``, compiled for its built-in linear models
+    (whose Jacobian is their matrix)."""
+
+    _stonesoup = ss_kalman.ExtendedKalmanPredictor
+
+
+class AdaptiveKernelKalmanPredictor(ss_kernel.AdaptiveKernelKalmanPredictor):
+    """Stone Soup's ``AdaptiveKernelKalmanPredictor``, computed in fasttrack's factored form
+    (see ``fasttrack.AdaptiveKernelKalmanPredictor``)."""
+
+    @predict_lru_cache()
+    def predict(self, prior, timestamp=None, proposal=None, **kwargs):
+        model = fast_model(self.transition_model)
+        spec = kernel_spec(self.kernel)
+        if (model is None or spec is None or kwargs or timestamp is None
+                or prior.timestamp is None):
+            return uncached(ss_kernel.AdaptiveKernelKalmanPredictor.predict)(
+                self, prior, timestamp, proposal, **kwargs)
+        if proposal is None:
+            proposal = prior.proposal if isinstance(prior, KernelParticleStateUpdate) \
+                else prior.state_vector
+        proposal = floats(getattr(proposal, "state_vector", proposal))
+        x = floats(prior.state_vector)
+        w, lt, v1t, v2t = _akkf.predict_embedding(
+            *spec, np.zeros(x.shape[0], dtype=np.bool_), proposal, x, floats(prior.weight),
+            *kernel_factors(prior), self.lambda_predictor)
+        ft_predictor.finite_weights(w, "predicted")
+        factors = (lt, 1.0 / w.size, v1t, v2t)
+        prediction = Prediction.from_state(
+            prior, state_vector=StateVectors(model._mean(proposal, _seconds(timestamp,
+                                                                              prior.timestamp))),
+            weight=w, kernel_covar=dense_kernel_covar(factors), timestamp=timestamp,
+            transition_model=self.transition_model)
+        return remember_factors(prediction, factors)
