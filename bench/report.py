@@ -1,10 +1,11 @@
 """Turn pytest-benchmark JSON into a markdown table of speed-up ratios and check targets.
 
-Usage: python bench/report.py [bench/results/latest.json] [--check]
+Usage: python bench/report.py [bench/results/latest.json] [--check] [--plot PNG]
 
 Each benchmark group is "<workload> N=<n>"; the implementation comes from the test name
 (test_fasttrack..., test_numpy_reference..., test_stonesoup...). Ratios compare medians
-measured in the same run. ``--check`` exits 1 if a ratio misses its target.
+measured in the same run. ``--check`` exits 1 if a ratio misses its target, naming it;
+``--plot`` writes a PNG of time against N, one panel per workload.
 """
 import argparse
 import json
@@ -137,10 +138,42 @@ def check(rows):
     return failures
 
 
+def plot(medians, path):
+    """One log-log panel per workload: median time against N for each implementation."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    workloads = sorted({w for w, _ in medians})
+    columns = 4
+    rows = -(-len(workloads) // columns)
+    figure, axes = plt.subplots(rows, columns, figsize=(4 * columns, 3.2 * rows),
+                                squeeze=False)
+    for ax, workload in zip(axes.flat, workloads):
+        sizes = sorted(n for w, n in medians if w == workload)
+        for impl in IMPLEMENTATIONS:
+            points = [(n, medians[(workload, n)][impl]) for n in sizes
+                      if impl in medians[(workload, n)]]
+            if points:
+                n, t = zip(*points)
+                ax.plot(n, np.array(t) * 1e3, marker="o", label=impl)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(workload, fontsize="small")
+        ax.set_xlabel("N")
+        ax.set_ylabel("ms")
+        ax.legend(fontsize="x-small")
+    for ax in axes.flat[len(workloads):]:
+        ax.axis("off")
+    figure.tight_layout()
+    figure.savefig(path, dpi=90)
+    return path
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("json", nargs="?", default="bench/results/latest.json")
     parser.add_argument("--check", action="store_true", help="exit 1 if a target is missed")
+    parser.add_argument("--plot", metavar="PNG", help="write a plot of time against N")
     args = parser.parse_args(argv)
     medians, floors, machine = load(args.json)
     rows = ratios(medians, floors)
@@ -150,6 +183,8 @@ def main(argv=None):
         print("\n" + extra)
     cpu = machine.get("cpu", {}).get("brand_raw", "")
     print(f"\nMedians from {args.json} ({cpu}, {machine.get('cpu', {}).get('count', '?')} cores).")
+    if args.plot:
+        print(f"Plot: {plot(medians, args.plot)}")
     if args.check:
         failures = check(rows)
         for failure in failures:

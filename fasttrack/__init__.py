@@ -25,6 +25,7 @@ from .types import (Detection, GaussianMeasurementPrediction, GaussianState,
                     KernelParticleStateMeasurementPrediction, KernelParticleStatePrediction,
                     KernelParticleStateUpdate, Particle, ParticleState, ParticleStatePrediction,
                     ParticleStateUpdate, SingleHypothesis, State, Track)
+from ._warmup import warmup
 from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, KalmanUpdater,
                       ParticleUpdater)
 
@@ -49,21 +50,3 @@ __all__ = [
     "multinomial", "normalise", "residual", "seed", "stratified", "systematic",
     "tune_allocator", "warmup",
 ]
-
-
-def warmup():
-    """Compile (or load from the on-disk cache) the common kernels now rather than on first
-    use. Returns the seconds it took."""
-    import time
-
-    import numpy as np
-
-    start = time.perf_counter()
-    particles = ParticleState(np.zeros((2, 16)), log_weight=np.linspace(-3.0, 0.0, 16))
-    for resampler in (SystematicResampler(0), StratifiedResampler(0), MultinomialResampler(0),
-                      ResidualResampler(rng=0)):
-        resampler.resample(particles)
-    ess(particles.log_weight)
-    normalise(particles.log_weight)
-    _ = particles.mean
-    return time.perf_counter() - start

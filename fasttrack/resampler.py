@@ -91,8 +91,9 @@ class ResidualResampler(_SchemeResampler):
 
     Parameters
     ----------
-    residual_method : {'multinomial', 'systematic', 'stratified'} or ResidualMethod
-        Scheme of the second stage.
+    residual_method : str or fasttrack.resampling.ResidualMethod
+        Scheme of the second stage: 'multinomial', 'systematic' or 'stratified', or the
+        member.
     rng : None, int or numpy.random.Generator
     """
 

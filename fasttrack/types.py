@@ -318,13 +318,6 @@ class KernelParticleState:
     kernel_covar : (M, M) array_like, optional
         Kernel covariance S, symmetric positive semi-definite. Default I/M.
 
-    Attributes
-    ----------
-    mean : (d, 1) ndarray
-        ``X w``.
-    covar : (d, d) ndarray
-        ``X S X^T``.
-
     Notes
     -----
     S is held in factored form (see ``fasttrack._jit.akkf``); ``kernel_covar`` builds the
@@ -598,7 +591,8 @@ class StateSequence:
 
 def _time_order(a, b):
     """-1, 0 or 1 as timestamp a is before, at or after b (same kind required)."""
-    if type(a) is not type(b) and not (isinstance(a, numbers.Real) and isinstance(b, numbers.Real)):
+    both_real = isinstance(a, numbers.Real) and isinstance(b, numbers.Real)
+    if type(a) is not type(b) and not both_real:
         raise TypeError(f"cannot order timestamps {a!r} and {b!r}: mix of datetimes and numbers")
     return (a > b) - (a < b)
 
@@ -632,7 +626,8 @@ class SingleHypothesis:
         return self.measurement is not None
 
     def __repr__(self):
-        return f"SingleHypothesis(prediction={self.prediction!r}, measurement={self.measurement!r})"
+        return (f"SingleHypothesis(prediction={self.prediction!r}, "
+                f"measurement={self.measurement!r})")
 
 
 def time_interval(later, earlier, name="timestamp"):

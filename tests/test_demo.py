@@ -1,19 +1,73 @@
-"""The README's main job: ``python -m fasttrack demo`` runs end to end."""
+"""The README's main job: ``python -m fasttrack demo`` runs end to end, and the plots."""
 import subprocess
 import sys
 
+import numpy as np
+import pytest
 
-def test_quick_demo_runs():
-    done = subprocess.run([sys.executable, "-m", "fasttrack", "demo", "--quick"],
-                          capture_output=True, text=True, check=True, timeout=600)
+import fasttrack as ft
+from fasttrack.scenarios import adaptive_kernel_tutorial, extended_kalman_tutorial
+
+matplotlib = pytest.importorskip("matplotlib")
+from matplotlib import image  # noqa: E402
+
+from fasttrack import plotting  # noqa: E402
+
+
+def test_quick_demo_runs_and_writes_plots(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "fasttrack", "demo", "--quick", "--out",
+                           str(tmp_path)], capture_output=True, text=True, check=True,
+                          timeout=600)
     out = done.stdout
-    assert "Resampler tutorial" in out and "expected N w" in out
-    for name in ("systematic", "stratified", "multinomial", "residual"):
-        assert out.count(name) >= 2
-    assert "vs Stone Soup" in out and "Demo finished" in out
+    assert "Resampler tutorial" in out and "offspring" in out
+    for row in ("resample systematic", "resample residual", "particle filter",
+                "extended Kalman filter", "AKKF quadratic", "AKKF gaussian"):
+        assert row in out
+    assert "speed-up" in out and "Demo finished" in out
+    pngs = sorted(tmp_path.glob("*.png"))
+    assert len(pngs) >= 7
+    for png in pngs:
+        _assert_drawn(png)
+
+
+def _assert_drawn(path):
+    pixels = image.imread(path)
+    assert pixels.shape[0] > 100 and pixels.shape[1] > 100
+    assert (pixels[..., :3] < 0.9).mean() > 0.005  # not a blank canvas
 
 
 def test_cli_rejects_unknown_commands():
     done = subprocess.run([sys.executable, "-m", "fasttrack", "fly"], capture_output=True,
                           text=True)
     assert done.returncode == 2 and "invalid choice" in done.stderr
+
+
+def test_plots_of_tracks_detections_particles_and_ellipses(tmp_path):
+    scenario = extended_kalman_tutorial(steps=5)
+    predictor = ft.ExtendedKalmanPredictor(scenario.transition_model)
+    updater = ft.ExtendedKalmanUpdater(scenario.measurement_model)
+    prior, track = scenario.prior, ft.Track()
+    for detection in scenario.detections:
+        prior = updater.update(ft.SingleHypothesis(predictor.predict(prior, detection.timestamp),
+                                                   detection))
+        track.append(prior)
+    ax = plotting.plot_ground_truth(scenario.truth)
+    assert plotting.plot_detections(scenario.detections, ax=ax) is ax
+    plotting.plot_track(track, ax=ax, uncertainty=True)
+    assert len(ax.patches) == len(track) and len(ax.collections) == 1
+    _assert_drawn(plotting.save(ax, tmp_path / "ekf.png", title="EKF"))
+    bearings = adaptive_kernel_tutorial(10, steps=4)
+    ax = plotting.plot_detections(bearings.detections)
+    plotting.plot_track([bearings.prior], ax=ax, particles=True)
+    _assert_drawn(plotting.save(ax, tmp_path / "bearings.png"))
+    ax = plotting.plot_resampling([0.1, 0.5, 0.15, 0.05, 0.2], points=np.linspace(0.1, 0.9, 5))
+    assert len(ax.patches) == 5
+    _assert_drawn(plotting.save(ax, tmp_path / "cdf.png"))
+
+
+def test_plotting_errors():
+    class Unknown:
+        state_vector = np.zeros((1, 1))
+        measurement_model = ft.LinearGaussian(2, (0,), np.eye(1))
+    with pytest.raises(ValueError, match="cannot map LinearGaussian"):
+        plotting.plot_detections([Unknown()])

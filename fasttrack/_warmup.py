@@ -1,0 +1,104 @@
+"""Compile (or load from the on-disk cache) the kernels of each filter family, by running a
+tiny instance of it."""
+import concurrent.futures
+import multiprocessing
+import time
+
+import numpy as np
+
+
+def _resamplers():
+    import fasttrack as ft
+    particles = ft.ParticleState(np.zeros((2, 16)), log_weight=np.linspace(-3.0, 0.0, 16))
+    for resampler in (ft.SystematicResampler(0), ft.StratifiedResampler(0),
+                      ft.MultinomialResampler(0), ft.ResidualResampler(rng=0)):
+        resampler.resample(particles)
+    ft.ess(particles.log_weight)
+    ft.normalise(particles.log_weight)
+    _ = particles.mean
+
+
+def _step(predictor, updater, scenario):
+    import fasttrack as ft
+    detection = scenario.detections[1]
+    prediction = predictor.predict(scenario.prior, detection.timestamp)
+    return updater.update(ft.SingleHypothesis(prediction, detection))
+
+
+def _particle_filter():
+    import fasttrack as ft
+    from fasttrack.scenarios import particle_filter_tutorial
+    scenario = particle_filter_tutorial(64, steps=2)
+    _step(ft.ParticlePredictor(scenario.transition_model, rng=0),
+          ft.ParticleUpdater(scenario.measurement_model, ft.SystematicResampler(rng=0)), scenario)
+
+
+def _kalman():
+    import fasttrack as ft
+    from fasttrack.scenarios import extended_kalman_tutorial
+    scenario = extended_kalman_tutorial(steps=2)
+    _step(ft.ExtendedKalmanPredictor(scenario.transition_model),
+          ft.ExtendedKalmanUpdater(scenario.measurement_model), scenario)
+
+
+def _batch():
+    import fasttrack as ft
+    from fasttrack.scenarios import extended_kalman_tutorial
+    scenario = extended_kalman_tutorial(steps=2)
+    means = np.tile([0.0, 1.0, 0.0, 1.0], (4, 1))
+    covars = np.broadcast_to(np.eye(4), (4, 4, 4)).copy()
+    ft.BatchExtendedKalmanFilter(scenario.transition_model, scenario.measurement_model).step(
+        means, covars, np.tile([0.0, 49.0], (4, 1)), 1.0)
+
+
+def _adaptive_kernel():
+    import fasttrack as ft
+    from fasttrack.scenarios import adaptive_kernel_tutorial
+    scenario = adaptive_kernel_tutorial(8, steps=2)
+    for kernel in (ft.QuadraticKernel(), ft.GaussianKernel()):
+        _step(ft.AdaptiveKernelKalmanPredictor(scenario.transition_model, kernel),
+              ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, kernel, rng=0),
+              scenario)
+        kernel(scenario.prior)
+
+
+#: Families, slowest to compile first (so that a pool balances them).
+FAMILIES = {"batch": _batch, "kalman": _kalman, "adaptive_kernel": _adaptive_kernel,
+            "resamplers": _resamplers, "particle_filter": _particle_filter}
+
+
+def _run(name):
+    FAMILIES[name]()
+    return name
+
+
+def warmup(families=None, processes=1):
+    """Compile (or load from the on-disk cache) the kernels of ``families`` now rather than
+    on first use.
+
+    Parameters
+    ----------
+    families : iterable of str, optional
+        Some of 'resamplers', 'particle_filter', 'kalman', 'batch', 'adaptive_kernel'
+        (default: all).
+    processes : int
+        With more than one, compile in that many worker processes at once, which fill the
+        shared cache, then load from it: on a first run, about ``processes`` times faster.
+
+    Returns
+    -------
+    float
+        Seconds taken.
+    """
+    names = list(FAMILIES) if families is None else list(families)
+    unknown = sorted(set(names) - set(FAMILIES))
+    if unknown:
+        raise ValueError(f"unknown families {unknown}; valid: {', '.join(FAMILIES)}")
+    start = time.perf_counter()
+    if processes > 1 and len(names) > 1:
+        context = multiprocessing.get_context("spawn")
+        with concurrent.futures.ProcessPoolExecutor(processes, mp_context=context) as pool:
+            list(pool.map(_run, names))
+    for name in names:
+        _run(name)
+    return time.perf_counter() - start

@@ -1,0 +1,119 @@
+"""Plots of tracking scenarios and resampling, with matplotlib (``pip install
+'fasttrack[plot]'``).
+
+Every function draws on the given ``ax`` (a new figure's axes if None) and returns the axes;
+nothing is shown. Positions are the state components ``mapping`` (default x = 0, y = 2).
+"""
+import numpy as np
+
+from .models.measurement import CartesianToBearingRange
+
+
+def _axes(ax):
+    if ax is not None:
+        return ax
+    import matplotlib.figure
+    figure = matplotlib.figure.Figure(figsize=(7, 5.5))
+    return figure.add_subplot()
+
+
+def _positions(states, mapping):
+    return np.array([np.ravel(getattr(s, "mean", s.state_vector))[list(mapping)]
+                     for s in states]).reshape(-1, 2)
+
+
+def plot_ground_truth(truth, mapping=(0, 2), ax=None, **style):
+    """The true path as a dashed line."""
+    ax = _axes(ax)
+    xy = _positions(truth, mapping)
+    ax.plot(xy[:, 0], xy[:, 1], **{"linestyle": "--", "color": "k", "label": "ground truth",
+                                   **style})
+    ax.set_xlabel(f"state[{mapping[0]}]")
+    ax.set_ylabel(f"state[{mapping[1]}]")
+    return ax
+
+
+def plot_detections(detections, measurement_model=None, ax=None, **style):
+    """Detections mapped back to the position plane: bearing-range detections through the
+    model's ``inverse_function``; bearing-only ones as rays from the sensor."""
+    ax = _axes(ax)
+    points, rays = [], []
+    for detection in detections:
+        model = getattr(detection, "measurement_model", None) or measurement_model
+        if isinstance(model, CartesianToBearingRange):
+            points.append(model.inverse_function(detection)[list(model.mapping[:2]), 0])
+        elif model is not None and model.ndim_meas == 1 and model.angle_components == (0,):
+            rays.append((model, float(np.ravel(detection.state_vector)[0])))
+        else:
+            raise ValueError(f"cannot map {type(model).__name__} detections to positions")
+    if points:
+        xy = np.array(points)
+        ax.scatter(xy[:, 0], xy[:, 1], **{"marker": "o", "facecolors": "none",
+                                          "edgecolors": "tab:gray", "label": "detections",
+                                          **style})
+    for i, (model, bearing) in enumerate(rays):
+        origin = model._offset[:2]
+        reach = max(np.abs(ax.get_xlim()).max(), np.abs(ax.get_ylim()).max(), 1.0) * 2
+        angle = bearing + model.rotation_offset.ravel()[2]
+        end = origin + reach * np.array([np.cos(angle), np.sin(angle)])
+        ax.plot([origin[0], end[0]], [origin[1], end[1]],
+                **{"color": "tab:blue", "alpha": 0.25, "linewidth": 0.8,
+                   "label": "bearings" if i == 0 else None, **style})
+    return ax
+
+
+def _ellipse(ax, mean, covar, **style):
+    from matplotlib.patches import Ellipse
+    values, vectors = np.linalg.eigh(covar)
+    angle = np.degrees(np.arctan2(vectors[1, -1], vectors[0, -1]))
+    width, height = 2 * np.sqrt(np.maximum(values[::-1], 0.0))
+    ax.add_patch(Ellipse(mean, width, height, angle=angle,
+                         **{"fill": False, "alpha": 0.4, **style}))
+
+
+def plot_track(track, mapping=(0, 2), ax=None, particles=False, uncertainty=False,
+               label="track", **style):
+    """A track's means as a line; with ``particles``, every state's particle cloud; with
+    ``uncertainty``, one-sigma ellipses of the position covariance."""
+    ax = _axes(ax)
+    xy = _positions(track, mapping)
+    line, = ax.plot(xy[:, 0], xy[:, 1], **{"marker": ".", "label": label, **style})
+    index = list(mapping)
+    for state in track:
+        if particles and getattr(state, "state_vector", np.empty((0, 0))).shape[1] > 1:
+            cloud = np.asarray(state.state_vector)[index]
+            ax.scatter(cloud[0], cloud[1], s=1, alpha=0.15, color=line.get_color())
+        if uncertainty:
+            covar = np.asarray(state.covar)[np.ix_(index, index)]
+            mean = np.ravel(getattr(state, "mean", state.state_vector))[index]
+            _ellipse(ax, mean, covar, edgecolor=line.get_color())
+    return ax
+
+
+def plot_resampling(weights, points=None, ax=None):
+    """The resampling picture of the resampler tutorial: the cumulative weights as a step
+    function on [0, 1] and, if given, the uniform ``points`` a scheme drew, each falling on
+    the particle it selects."""
+    ax = _axes(ax)
+    weights = np.asarray(weights, dtype=np.float64)
+    cdf = np.concatenate(([0.0], np.cumsum(weights / weights.sum())))
+    for i in range(weights.size):
+        ax.barh(0, cdf[i + 1] - cdf[i], left=cdf[i], height=0.5, edgecolor="k",
+                label=f"particle {i}" if weights.size <= 10 else None)
+    if points is not None:
+        points = np.asarray(points)
+        ax.scatter(points, np.full(points.size, 0.35), marker="v", color="k", zorder=3)
+    ax.set_xlim(0, 1)
+    ax.set_yticks([])
+    ax.set_xlabel("cumulative weight")
+    return ax
+
+
+def save(ax, path, legend=True, title=None):
+    """Write the axes' figure to ``path`` (PNG by extension); returns the path."""
+    if title:
+        ax.set_title(title)
+    if legend and ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="best", fontsize="small")
+    ax.figure.savefig(path, dpi=100, bbox_inches="tight")
+    return path

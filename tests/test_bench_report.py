@@ -1,0 +1,52 @@
+"""bench/report.py: ratios from pytest-benchmark JSON, target checks and the plot."""
+import json
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+REPORT = pathlib.Path(__file__).resolve().parents[1] / "bench" / "report.py"
+
+
+def _bench(name, group, median, implementation=None):
+    return {"name": name, "group": group, "stats": {"median": median},
+            "params": {"implementation": implementation} if implementation else {},
+            "extra_info": {}}
+
+
+def _write(tmp_path, benchmarks):
+    path = tmp_path / "run.json"
+    path.write_text(json.dumps({"benchmarks": benchmarks, "machine_info": {}}))
+    return path
+
+
+def _run(*args):
+    return subprocess.run([sys.executable, str(REPORT), *map(str, args)], capture_output=True,
+                          text=True)
+
+
+def test_ratios_and_a_missed_target_named(tmp_path):
+    path = _write(tmp_path, [
+        _bench("test_fasttrack_ekf_step", "ekf-step N=1", 1e-5),
+        _bench("test_stonesoup_ekf_step", "ekf-step N=1", 5e-4),
+        _bench("test_pf_loop[dropin-1000]", "dropin-pf N=1000", 2e-3, "dropin"),
+        _bench("test_pf_loop[fasttrack-1000]", "dropin-pf N=1000", 1e-3, "fasttrack"),
+        _bench("test_pf_loop[stonesoup-1000]", "dropin-pf N=1000", 8e-3, "stonesoup"),
+    ])
+    done = _run(path)
+    assert done.returncode == 0
+    assert "| ekf-step | 1e+00 | 0.01 ms |  | 0.5 ms | 50x |" in done.stdout
+    assert "| dropin-pf | 1e+03 | 1 ms | 2 ms | 8 ms | 4x | 2x |" in done.stdout
+    checked = _run(path, "--check")
+    assert checked.returncode == 1
+    assert "MISSED: ekf-step N=1: stonesoup ratio 50 < target 60" in checked.stdout
+    assert "MISSED: resample-systematic N=1000000: stonesoup ratio not measured" in checked.stdout
+
+
+def test_plot_is_written(tmp_path):
+    pytest.importorskip("matplotlib")
+    path = _write(tmp_path, [_bench("test_fasttrack_x", f"pf-step N={n}", n * 1e-8)
+                             for n in (10**3, 10**4)])
+    done = _run(path, "--plot", tmp_path / "plot.png")
+    assert done.returncode == 0 and (tmp_path / "plot.png").stat().st_size > 5000
