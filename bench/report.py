@@ -117,6 +117,36 @@ def dropin_table(rows):
     return "\n".join(lines) if len(lines) > 2 else ""
 
 
+def montecarlo_table(path):
+    """Runs per second of the Monte Carlo benchmark per setup, and the Dask path's overhead
+    per run over the local pool (both with 2 workers)."""
+    with open(path) as f:
+        benchmarks = json.load(f)["benchmarks"]
+    runs, startup = {}, {}
+    for bench in benchmarks:
+        group, setup = bench["group"] or "", (bench.get("params") or {}).get("setup")
+        if group.startswith("montecarlo-pf"):
+            runs[setup] = (bench["extra_info"]["runs"], bench["stats"]["median"])
+        elif group == "montecarlo-startup":
+            startup[setup] = bench["stats"]["median"]
+    if not runs:
+        return ""
+    serial = runs.get("serial", (1, None))[1]
+    lines = ["| setup | runs | time | runs / s | vs serial | fresh start |",
+             "|---|---|---|---|---|---|"]
+    for setup in ("serial", "local-2", "dask-2"):
+        if setup in runs:
+            n, seconds = runs[setup]
+            lines.append(f"| {setup} | {n:,} | {seconds:.3g} s | {n / seconds:.0f} "
+                         f"| {_x(serial / seconds) if serial else ''} "
+                         f"| {f'{startup[setup]:.2g} s' if setup in startup else ''} |")
+    if "local-2" in runs and "dask-2" in runs:
+        (n, local), (_, dask) = runs["local-2"], runs["dask-2"]
+        lines.append(f"\nDask overhead per run over the local pool: "
+                     f"{(dask - local) / n * 1e3:.2g} ms")
+    return "\n".join(lines)
+
+
 def check(rows):
     """Messages for the targets that are missed or not measured."""
     found = {(w, n): r for w, n, _, r in rows}
@@ -178,9 +208,9 @@ def main(argv=None):
     medians, floors, machine = load(args.json)
     rows = ratios(medians, floors)
     print(table(rows))
-    extra = dropin_table(rows)
-    if extra:
-        print("\n" + extra)
+    for extra in (dropin_table(rows), montecarlo_table(args.json)):
+        if extra:
+            print("\n" + extra)
     cpu = machine.get("cpu", {}).get("brand_raw", "")
     print(f"\nMedians from {args.json} ({cpu}, {machine.get('cpu', {}).get('count', '?')} cores).")
     if args.plot:

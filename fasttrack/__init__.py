@@ -14,6 +14,9 @@ from .models import (Cartesian2DToBearing, CartesianToBearingRange,
                      TransitionModel)
 from .batch import BatchExtendedKalmanFilter
 from .memory import tune_allocator
+from .metrics import position_rmse
+from .montecarlo import (MetricSummary, RunFailure, TrialResults, local_cluster, run_seeds,
+                         run_trial, run_trials)
 from .kernel import (GaussianKernel, Kernel, LinearKernel, PolynomialKernel, QuadraticKernel,
                      QuarticKernel)
 from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
@@ -41,12 +44,13 @@ __all__ = [
     "KalmanUpdater", "Kernel", "KernelParticleState",
     "KernelParticleStateMeasurementPrediction", "KernelParticleStatePrediction",
     "KernelParticleStateUpdate", "LinearGaussian", "LinearGaussianTransitionModel",
-    "LinearKernel", "MeasurementModel", "MultinomialResampler",
+    "LinearKernel", "MeasurementModel", "MetricSummary", "MultinomialResampler",
     "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel", "Particle",
     "ParticlePredictor", "ParticleState", "ParticleStatePrediction", "ParticleStateUpdate",
     "ParticleUpdater", "PolynomialKernel", "QuadraticKernel", "QuarticKernel", "Resampler",
-    "ResidualMethod", "ResidualResampler", "SingleHypothesis", "State", "StratifiedResampler",
-    "SystematicResampler", "Track", "TransitionModel", "detections", "ess", "ground_truth",
-    "multinomial", "normalise", "residual", "seed", "stratified", "systematic",
-    "tune_allocator", "warmup",
+    "ResidualMethod", "ResidualResampler", "RunFailure", "SingleHypothesis", "State",
+    "StratifiedResampler", "SystematicResampler", "Track", "TransitionModel", "TrialResults",
+    "detections", "ess", "ground_truth", "local_cluster", "multinomial", "normalise",
+    "position_rmse", "residual", "run_seeds", "run_trial", "run_trials", "seed", "stratified",
+    "systematic", "tune_allocator", "warmup",
 ]

@@ -59,15 +59,28 @@ class ParticleUpdater:
         self.resampler = resampler
 
     def update(self, hypothesis):
-        """The posterior of ``hypothesis.prediction`` given ``hypothesis.measurement``.
-
-        ``log_weight += log p(z | particle)``, normalised with logsumexp, then the resampler.
+        """The posterior of ``hypothesis.prediction`` given ``hypothesis.measurement``:
+        :meth:`weigh`, then the resampler.
 
         Returns
         -------
         ParticleStateUpdate
             Sharing the prediction's ``state_vector`` (unless resampled), with ``hypothesis``,
             ``parent`` = the prediction's parent (its prior), and the prediction's timestamp.
+        """
+        update = self.weigh(hypothesis)
+        if self.resampler is not None:
+            update = self.resampler.resample(update)
+        return update
+
+    def weigh(self, hypothesis):
+        """The posterior before resampling: ``log_weight += log p(z | particle)``,
+        normalised with logsumexp.
+
+        Returns
+        -------
+        ParticleStateUpdate
+            As :meth:`update` returns it without a resampler.
         """
         _check_hypothesis(hypothesis)
         prediction = hypothesis.prediction
@@ -88,12 +101,9 @@ class ParticleUpdater:
             raise ValueError("every particle has zero likelihood for this measurement: "
                              "no weight survives")
         _weights.normalise_in_place(log_w, top)
-        update = ParticleStateUpdate._trusted(
+        return ParticleStateUpdate._trusted(
             prediction.state_vector, log_w, timestamp=prediction.timestamp,
             parent=prediction.parent, hypothesis=hypothesis, fixed_covar=prediction.fixed_covar)
-        if self.resampler is not None:
-            update = self.resampler.resample(update)
-        return update
 
 
 _STATUS_ERRORS = {

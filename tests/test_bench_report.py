@@ -50,3 +50,20 @@ def test_plot_is_written(tmp_path):
                              for n in (10**3, 10**4)])
     done = _run(path, "--plot", tmp_path / "plot.png")
     assert done.returncode == 0 and (tmp_path / "plot.png").stat().st_size > 5000
+
+
+def test_montecarlo_table(tmp_path):
+    def runs(setup, median):
+        return {"name": f"test_thousand_pf_runs[{setup}]", "group": "montecarlo-pf runs=1000",
+                "stats": {"median": median}, "params": {"setup": setup},
+                "extra_info": {"runs": 1000}}
+
+    startup = _bench("test_startup[local-2]", "montecarlo-startup", 1.25)
+    startup["params"] = {"setup": "local-2"}
+    path = _write(tmp_path, [runs("serial", 5.0), runs("local-2", 2.5), runs("dask-2", 3.0),
+                             startup])
+    done = _run(path)
+    assert done.returncode == 0
+    assert "| local-2 | 1,000 | 2.5 s | 400 | 2x | 1.2 s |" in done.stdout
+    assert "| dask-2 | 1,000 | 3 s | 333 | 1.67x |  |" in done.stdout
+    assert "Dask overhead per run over the local pool: 0.5 ms" in done.stdout

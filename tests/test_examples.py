@@ -43,3 +43,14 @@ def test_api_reference_builds_without_warnings(tmp_path):
                            str(tmp_path)], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "api.html").stat().st_size > 50_000
+
+
+def test_guide_monte_carlo_runs():
+    import re
+    guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()
+    code = re.search(r"## Monte Carlo evaluation\n.*?```python\n(.*?)```", guide, re.S).group(1)
+    namespace = {}
+    exec(compile(code, "guide monte carlo", "exec"), namespace)
+    results = namespace["results"]
+    assert not results.failures and len(namespace["rmse_by_step"]) == 21
+    assert {s.metric for s in results.summary()} == {"rmse", "anees", "anis", "step_seconds"}

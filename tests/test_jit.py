@@ -175,8 +175,8 @@ def test_every_kernel_has_a_mirror_with_the_same_arguments():
 def test_public_names_are_importable_from_the_package_and_their_module():
     import importlib
     domains = [importlib.import_module(f"fasttrack.{name}") for name in (
-        "batch", "kernel", "memory", "models", "predictor", "random", "resampler", "resampling", "simulate",
-        "types", "updater")]
+        "batch", "kernel", "memory", "metrics", "models", "montecarlo", "predictor", "random",
+        "resampler", "resampling", "simulate", "types", "updater")]
     for name in fasttrack.__all__:
         obj = getattr(fasttrack, name)
         if name == "warmup":

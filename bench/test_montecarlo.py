@@ -1,0 +1,72 @@
+"""Monte Carlo throughput: 1,000 runs of the particle-filter tutorial (21 steps, N = 1000,
+systematic resampling every step), each scenario simulated from its run's seed, scored with
+every metric: in this process on one Numba thread, on a local pool of 2 worker processes,
+and on a 2-worker Dask LocalCluster (one thread each).
+
+The local pool and the cluster are started, and their kernels compiled, before timing;
+``test_startup`` times what a fresh pool and a fresh cluster cost before their first run.
+``python bench/report.py`` turns the medians into runs per second and the Dask path's
+overhead per run over the local pool.
+"""
+import functools
+
+import numba
+import pytest
+
+import fasttrack as ft
+from fasttrack import montecarlo
+from fasttrack.scenarios import particle_filter_tutorial
+
+N_RUNS = 1000
+SCENARIO = functools.partial(particle_filter_tutorial, n_particles=1000)
+
+
+def make_filter(scenario, rng):
+    return (ft.ParticlePredictor(scenario.transition_model, rng=rng),
+            ft.ParticleUpdater(scenario.measurement_model, ft.SystematicResampler(rng=rng)))
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    pytest.importorskip("distributed")
+    with montecarlo.local_cluster(2) as client:
+        yield client
+
+
+def _trials(n_runs, where):
+    return ft.run_trials(SCENARIO, make_filter, n_runs, seed=1, progress=False, **where)
+
+
+@pytest.mark.parametrize("setup", ["serial", "local-2", "dask-2"])
+def test_thousand_pf_runs(benchmark, setup, request):
+    benchmark.group = f"montecarlo-pf runs={N_RUNS}"
+    benchmark.extra_info["runs"] = N_RUNS
+    where = ({"client": request.getfixturevalue("cluster")} if setup == "dask-2"
+             else {"processes": 1 if setup == "serial" else 2})
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)  # for the serial setup: one core (workers use one thread each)
+    try:
+        _trials(8, where)  # workers started, kernels loaded
+        results = benchmark.pedantic(lambda: _trials(N_RUNS, where), rounds=3, iterations=1)
+    finally:
+        numba.set_num_threads(threads)
+    assert not results.failures and len(results.table) == 21 * N_RUNS
+
+
+@pytest.mark.parametrize("setup", ["local-2", "dask-2"])
+def test_startup(benchmark, setup):
+    """A fresh pool or cluster, to the end of its first 2 runs (kernels from the cache)."""
+    benchmark.group = "montecarlo-startup"
+    if setup == "dask-2":
+        pytest.importorskip("distributed")
+
+    def local():
+        montecarlo._local_pool(2).shutdown()
+        montecarlo._pool.clear()
+        ft.run_trials(SCENARIO, make_filter, 2, seed=0, processes=2, progress=False)
+
+    def dask():
+        with montecarlo.local_cluster(2) as client:
+            ft.run_trials(SCENARIO, make_filter, 2, seed=0, client=client, progress=False)
+
+    benchmark.pedantic(local if setup == "local-2" else dask, rounds=3, iterations=1)

@@ -1,0 +1,306 @@
+"""Monte Carlo runs: seeding, metrics, the local pool, a Dask LocalCluster, lost workers and
+failing runs."""
+import datetime
+import functools
+import os
+import signal
+import sys
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import fasttrack as ft
+from fasttrack import montecarlo as mc
+from fasttrack.scenarios import Scenario, adaptive_kernel_tutorial, particle_filter_tutorial
+
+START = datetime.datetime(2026, 1, 1)
+COLUMNS = ("run", "step", "time", "position_error", "nees", "nis", "ess")
+
+
+def pf_scenario(seed):
+    return particle_filter_tutorial(n_particles=300, seed=seed, steps=10)
+
+
+def make_pf(scenario, rng):
+    return (ft.ParticlePredictor(scenario.transition_model, rng=rng),
+            ft.ParticleUpdater(scenario.measurement_model, ft.SystematicResampler(rng=rng)))
+
+
+def linear_scenario(seed, steps=15):
+    """A CV target seen in position with unit noise; the truth starts from a draw of the
+    prior, so that a Kalman filter is consistent (NEES ~ chi2(4), NIS ~ chi2(2))."""
+    rng = np.random.default_rng(seed)
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.1)] * 2)
+    sensor = ft.LinearGaussian(4, (0, 2), np.eye(2))
+    mean, covar = np.array([0.0, 1.0, 0.0, 1.0]), np.diag([4.0, 0.5, 4.0, 0.5])
+    truth = ft.ground_truth(transition, rng.multivariate_normal(mean, covar), steps,
+                            start_time=0.0, rng=rng)  # timestamps in seconds, not datetimes
+    return Scenario(transition, sensor, truth, ft.detections(truth, sensor, rng=rng),
+                    ft.GaussianState(mean, covar, timestamp=0.0))
+
+
+def make_kalman(scenario, rng):
+    return ft.KalmanPredictor(scenario.transition_model), ft.KalmanUpdater(scenario.measurement_model)
+
+
+def make_akkf(scenario, rng):
+    kernel = ft.QuadraticKernel(c=1, ialpha=1)
+    return (ft.AdaptiveKernelKalmanPredictor(scenario.transition_model, kernel),
+            ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, kernel, rng=rng))
+
+
+def dropout_scenario(seed):
+    """The PF scenario with, in about a third of the runs, a NaN detection (a sensor
+    dropout the filter must refuse)."""
+    scenario = pf_scenario(seed)
+    if scenario.detections[0].state_vector[1, 0] > 50.4:  # the first range: 50 +- 1 m
+        scenario.detections[4].state_vector[:] = np.nan
+    return scenario
+
+
+def killing_scenario(marker, seed):
+    """The PF scenario, but the first call anywhere kills its own process (SIGKILL)."""
+    if not os.path.exists(marker):
+        open(marker, "w").close()
+        os.kill(os.getpid(), signal.SIGKILL)
+    return pf_scenario(seed)
+
+
+def assert_same_results(a, b):
+    assert a.table.dtype.names == b.table.dtype.names
+    for name in COLUMNS:
+        np.testing.assert_array_equal(a.table[name], b.table[name], err_msg=name)
+    assert [f.run for f in a.failures] == [f.run for f in b.failures]
+
+
+@pytest.fixture(scope="module")
+def serial_pf():
+    return mc.run_trials(pf_scenario, make_pf, 12, seed=7, processes=1, progress=False)
+
+
+def test_a_run_is_the_filter_on_its_own_seeds(serial_pf):
+    run = 5
+    run_seed = mc.run_seeds(7, 12)[run]
+    scenario_seed, filter_seed = run_seed.spawn(2)
+    scenario = pf_scenario(scenario_seed)
+    predictor, updater = make_pf(scenario, np.random.default_rng(filter_seed))
+    state, ess, track = scenario.prior, [], ft.Track()
+    for detection in scenario.detections:
+        prediction = predictor.predict(state, timestamp=detection.timestamp)
+        weighted = ft.ParticleUpdater(scenario.measurement_model).update(
+            ft.SingleHypothesis(prediction, detection))
+        ess.append(1 / np.sum(weighted.weight ** 2))
+        state = updater.resampler.resample(weighted)
+        track.append(state)
+    rows = serial_pf.table[serial_pf.table["run"] == run]
+    np.testing.assert_array_equal(rows["step"], np.arange(10))
+    np.testing.assert_array_equal(rows["time"], np.arange(10.0))
+    errors = [np.hypot(*(s.mean[[0, 2], 0] - t.state_vector[[0, 2], 0]))
+              for s, t in zip(track, scenario.truth)]
+    np.testing.assert_allclose(rows["position_error"], errors, rtol=1e-12)
+    np.testing.assert_allclose(rows["ess"], ess, rtol=1e-10)
+    assert np.isnan(rows["nees"]).all() and np.isnan(rows["nis"]).all()
+    assert (rows["step_seconds"] > 0).all()
+    per_run = serial_pf.per_run()
+    assert per_run["rmse"][run] == pytest.approx(ft.position_rmse(track, scenario.truth),
+                                                 rel=1e-12)
+
+
+def test_results_do_not_depend_on_processes_or_batches(serial_pf):
+    pooled = mc.run_trials(pf_scenario, make_pf, 12, seed=7, processes=2, batch_size=5,
+                           progress=False)
+    assert_same_results(serial_pf, pooled)
+    single_batches = mc.run_trials(pf_scenario, make_pf, 12, seed=7, processes=1,
+                                   batch_size=1, progress=False)
+    assert_same_results(serial_pf, single_batches)
+
+
+def test_kalman_nees_and_nis_are_chi_square():
+    results = mc.run_trials(linear_scenario, make_kalman, 300, seed=11, processes=1,
+                            progress=False)
+    summary = {s.metric: s for s in results.summary()}
+    assert set(summary) == {"rmse", "anees", "anis", "step_seconds"}
+    assert summary["anees"].mean == pytest.approx(4.0, abs=0.3)
+    assert summary["anis"].mean == pytest.approx(2.0, abs=0.2)
+    # NIS per step, pooled over runs, is chi2(2)
+    assert stats.kstest(results.table["nis"], stats.chi2(2).cdf).pvalue > 1e-3
+    assert len(results.rmse_over_time()) == 15
+
+
+def test_nees_and_nis_against_the_formulas():
+    results = mc.run_trials(linear_scenario, make_kalman, 2, seed=3, processes=1,
+                            progress=False)
+    scenario_seed, _ = mc.run_seeds(3, 2)[1].spawn(2)
+    scenario = linear_scenario(scenario_seed)
+    predictor, updater = make_kalman(scenario, None)
+    state, nees, nis = scenario.prior, [], []
+    for detection, truth in zip(scenario.detections, scenario.truth):
+        hypothesis = ft.SingleHypothesis(predictor.predict(state, detection.timestamp), detection)
+        state = updater.update(hypothesis)
+        e = state.state_vector[:, 0] - truth.state_vector[:, 0]
+        nees.append(e @ np.linalg.inv(state.covar) @ e)
+        z = hypothesis.measurement_prediction
+        v = detection.state_vector[:, 0] - z.state_vector[:, 0]
+        nis.append(v @ np.linalg.inv(z.covar) @ v)
+    rows = results.table[results.table["run"] == 1]
+    np.testing.assert_array_equal(rows["time"], np.arange(15.0))
+    np.testing.assert_allclose(rows["nees"], nees, rtol=1e-9)
+    np.testing.assert_allclose(rows["nis"], nis, rtol=1e-9)
+
+
+def test_nis_wraps_the_bearing():
+    sensor = ft.Cartesian2DToBearing(4, (0, 2), np.array([[0.01]]))
+    predicted = ft.GaussianMeasurementPrediction([[np.pi - 0.05]], [[0.01]])
+    hypothesis = ft.SingleHypothesis(None, ft.Detection([[-np.pi + 0.05]]))
+    hypothesis.measurement_prediction = predicted
+    (nis,) = mc._score(("nis",), None, None, hypothesis, sensor, [0, 2], np.nan, 0.0)
+    assert nis == pytest.approx(0.1 ** 2 / 0.01)
+
+
+def test_adaptive_kernel_filter_runs():
+    scenario = functools.partial(adaptive_kernel_tutorial, n_particles=20, steps=8)
+    results = mc.run_trials(scenario, make_akkf, 4, seed=2, processes=1, progress=False)
+    assert not results.failures
+    assert np.isfinite(results.table["position_error"]).all()
+    assert [s.metric for s in results.summary()] == ["rmse", "step_seconds"]
+
+
+def test_summary_is_a_t_interval():
+    table = np.zeros(6, mc._row_dtype(("position_error", "nees")))
+    table["run"] = [0, 0, 1, 1, 2, 2]
+    table["step"] = [0, 1] * 3
+    table["position_error"] = [3.0, 4.0, 1.0, 1.0, 0.0, 2.0]
+    table["nees"] = [1.0, np.nan, 2.0, 4.0, 5.0, 7.0]
+    results = mc.TrialResults(table, [], np.random.SeedSequence(0), 3)
+    rmse = np.sqrt([12.5, 1.0, 2.0])
+    summary = {s.metric: s for s in results.summary(confidence=0.9)}
+    low, high = stats.t.interval(0.9, 2, loc=rmse.mean(), scale=stats.sem(rmse))
+    assert (summary["rmse"].low, summary["rmse"].high) == pytest.approx((low, high))
+    assert summary["anees"].mean == pytest.approx(np.mean([1.0, 3.0, 6.0]))
+    np.testing.assert_allclose(results.rmse_over_time(), np.sqrt([10 / 3, 7.0]))
+    assert "3 of 3 runs completed" in str(results)
+
+
+def test_failing_runs_are_reported_and_the_others_complete():
+    with pytest.warns(RuntimeWarning, match="runs failed"):
+        results = mc.run_trials(dropout_scenario, make_pf, 16, seed=5, processes=1,
+                                progress=False)
+    expected = set()
+    for run, run_seed in enumerate(mc.run_seeds(5, 16)):
+        try:
+            mc.run_trial(dropout_scenario, make_pf, run_seed)
+        except ValueError:
+            expected.add(run)
+    assert 0 < len(expected) < 16
+    assert {f.run for f in results.failures} == expected
+    assert set(np.unique(results.table["run"])) == set(range(16)) - expected
+    for failure in results.failures:
+        assert failure.error.startswith("ValueError") and "NaN" in failure.error
+        assert "Traceback" in failure.traceback
+        with pytest.raises(ValueError, match="NaN"):
+            mc.run_trial(dropout_scenario, make_pf, failure.seed)
+    assert f"run {results.failures[0].run} failed" in str(results)
+
+
+def test_killed_local_worker_is_replaced_and_its_batch_rerun(tmp_path, serial_pf):
+    scenario = functools.partial(killing_scenario, str(tmp_path / "killed"))
+    results = mc.run_trials(scenario, make_pf, 12, seed=7, processes=2, batch_size=3,
+                            progress=False)
+    assert (tmp_path / "killed").exists()
+    assert_same_results(serial_pf, results)
+
+
+def test_a_batch_that_always_kills_its_worker_fails_its_runs():
+    def always_killing(seed):
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    with pytest.warns(RuntimeWarning, match="4 of 4 runs failed"):
+        results = mc.run_trials(always_killing, make_pf, 4, seed=1, processes=2,
+                                max_retries=1, progress=False)
+    assert [f.run for f in results.failures] == [0, 1, 2, 3]
+    assert all("died 2 times" in f.error for f in results.failures)
+
+
+@pytest.fixture(scope="module")
+def dask_client():
+    pytest.importorskip("distributed")
+    with mc.local_cluster(2) as client:
+        assert len(client.nthreads()) == 2
+        yield client
+
+
+def test_dask_results_equal_local_results(dask_client, serial_pf):
+    results = mc.run_trials(pf_scenario, make_pf, 12, seed=7, client=dask_client,
+                            batch_size=4, progress=False)
+    assert_same_results(serial_pf, results)
+
+
+def test_killed_dask_worker_task_is_retried(dask_client, serial_pf, tmp_path):
+    scenario = functools.partial(killing_scenario, str(tmp_path / "killed"))
+    results = mc.run_trials(scenario, make_pf, 12, seed=7, client=dask_client, batch_size=3,
+                            progress=False)
+    assert (tmp_path / "killed").exists()
+    assert_same_results(serial_pf, results)
+
+
+def test_failing_runs_on_dask(dask_client):
+    with pytest.warns(RuntimeWarning):
+        remote = mc.run_trials(dropout_scenario, make_pf, 8, seed=5, client=dask_client,
+                               progress=False)
+    with pytest.warns(RuntimeWarning):
+        local = mc.run_trials(dropout_scenario, make_pf, 8, seed=5, processes=1,
+                              progress=False)
+    assert_same_results(local, remote)
+    assert [f.error for f in local.failures] == [f.error for f in remote.failures]
+
+
+def test_bad_arguments():
+    with pytest.raises(ValueError, match="n_runs"):
+        mc.run_trials(pf_scenario, make_pf, 0)
+    with pytest.raises(ValueError, match="metrics"):
+        mc.run_trials(pf_scenario, make_pf, 2, metrics=("rmse",))
+    with pytest.raises(ValueError, match="batch_size"):
+        mc.run_trials(pf_scenario, make_pf, 2, batch_size=0, processes=1)
+    with pytest.raises(TypeError, match="processes"):
+        mc.run_trials(pf_scenario, make_pf, 2, processes=1.5)
+    with pytest.raises(ValueError, match="processes is for local runs"):
+        mc.run_trials(pf_scenario, make_pf, 2, processes=2, client=object())
+    with pytest.raises(ValueError, match="confidence"):
+        mc.TrialResults(np.zeros(0, mc._row_dtype(mc.METRICS)), [], None, 0).summary(1.0)
+
+
+def test_asking_for_dask_without_it_says_how_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(ImportError, match=r"fasttrack\[distributed\]"):
+        mc.run_trials(pf_scenario, make_pf, 2, client="tcp://127.0.0.1:8786")
+    with pytest.raises(ImportError, match=r"fasttrack\[distributed\]"):
+        with mc.local_cluster(2):
+            pass
+
+
+def test_local_runs_work_without_dask(monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    results = mc.run_trials(pf_scenario, make_pf, 2, seed=1, processes=1, progress=False)
+    assert len(np.unique(results.table["run"])) == 2
+
+
+def test_progress_bar(capsys, monkeypatch):
+    bar = mc._Progress(10, enabled=True)
+    bar.start -= 5.0
+    monkeypatch.setattr(bar, "tty", False)
+    for _ in range(10):
+        bar.advance(1)
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 10 and lines[-1].startswith("[" + "#" * 30 + "] 10/10 runs")
+    quiet = mc._Progress(10, enabled=False)
+    quiet.start -= 5.0
+    quiet.advance(10)
+    assert capsys.readouterr().err == ""
+
+
+def test_dataframe():
+    pytest.importorskip("pandas")
+    results = mc.run_trials(pf_scenario, make_pf, 2, seed=1, processes=1, progress=False)
+    frame = results.to_dataframe()
+    assert list(frame.columns) == list(results.table.dtype.names) and len(frame) == 20
