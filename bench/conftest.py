@@ -6,11 +6,13 @@ Run:  python -m pytest bench --benchmark-json=bench/results/latest.json
 Smoke (no timing, as in CI):  python -m pytest bench --benchmark-disable
 
 The process runs with ``fasttrack.tune_allocator()`` (both sides of every ratio run in it);
-set FASTTRACK_BENCH_DEFAULT_ALLOCATOR=1 for glibc's defaults.
+set FASTTRACK_BENCH_DEFAULT_ALLOCATOR=1 for glibc's defaults. Timed rounds start once NumPy's
+BLAS threads, woken by a set-up or the previous benchmark, have gone back to sleep.
 """
 import os
 import pathlib
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -27,6 +29,26 @@ def rounds_for(n, slow=False):
     if slow:
         return 5 if n >= 10**5 else 15
     return 21 if n >= 10**5 else 50
+
+
+#: Seconds NumPy's OpenBLAS threads keep spinning after a threaded product (about 0.1 s
+#: here), during which they take a core from the parallel kernels.
+BLAS_SPIN = 0.3
+
+
+@pytest.fixture
+def benchmark(benchmark):
+    """pytest-benchmark's fixture, whose timed rounds start once the BLAS threads that a
+    test's set-up (or the previous test) woke have gone back to sleep."""
+    pedantic = benchmark.pedantic
+
+    def settled(*args, **kwargs):
+        if not benchmark.disabled:
+            time.sleep(BLAS_SPIN)
+        return pedantic(*args, **kwargs)
+
+    benchmark.pedantic = settled
+    return benchmark
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -11,6 +11,7 @@ import contextlib
 import dataclasses
 import math
 import multiprocessing
+import numbers
 import os
 import pickle
 import sys
@@ -35,14 +36,34 @@ _INSTALL = "pip install 'fasttrack[distributed]'"
 def run_seeds(seed, n_runs):
     """The per-run seeds of ``run_trials(..., n_runs, seed=seed)``:
     ``numpy.random.SeedSequence(seed).spawn(n_runs)``."""
-    return np.random.SeedSequence(seed).spawn(n_runs)
+    return _children(_root_seed(seed), count(n_runs, "n_runs"))
 
 
-def _split(run_seed):
-    """The scenario's and the filter's seeds of a run: its first two children, derived
-    afresh (whatever ``run_seed`` has spawned already)."""
-    return [np.random.SeedSequence(run_seed.entropy, spawn_key=run_seed.spawn_key + (k,),
-                                   pool_size=run_seed.pool_size) for k in (0, 1)]
+def _root_seed(seed):
+    if seed is None or isinstance(seed, np.random.SeedSequence):
+        return np.random.SeedSequence(seed) if seed is None else seed
+    if not isinstance(seed, numbers.Integral) or isinstance(seed, bool):
+        raise TypeError(f"seed must be None, an int or a numpy.random.SeedSequence, "
+                        f"got {type(seed).__name__}")
+    if seed < 0:
+        raise ValueError(f"seed must be >= 0, got {seed}")
+    return np.random.SeedSequence(int(seed))
+
+
+def _check_mapping(mapping):
+    """``position_mapping`` as a list of distinct non-negative ints."""
+    index = list(mapping) if isinstance(mapping, (list, tuple, np.ndarray)) else None
+    if (not index or len(set(index)) != len(index)
+            or not all(isinstance(i, numbers.Integral) and i >= 0 for i in index)):
+        raise ValueError(f"position_mapping must be distinct non-negative state indices, "
+                         f"got {mapping!r}")
+    return [int(i) for i in index]
+
+
+def _children(seed, n):
+    """What ``seed.spawn(n)`` gives on a fresh ``seed``, whatever it has spawned already."""
+    return [np.random.SeedSequence(seed.entropy, spawn_key=seed.spawn_key + (k,),
+                                   pool_size=seed.pool_size) for k in range(n)]
 
 
 def _row_dtype(metrics):
@@ -110,13 +131,16 @@ def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping
         Whatever the scenario, the filter or the scoring raises.
     """
     metrics = _check_metrics(metrics)
-    scenario_seed, filter_seed = _split(run_seed)
+    mapping = _check_mapping(position_mapping)
+    if not isinstance(run_seed, np.random.SeedSequence):
+        raise TypeError(f"run_seed must be a numpy.random.SeedSequence (see run_seeds), "
+                        f"got {type(run_seed).__name__}")
+    scenario_seed, filter_seed = _children(run_seed, 2)
     world = scenario(seed=scenario_seed)
     predictor, updater = make_filter(world, np.random.default_rng(filter_seed))
     truth = {state.timestamp: state for state in world.truth}
     rows = np.zeros(len(world.detections), _row_dtype(metrics))
     rows["run"] = -1
-    mapping = list(position_mapping)
     weigh = getattr(updater, "weigh", None) if "ess" in metrics else None
     state, start = world.prior, None
     for step, detection in enumerate(world.detections):
@@ -497,7 +521,8 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client
     if client is not None and processes is not None:
         raise ValueError("processes is for local runs; with a client, the cluster's "
                          "workers run the tasks")
-    root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    root = _root_seed(seed)
+    mapping = _check_mapping(position_mapping)
     client = None if client is None else _client(client)
     if client is not None:
         workers = max(1, sum(client.nthreads().values()))
@@ -507,11 +532,10 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client
     if batch_size is None:
         batch_size = max(1, min(100, math.ceil(n_runs / (4 * workers))))
     batch_size = count(batch_size, "batch_size")
-    runs = list(enumerate(root.spawn(n_runs)))
+    runs = list(enumerate(_children(root, n_runs)))
     batches = [runs[i:i + batch_size] for i in range(0, n_runs, batch_size)]
     single = client is None and processes == 1
-    payload = _serialise(scenario, make_filter, metrics, tuple(position_mapping),
-                         None if single else 1)
+    payload = _serialise(scenario, make_filter, metrics, mapping, None if single else 1)
     results = (_run_dask(client, payload, batches) if client is not None
                else _run_local(payload, batches, processes, max_retries))
     bar = _Progress(n_runs, progress)

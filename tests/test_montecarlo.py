@@ -107,6 +107,14 @@ def test_a_run_is_the_filter_on_its_own_seeds(serial_pf):
                                                  rel=1e-12)
 
 
+def test_a_seed_sequence_gives_the_same_runs_each_time(serial_pf):
+    root = np.random.SeedSequence(7)
+    root.spawn(3)  # already spawned from: the runs still come from a fresh spawn
+    again = mc.run_trials(pf_scenario, make_pf, 12, seed=root, processes=1, progress=False)
+    assert_same_results(serial_pf, again)
+    assert [s.spawn_key for s in mc.run_seeds(root, 2)] == [(0,), (1,)]
+
+
 def test_results_do_not_depend_on_processes_or_batches(serial_pf):
     pooled = mc.run_trials(pf_scenario, make_pf, 12, seed=7, processes=2, batch_size=5,
                            progress=False)
@@ -266,6 +274,23 @@ def test_bad_arguments():
         mc.run_trials(pf_scenario, make_pf, 2, processes=1.5)
     with pytest.raises(ValueError, match="processes is for local runs"):
         mc.run_trials(pf_scenario, make_pf, 2, processes=2, client=object())
+    with pytest.raises(ValueError, match="seed"):
+        mc.run_trials(pf_scenario, make_pf, 2, seed=-1)
+    with pytest.raises(TypeError, match="seed"):
+        mc.run_trials(pf_scenario, make_pf, 2, seed=np.random.default_rng(0))
+    with pytest.raises(ValueError, match="position_mapping"):
+        mc.run_trials(pf_scenario, make_pf, 2, position_mapping=(0, 0))
+    with pytest.raises(ValueError, match="position_mapping"):
+        mc.run_trials(pf_scenario, make_pf, 2, position_mapping=())
+    with pytest.raises(TypeError, match="max_retries"):
+        mc.run_trials(pf_scenario, make_pf, 2, max_retries=None)
+    with pytest.raises(TypeError, match="run_seed"):
+        mc.run_trial(pf_scenario, make_pf, 3)
+    with pytest.raises(ValueError, match="n_runs"):
+        mc.run_seeds(1, 0)
+    with pytest.raises(ValueError, match="n_workers"):
+        with mc.local_cluster(0):
+            pass
     with pytest.raises(ValueError, match="confidence"):
         mc.TrialResults(np.zeros(0, mc._row_dtype(mc.METRICS)), [], None, 0).summary(1.0)
 
