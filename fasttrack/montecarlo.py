@@ -363,7 +363,7 @@ def _local_cores():
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:
-        return os.cpucount() or 1
+        return os.cpu_count() or 1
 
 
 _pool = {}
@@ -430,13 +430,16 @@ def _run_dask(client, payload, batches):
         raise ImportError(f"run_trials with a client needs Dask: {_INSTALL}") from None
     futures = {client.submit(_run_batch, payload, batch, pure=False): batch
                for batch in batches}
-    for future in as_completed(futures):
-        batch = futures[future]
-        try:
-            result = future.result()
-        except KilledWorker as error:
-            result = _lost(batch, f"Dask gave up on the task: {error}")
-        yield batch, result
+    try:
+        for future in as_completed(futures):
+            batch = futures[future]
+            try:
+                result = future.result()
+            except KilledWorker as error:
+                result = _lost(batch, f"Dask gave up on the task: {error}")
+            yield batch, result
+    finally:  # an interrupted call leaves no queued work behind
+        client.cancel(list(futures))
 
 
 @contextlib.contextmanager
@@ -457,15 +460,19 @@ def local_cluster(n_workers=None):
         yield client
 
 
+@contextlib.contextmanager
 def _client(client):
-    """A ``distributed.Client`` from a client or a scheduler address."""
+    """The ``distributed.Client`` given, or one connected to the scheduler address given
+    (closed on exit)."""
     if not isinstance(client, str):
-        return client
+        yield client
+        return
     try:
         from distributed import Client
     except ImportError:
         raise ImportError(f"connecting to a Dask scheduler needs Dask: {_INSTALL}") from None
-    return Client(client)
+    with Client(client) as connected:
+        yield connected
 
 
 def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client=None,
@@ -523,21 +530,33 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client
                          "workers run the tasks")
     root = _root_seed(seed)
     mapping = _check_mapping(position_mapping)
-    client = None if client is None else _client(client)
-    if client is not None:
-        workers = max(1, sum(client.nthreads().values()))
-    else:
+    if client is None:
         processes = _local_cores() if processes is None else count(processes, "processes")
-        workers = processes
+        batches = _batches(root, n_runs, batch_size, processes)
+        payload = _serialise(scenario, make_filter, metrics, mapping,
+                             None if processes == 1 else 1)
+        return _collect(_run_local(payload, batches, processes, max_retries), root, n_runs,
+                        metrics, progress)
+    with _client(client) as connected:
+        batches = _batches(root, n_runs, batch_size, sum(connected.nthreads().values()))
+        payload = _serialise(scenario, make_filter, metrics, mapping, 1)
+        return _collect(_run_dask(connected, payload, batches), root, n_runs, metrics,
+                        progress)
+
+
+def _batches(root, n_runs, batch_size, workers):
+    """The (index, seed) pairs of the runs in batches of ``batch_size`` (default: about
+    four batches per worker, at most 100 runs each)."""
     if batch_size is None:
-        batch_size = max(1, min(100, math.ceil(n_runs / (4 * workers))))
+        batch_size = max(1, min(100, math.ceil(n_runs / (4 * max(1, workers)))))
     batch_size = count(batch_size, "batch_size")
     runs = list(enumerate(_children(root, n_runs)))
-    batches = [runs[i:i + batch_size] for i in range(0, n_runs, batch_size)]
-    single = client is None and processes == 1
-    payload = _serialise(scenario, make_filter, metrics, mapping, None if single else 1)
-    results = (_run_dask(client, payload, batches) if client is not None
-               else _run_local(payload, batches, processes, max_retries))
+    return [runs[i:i + batch_size] for i in range(0, n_runs, batch_size)]
+
+
+def _collect(results, root, n_runs, metrics, progress):
+    """The :class:`TrialResults` of the batches' ``results``, as they come in, with the
+    progress bar; warns if runs failed."""
     bar = _Progress(n_runs, progress)
     tables, failures = [], []
     try:
@@ -553,5 +572,5 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client
     if failures:
         warnings.warn(f"{len(failures)} of {n_runs} runs failed (first: run {failures[0].run}, "
                       f"{failures[0].error}); see results.failures", RuntimeWarning,
-                      stacklevel=2)
+                      stacklevel=3)
     return TrialResults(table, failures, root, n_runs)

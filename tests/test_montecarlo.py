@@ -5,6 +5,7 @@ import functools
 import os
 import signal
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -242,6 +243,20 @@ def test_dask_results_equal_local_results(dask_client, serial_pf):
     results = mc.run_trials(pf_scenario, make_pf, 12, seed=7, client=dask_client,
                             batch_size=4, progress=False)
     assert_same_results(serial_pf, results)
+
+
+def test_a_scheduler_address_connects_and_disconnects(dask_client, serial_pf):
+    def connected():
+        return len(dask_client.run_on_scheduler(lambda dask_scheduler: dask_scheduler.clients))
+
+    before = connected()
+    results = mc.run_trials(pf_scenario, make_pf, 12, seed=7,
+                            client=dask_client.scheduler.address, progress=False)
+    assert_same_results(serial_pf, results)
+    deadline = time.monotonic() + 10
+    while connected() != before and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert connected() == before
 
 
 def test_killed_dask_worker_task_is_retried(dask_client, serial_pf, tmp_path):
