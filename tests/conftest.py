@@ -14,3 +14,31 @@ def _seeded():
 def stream_key(seed):
     """The stream key that ``rng=seed`` gives the kernels (see fasttrack.random)."""
     return int(np.random.default_rng(seed).integers(0, 2**63 - 1))
+
+
+def stonesoup_tutorial(seed, sensor_class=None):
+    """The particle-filter and EKF tutorials' scenario built with Stone Soup itself, from
+    ``np.random.seed(seed)``: ``(transition, sensor, truth, detections)``; ``sensor_class``
+    replaces Stone Soup's CartesianToBearingRange."""
+    import datetime
+
+    from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
+    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                    ConstantVelocity)
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.groundtruth import GroundTruthPath, GroundTruthState
+
+    start, second = datetime.datetime(2026, 1, 1), datetime.timedelta(seconds=1)
+    np.random.seed(seed)
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
+    truth = GroundTruthPath([GroundTruthState([0, 1, 0, 1], timestamp=start)])
+    for k in range(1, 21):
+        truth.append(GroundTruthState(transition.function(truth[k - 1], noise=True,
+                                                          time_interval=second),
+                                      timestamp=start + k * second))
+    sensor = (sensor_class or CartesianToBearingRange)(
+        ndim_state=4, mapping=(0, 2), noise_covar=np.diag([np.radians(0.2), 1.0]),
+        translation_offset=np.array([[50], [0]]))
+    detections = [Detection(sensor.function(s, noise=True), timestamp=s.timestamp,
+                            measurement_model=sensor) for s in truth]
+    return transition, sensor, truth, detections

@@ -10,6 +10,7 @@ from fasttrack._jit import jacobian as jac_kernels
 from fasttrack._jit import kalman as kernels
 
 import reference
+from conftest import stonesoup_tutorial
 from user_models import bearing_range_from_50_0, coordinated_turn
 
 START = datetime.datetime(2026, 1, 1)
@@ -130,11 +131,7 @@ def test_kalman_kernels_match_mirrors():
 
 def _stonesoup_ekf_run(exact_jacobian):
     from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
-    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
-                                                    ConstantVelocity)
     from stonesoup.predictor.kalman import ExtendedKalmanPredictor
-    from stonesoup.types.detection import Detection
-    from stonesoup.types.groundtruth import GroundTruthPath, GroundTruthState
     from stonesoup.types.hypothesis import SingleHypothesis
     from stonesoup.types.state import GaussianState
     from stonesoup.updater.kalman import ExtendedKalmanUpdater
@@ -149,18 +146,8 @@ def _stonesoup_ekf_run(exact_jacobian):
             out[1, 0], out[1, 2] = dx / np.sqrt(rho2), dy / np.sqrt(rho2)
             return out
 
-    np.random.seed(1991)
-    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05), ConstantVelocity(0.05)])
-    truth = GroundTruthPath([GroundTruthState([0, 1, 0, 1], timestamp=START)])
-    for k in range(1, 21):
-        truth.append(GroundTruthState(transition.function(truth[k - 1], noise=True,
-                                                          time_interval=datetime.timedelta(seconds=1)),
-                                      timestamp=START + datetime.timedelta(seconds=k)))
-    cls = ExactBearingRange if exact_jacobian else CartesianToBearingRange
-    sensor = cls(ndim_state=4, mapping=(0, 2), noise_covar=NOISE,
-                 translation_offset=np.array([[50], [0]]))
-    detections = [Detection(sensor.function(s, noise=True), timestamp=s.timestamp,
-                            measurement_model=sensor) for s in truth]
+    transition, sensor, _, detections = stonesoup_tutorial(
+        1991, ExactBearingRange if exact_jacobian else None)
     predictor, updater = ExtendedKalmanPredictor(transition), ExtendedKalmanUpdater(sensor)
     prior = GaussianState([[0], [1], [0], [1]], PRIOR_COVAR, timestamp=START)
     states = []

@@ -8,6 +8,7 @@ from scipy import stats
 
 import fasttrack as ft
 
+from conftest import stonesoup_tutorial
 from user_models import bearing_range_from_50_0, coordinated_turn
 
 START = datetime.datetime(2026, 1, 1)
@@ -171,30 +172,15 @@ def _rmse(track, truth):
 
 
 def _stonesoup_rmse(seed, n=1000):
-    from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
-    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
-                                                    ConstantVelocity)
     from stonesoup.predictor.particle import ParticlePredictor
     from stonesoup.resampler.particle import SystematicResampler
     from stonesoup.types.array import StateVectors
-    from stonesoup.types.detection import Detection
-    from stonesoup.types.groundtruth import GroundTruthPath, GroundTruthState
     from stonesoup.types.hypothesis import SingleHypothesis
     from stonesoup.types.state import ParticleState
     from stonesoup.types.track import Track
     from stonesoup.updater.particle import ParticleUpdater
 
-    np.random.seed(seed)
-    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05), ConstantVelocity(0.05)])
-    truth = GroundTruthPath([GroundTruthState([0, 1, 0, 1], timestamp=START)])
-    for k in range(1, 21):
-        truth.append(GroundTruthState(transition.function(truth[k - 1], noise=True,
-                                                          time_interval=datetime.timedelta(seconds=1)),
-                                      timestamp=START + datetime.timedelta(seconds=k)))
-    sensor = CartesianToBearingRange(ndim_state=4, mapping=(0, 2), noise_covar=NOISE,
-                                     translation_offset=np.array([[50], [0]]))
-    measurements = [Detection(sensor.function(s, noise=True), timestamp=s.timestamp,
-                              measurement_model=sensor) for s in truth]
+    transition, sensor, truth, measurements = stonesoup_tutorial(seed)
     samples = np.random.multivariate_normal([0, 1, 0, 1], np.diag([1.5, 0.5, 1.5, 0.5]), size=n)
     prior = ParticleState(StateVectors(samples.T), weight=np.full(n, 1 / n), timestamp=START)
     predictor = ParticlePredictor(transition)
