@@ -58,7 +58,7 @@ def test_numpy_reference_akkf(benchmark, name, m):
     benchmark.group = f"akkf-{name} N={m}"
     scenario, _, updater, prior, detection = _fasttrack_setup(name, m)
     kernel = _ft_kernel(name)
-    kind, params = kernel._spec()
+    kind, params = kernel._kind, kernel._parameters()
     sensor = scenario.measurement_model
     angles_x, angles_z = ft.Kernel.angle_mask(4), sensor._angles
     s = prior.kernel_covar

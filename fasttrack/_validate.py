@@ -1,21 +1,61 @@
 """Input validation shared by the public API. Errors name the argument, what was expected
-and what was given; nothing is repaired silently and inputs are never modified."""
+and what was given; nothing is repaired silently and inputs are never modified.
+
+Numbers are strict: arrays must hold real numbers (integer or floating dtypes, or objects
+that are real numbers), so complex values, strings and booleans are rejected rather than
+truncated, parsed or cast; counts and indices must be integers (not floats or booleans).
+"""
 import numbers
 
 import numpy as np
 
+#: Relative tolerance of the positive semi-definiteness checks: an eigenvalue (or a
+#: Cholesky pivot) below ``-PSD_TOLERANCE`` times the largest is negative, not rounding.
+PSD_TOLERANCE = 1e-10
 
-def _describe(a):
-    return f"shape {a.shape}" if isinstance(a, np.ndarray) else type(a).__name__
+#: Largest particle count accepted (2**40, about 1.1e12): any more could not be stored.
+MAX_COUNT = 2**40
+
+
+def _describe(value):
+    if isinstance(value, np.ndarray):
+        return f"an array of dtype {value.dtype}"
+    return type(value).__name__
+
+
+def _is_real(value):
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
+def is_integer(value):
+    """Whether ``value`` is an integer (Python or NumPy), not a bool."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
 
 
 def float_array(value, name, ndim=None):
-    """``value`` as a C-contiguous float64 array with ``ndim`` dimensions (any if None; no
-    copy if it is one already)."""
-    try:
-        a = np.ascontiguousarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a numeric array, got {type(value).__name__}") from None
+    """``value`` as a writable C-contiguous float64 array with ``ndim`` dimensions (any if
+    None; no copy if it is one already: a read-only array is copied, since kernels compile
+    for writable arrays).
+
+    Raises TypeError unless ``value`` holds real numbers: a complex, string, boolean or
+    other non-numeric array is not converted.
+    """
+    if type(value) is np.ndarray and value.dtype == np.float64:
+        a = value
+    else:
+        try:
+            a = np.asarray(value)
+        except (TypeError, ValueError):
+            raise TypeError(f"{name} must be a numeric array of real numbers, "
+                            f"got {_describe(value)}") from None
+        if a.dtype.kind == "O" and all(_is_real(v) for v in a.flat):
+            a = a.astype(np.float64)
+        if a.dtype.kind not in "fiu":
+            raise TypeError(f"{name} must be a numeric array of real numbers, got "
+                            f"{_describe(value) if a.dtype.kind == 'O' else _describe(a)}")
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    if not a.flags.writeable:
+        a = a.copy()
     if ndim is not None and a.ndim != ndim:
         raise ValueError(f"{name} must be {ndim}-D, got {a.ndim}-D with shape {a.shape}")
     return a
@@ -44,6 +84,18 @@ def covariance(value, name, size):
     scale = max(np.abs(a).max(), np.finfo(float).tiny)
     if np.abs(a - a.T).max() > 1e-9 * scale:
         raise ValueError(f"{name} must be symmetric")
+    return a
+
+
+def psd_covariance(value, name, size):
+    """:func:`covariance` that is also positive semi-definite (eigenvalues >= 0 to
+    :data:`PSD_TOLERANCE` relative)."""
+    a = covariance(value, name, size)
+    values = np.linalg.eigvalsh(a)
+    top = max(values.max(), np.finfo(float).tiny)
+    if values.min() < -PSD_TOLERANCE * top:
+        raise ValueError(f"{name} is not positive semi-definite "
+                         f"(smallest eigenvalue {values.min():.3g}, largest {top:.3g})")
     return a
 
 
@@ -93,21 +145,61 @@ def linear_weights(value, name, size=None):
         return np.log(w)
 
 
-def count(value, name, default=None, minimum=1):
-    """An integer >= ``minimum`` (``None`` gives ``default``)."""
+def count(value, name, default=None, minimum=1, maximum=MAX_COUNT):
+    """An integer in ``[minimum, maximum]`` (``None`` gives ``default``)."""
     if value is None and default is not None:
         return default
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+    if not is_integer(value):
         raise TypeError(f"{name} must be an int, got {type(value).__name__}")
     if value < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise ValueError(f"{name} must be <= {maximum}, got {value}")
     return int(value)
+
+
+def indices(value, name, size, minimum=0):
+    """A tuple of integers in ``[0, size)`` from a sequence (at least ``minimum`` of them).
+
+    Raises TypeError for a non-sequence or an entry that is not an integer (a float or a
+    bool is not an index), ValueError for entries out of range.
+    """
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise TypeError(f"{name} must be a sequence of integer indices, "
+                        f"got {type(value).__name__}")
+    entries = tuple(value.ravel()) if isinstance(value, np.ndarray) else tuple(value)
+    bad = [entry for entry in entries if not is_integer(entry)]
+    if bad:
+        raise TypeError(f"{name} must hold integer indices, got {bad[0]!r} "
+                        f"({type(bad[0]).__name__}) in {entries!r}")
+    entries = tuple(int(entry) for entry in entries)
+    if len(entries) < minimum:
+        raise ValueError(f"{name} needs at least {minimum} indices, got {entries}")
+    if any(not 0 <= entry < size for entry in entries):
+        raise ValueError(f"{name} indices must lie in [0, {size}), got {entries}")
+    return entries
+
+
+def real(value, name):
+    """A finite real number (not a bool), as a float."""
+    if not _is_real(value):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+    if not np.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value}")
+    return float(value)
 
 
 def positive(value, name):
     """A finite real number > 0, as a float."""
-    if not isinstance(value, numbers.Real) or isinstance(value, bool):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-    if not (np.isfinite(value) and value > 0):
+    value = real(value, name)
+    if not value > 0:
         raise ValueError(f"{name} must be finite and > 0, got {value}")
-    return float(value)
+    return value
+
+
+def non_negative(value, name):
+    """A finite real number >= 0, as a float."""
+    value = real(value, name)
+    if not value >= 0:
+        raise ValueError(f"{name} must be finite and >= 0, got {value}")
+    return value

@@ -2,15 +2,12 @@
 filters."""
 import numpy as np
 
+from . import _errors
 from . import _validate
 from ._jit import kalman as _kalman
 from .models.measurement import NonlinearGaussianMeasurement, MeasurementModel
 from .models.transition import LinearGaussianTransitionModel, TransitionModel
-from .predictor import _STATUS_ERRORS as _PREDICT_ERRORS
 from .predictor import jacobian_method
-from .updater import _STATUS_ERRORS as _UPDATE_ERRORS
-
-_ERRORS = {**_PREDICT_ERRORS, **_UPDATE_ERRORS}
 
 
 class BatchExtendedKalmanFilter:
@@ -26,12 +23,13 @@ class BatchExtendedKalmanFilter:
     transition_model : linear-Gaussian TransitionModel
     measurement_model : built-in MeasurementModel
     use_joseph_cov : bool
-        Joseph-form covariance update.
+        Joseph-form covariance update (the default; see
+        :class:`~fasttrack.KalmanUpdater`).
     jacobian : {'analytic', 'forward', 'central'}
         As :class:`~fasttrack.ExtendedKalmanUpdater`.
     """
 
-    def __init__(self, transition_model, measurement_model, use_joseph_cov=False,
+    def __init__(self, transition_model, measurement_model, use_joseph_cov=True,
                  jacobian="analytic"):
         if not isinstance(transition_model, TransitionModel) \
                 or not hasattr(transition_model, "matrix"):
@@ -59,6 +57,13 @@ class BatchExtendedKalmanFilter:
         covars = _validate.finite_array(covars, "covars", 3)
         if covars.shape != (k, d, d):
             raise ValueError(f"covars must have shape ({k}, {d}, {d}), got {covars.shape}")
+        if k:
+            scale = np.maximum(np.abs(covars).max(axis=(1, 2)), np.finfo(float).tiny)
+            asymmetric = np.abs(covars - covars.transpose(0, 2, 1)).max(axis=(1, 2)) \
+                > 1e-9 * scale
+            if asymmetric.any():
+                raise ValueError(f"covars must be symmetric; covars[{np.argmax(asymmetric)}] "
+                                 f"is not ({asymmetric.sum()} of {k})")
         measurements = _validate.finite_array(measurements, "measurements", len(leading) + 2)
         if measurements.shape != (*leading, k, m):
             raise ValueError(f"measurements must have shape {(*leading, k, m)}, "
@@ -79,14 +84,14 @@ class BatchExtendedKalmanFilter:
     def _intervals(self, time_intervals, shape):
         intervals = _validate.finite_array(time_intervals, "time_intervals")
         try:
-            return np.ascontiguousarray(np.broadcast_to(intervals, shape))
+            return np.broadcast_to(intervals, shape).copy()
         except ValueError:
             raise ValueError(f"time_intervals (seconds) must broadcast to {shape}, "
                              f"got shape {intervals.shape}") from None
 
     def _measurement_spec(self):
         model = self.measurement_model
-        return (model.kind, model._mapping, model._offset, model._rotation, model.noise_covar,
+        return (model.kind, model._mapping, model._offset, model._rotation, model._noise_covar,
                 model._angles, self._method, self.use_joseph_cov)
 
     def step(self, means, covars, measurements, time_intervals):
@@ -105,6 +110,7 @@ class BatchExtendedKalmanFilter:
         -------
         means : (K, d) ndarray
         covars : (K, d, d) ndarray
+            Empty for K = 0.
 
         Raises
         ------
@@ -115,13 +121,15 @@ class BatchExtendedKalmanFilter:
         k, d = means.shape
         intervals = self._intervals(time_intervals, (k,))
         means_out, covars_out = np.empty_like(means), np.empty_like(covars)
+        if k == 0:
+            return means_out, covars_out
         status = np.empty(k, dtype=np.int64)
         _kalman.batch_step(*self._spec(intervals), intervals, *self._measurement_spec(), means,
                            covars, measurements, means_out, covars_out, status)
         failed = np.flatnonzero(status)
         if failed.size:
             raise ValueError(f"{failed.size} of {k} filters failed; filter {failed[0]}: "
-                             f"{_ERRORS[status[failed[0]]]}")
+                             f"{_errors.MESSAGES[status[failed[0]]]}")
         return means_out, covars_out
 
     def run(self, means, covars, measurements, time_intervals):
@@ -139,20 +147,20 @@ class BatchExtendedKalmanFilter:
         -------
         means : (T, K, d) ndarray
         covars : (T, K, d, d) ndarray
-            The posterior after each measurement.
+            The posterior after each measurement (empty for T = 0 or K = 0).
         """
-        measurements = np.asarray(measurements, dtype=np.float64)
-        if measurements.ndim != 3:
-            raise ValueError(f"measurements must be 3-D (T, K, m), got shape {measurements.shape}")
+        measurements = _validate.float_array(measurements, "measurements", 3)
         steps = measurements.shape[0]
         means, covars, measurements = self._arrays(means, covars, measurements, (steps,))
         k, d = means.shape
-        intervals = np.asarray(time_intervals, dtype=np.float64)
+        intervals = _validate.float_array(time_intervals, "time_intervals")
         if intervals.ndim == 1:
             intervals = intervals[:, None]
         intervals = self._intervals(intervals, (steps, k))
         means_out = np.empty((steps, k, d))
         covars_out = np.empty((steps, k, d, d))
+        if steps == 0 or k == 0:
+            return means_out, covars_out
         status = np.empty((k, 2), dtype=np.int64)
         _kalman.batch_run(*self._spec(intervals), intervals, *self._measurement_spec(), means,
                           covars, measurements, means_out, covars_out, status)
@@ -160,5 +168,5 @@ class BatchExtendedKalmanFilter:
         if failed.size:
             first = failed[0]
             raise ValueError(f"{failed.size} of {k} filters failed; filter {first} at step "
-                             f"{status[first, 0]}: {_ERRORS[status[first, 1]]}")
+                             f"{status[first, 0]}: {_errors.MESSAGES[status[first, 1]]}")
         return means_out, covars_out

@@ -12,6 +12,10 @@ from . import _validate
 from ._jit import gram as _gram
 from .models.base import state_columns
 
+#: A filter's Gaussian kernel of fixed variance whose value between typical points (at
+#: their median squared distance) is below this carries no information between them.
+NEGLIGIBLE = 1e-6
+
 
 class Kernel:
     """Base class: a kernel kind and its parameter array (see ``fasttrack._jit.gram``)."""
@@ -35,15 +39,19 @@ class Kernel:
         Returns
         -------
         (A, B) float64 ndarray
+            A data-chosen length scale (``GaussianKernel()``) comes from the points of
+            ``state1`` and ``state2`` together.
         """
         x1 = state_columns(state1, "state1")
         x2 = x1 if state2 is None else state_columns(state2, "state2")
         if x2.shape[0] != x1.shape[0]:
             raise ValueError(f"state1 and state2 must have the same number of rows, "
                              f"got {x1.shape[0]} and {x2.shape[0]}")
+        angles = self.angle_mask(x1.shape[0], angle_components)
+        others = np.empty((x1.shape[0], 0)) if state2 is None else x2
+        params = _gram.resolve(self._kind, self._parameters(), angles, x1, others)
         out = np.empty((x1.shape[1], x2.shape[1]))
-        _gram.gram(self._kind, self._parameters(), self.angle_mask(x1.shape[0], angle_components),
-                   x1, x2, out)
+        _gram.gram(self._kind, params, angles, x1, x2, out)
         return out
 
     @staticmethod
@@ -57,8 +65,10 @@ class Kernel:
             mask[row] = True
         return mask
 
-    def _spec(self):
-        """``(kind, params)`` for the compiled filters."""
+    def _spec(self, angles, x1, x2):
+        """``(kind, params)`` for a filter's Gram matrices of the points ``x1`` and ``x2``
+        (together), with any length scale from the data resolved; raises ValueError if the
+        kernel cannot carry information between these points."""
         return self._kind, self._parameters()
 
 
@@ -134,33 +144,78 @@ class QuarticKernel(_FixedDegreeKernel):
 
 
 class GaussianKernel(Kernel):
-    """``k(x, y) = exp(-|x - y|^2 / (2 variance)) / sqrt(2 pi variance)`` (the normaliser is
-    one-dimensional whatever the dimension of x).
+    """The Gaussian kernel, with its length scale from the data by default.
+
+    - ``GaussianKernel()``: ``k(x, y) = exp(-|x - y|^2 / (2 v))`` with the length scale
+      ``sqrt(v)`` equal to ``width`` times the median distance between the points of each
+      Gram matrix (both point sets together, e.g. the proposal and prior particles of an
+      AKKF prediction). The kernel then does not depend on the units of the states: the
+      same filter tracks a target at 1 m or at 10 km, and ``k(x, x) = 1``, so the filters'
+      regularisation ``lambda`` is relative to the kernel's scale. The adaptive kernel
+      Kalman filter needs a kernel that is wide compared with the particles' spread (at
+      ``width`` 1, the median heuristic of kernel statistics, its weights drift to zero
+      and the track to the sensor); the default ``width`` 100 tracks the AKKF tutorial as
+      well as ``variance=10`` does there (position RMSE 0.64 vs 0.61 over 10 seeds at
+      M = 30, 0.63 vs 0.63 at M = 300), at any scale.
+    - ``GaussianKernel(variance)``: Stone Soup's formula,
+      ``k(x, y) = exp(-|x - y|^2 / (2 variance)) / sqrt(2 pi variance)`` (a one-dimensional
+      normaliser whatever the dimension of x). A fixed variance must suit the data: at 10
+      km with Stone Soup's default ``variance=10`` every kernel value between distinct
+      particles underflows to 0 and the AKKF's weights collapse (the filters then raise).
 
     An angle component (rad) contributes the squared chord ``(2 sin(diff / 2))^2`` of its
     difference instead of ``diff^2``: the same to within a relative ``diff^2 / 12``, and
     periodic, so that bearings either side of +-pi are close. The wrapped difference
     squared would not do: with it the Gram matrix of angles spread round the circle has
-    negative eigenvalues (-0.4 against a largest entry of 0.13 at the default variance).
+    negative eigenvalues (-0.4 against a largest entry of 0.13 at variance 10).
 
     Parameters
     ----------
-    variance : float
-        Squared length scale, > 0.
+    variance : float, optional
+        Squared length scale, > 0, in the points' units squared; None (the default) for a
+        length scale from the data.
+    width : float
+        With ``variance`` None, the length scale in units of the median distance between
+        the points, > 0.
     """
 
     _kind = _gram.GAUSSIAN
 
-    def __init__(self, variance=10.0):
-        self._variance = _validate.positive(variance, "variance")
-        self._params = np.array([self._variance])
+    def __init__(self, variance=None, width=100.0):
+        self._width = _validate.positive(width, "width")
+        if variance is None:
+            self._variance = None
+            self._params = np.array([0.0, 1.0, self._width])
+        else:
+            self._variance = _validate.positive(variance, "variance")
+            self._params = np.array([self._variance,
+                                     1.0 / np.sqrt(2.0 * np.pi * self._variance), 0.0])
 
-    variance = property(lambda self: self._variance, doc="Squared length scale.")
+    variance = property(lambda self: self._variance,
+                        doc="Squared length scale, or None for one from the data.")
+    width = property(lambda self: self._width,
+                     doc="Length scale in median distances between the points (with "
+                         "variance None).")
 
     def _parameters(self):
         return self._params
 
+    def _spec(self, angles, x1, x2):
+        if self.variance is None:
+            return self._kind, _gram.resolve(self._kind, self._params, angles, x1, x2)
+        median = _gram.median_variance(angles, np.hstack((x1, x2)))
+        typical = np.exp(-median / (2.0 * self.variance))
+        if typical < NEGLIGIBLE:
+            raise ValueError(
+                f"{self!r} is too narrow for these points: their median squared distance is "
+                f"{median:.3g}, so the kernel between typical pairs is {typical:.1e} and the "
+                f"filter learns nothing from them; use GaussianKernel() (a length scale from "
+                f"the data) or a variance of at least {median / (-2.0 * np.log(NEGLIGIBLE)):.3g}")
+        return self._kind, self._params
+
     def __repr__(self):
+        if self.variance is None:
+            return f"GaussianKernel(width={self.width})"
         return f"GaussianKernel(variance={self.variance})"
 
 

@@ -6,11 +6,12 @@ s).spawn(n_runs)[i]`` alone: its scenario is drawn from ``run_seed.spawn(2)[0]``
 from a Generator on ``run_seed.spawn(2)[1]``. Its results therefore do not depend on how the
 runs are spread over processes, workers or batches.
 """
-import concurrent.futures
+import collections
 import contextlib
 import dataclasses
 import math
 import multiprocessing
+import multiprocessing.connection
 import numbers
 import os
 import pickle
@@ -58,6 +59,14 @@ def _check_mapping(mapping):
         raise ValueError(f"position_mapping must be distinct non-negative state indices, "
                          f"got {mapping!r}")
     return [int(i) for i in index]
+
+
+def _check_mapping_fits(world, mapping):
+    """Raise if ``position_mapping`` indexes beyond the states of a run's scenario."""
+    ndim = getattr(world.prior, "ndim", None)
+    if ndim is not None and max(mapping) >= ndim:
+        raise ValueError(f"position_mapping {tuple(mapping)} is outside the scenario's "
+                         f"{ndim}-dimensional states")
 
 
 def _children(seed, n):
@@ -137,6 +146,7 @@ def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping
                         f"got {type(run_seed).__name__}")
     scenario_seed, filter_seed = _children(run_seed, 2)
     world = scenario(seed=scenario_seed)
+    _check_mapping_fits(world, mapping)
     predictor, updater = make_filter(world, np.random.default_rng(filter_seed))
     truth = {state.timestamp: state for state in world.truth}
     rows = np.zeros(len(world.detections), _row_dtype(metrics))
@@ -366,54 +376,144 @@ def _local_cores():
         return os.cpu_count() or 1
 
 
+class _Worker:
+    """One spawned worker process and the pipe it takes tasks from."""
+
+    def __init__(self, context):
+        self.connection, child = context.Pipe()
+        self.process = context.Process(target=_serve, args=(child,), daemon=True)
+        self.process.start()
+        child.close()
+
+    def stop(self):
+        self.connection.close()
+        if self.process.is_alive():
+            self.process.terminate()
+        self.process.join()
+
+
+def _serve(connection):
+    """A worker's loop: run each ``(payload, batch)`` task received, send back
+    ``("ok", result)`` or, if the batch could not run at all, ``("error", message)``."""
+    while True:
+        try:
+            payload, batch = connection.recv()
+        except (EOFError, OSError):
+            return
+        try:
+            reply = ("ok", _run_batch(payload, batch))
+        except Exception as error:
+            reply = ("error", f"{type(error).__name__}: {error}\n{traceback.format_exc()}")
+        connection.send(reply)
+
+
+class _Pool:
+    """``processes`` spawned worker processes, each running one batch at a time, kept
+    between calls so that their kernels stay compiled (they end with the interpreter).
+
+    Each batch is sent to one worker, so a worker that dies costs only the batch it was
+    running: that batch is charged one attempt and queued again, a new worker takes the
+    dead one's place, and the other workers go on.
+    """
+
+    def __init__(self, processes):
+        self.context = multiprocessing.get_context("spawn")
+        self.workers = [_Worker(self.context) for _ in range(processes)]
+
+    def run(self, payload, batches, max_retries):
+        """Yield each batch's result; a batch whose worker died more than ``max_retries``
+        times has all its runs failed."""
+        queue = collections.deque(range(len(batches)))
+        attempts = [0] * len(batches)
+        running = {}  # worker -> batch index
+        try:
+            while queue or running:
+                for worker in list(self.workers):
+                    if queue and worker not in running:
+                        i = queue.popleft()
+                        running[self._send(worker, payload, batches[i])] = i
+                waiting = {w.connection: w for w in running}
+                waiting.update({w.process.sentinel: w for w in running})
+                done = {waiting[ready] for ready in multiprocessing.connection.wait(waiting)}
+                for worker in done:
+                    i = running.pop(worker)
+                    reply = self._reply(worker)
+                    if reply is not None:
+                        yield batches[i], _result(batches[i], reply)
+                        continue
+                    attempts[i] += 1
+                    if attempts[i] > max_retries:
+                        yield batches[i], _lost(batches[i], f"the worker process died "
+                                                            f"{attempts[i]} times")
+                    else:
+                        queue.appendleft(i)
+        finally:  # an interrupted call leaves no work behind: its workers are replaced
+            for worker in running:
+                self._replace(worker)
+
+    def _send(self, worker, payload, batch):
+        """Send the task to ``worker``, or to its replacement if it has died while idle;
+        returns the worker that took it."""
+        try:
+            worker.connection.send((payload, batch))
+            return worker
+        except (BrokenPipeError, OSError):
+            worker = self._replace(worker)
+            worker.connection.send((payload, batch))
+            return worker
+
+    def _reply(self, worker):
+        """The worker's reply, or None if it died (it is then replaced)."""
+        try:
+            if worker.connection.poll():
+                return worker.connection.recv()
+        except (EOFError, OSError):
+            pass
+        self._replace(worker)
+        return None
+
+    def _replace(self, worker):
+        """Stop ``worker`` and start a new one in its place; returns the new one."""
+        worker.stop()
+        new = _Worker(self.context)
+        self.workers[self.workers.index(worker)] = new
+        return new
+
+    def shutdown(self):
+        for worker in self.workers:
+            worker.stop()
+        self.workers = []
+
+
+def _result(batch, reply):
+    """A batch's result from a worker's reply: an error fails every run of the batch."""
+    status, value = reply
+    if status == "ok":
+        return value
+    message, _, details = value.partition("\n")
+    return [], [RunFailure(run, seed, message, details) for run, seed in batch]
+
+
 _pool = {}
 
 
 def _local_pool(processes):
-    """The spawned pool of ``processes`` workers, kept between calls so that its workers'
-    kernels stay compiled (it ends with the interpreter)."""
+    """The :class:`_Pool` of ``processes`` workers (a pool of another size is shut down)."""
     if processes not in _pool:
         for old in _pool.values():
-            old.shutdown(wait=False)
+            old.shutdown()
         _pool.clear()
-        context = multiprocessing.get_context("spawn")
-        _pool[processes] = concurrent.futures.ProcessPoolExecutor(processes, mp_context=context)
+        _pool[processes] = _Pool(processes)
     return _pool[processes]
 
 
 def _run_local(payload, batches, processes, max_retries):
-    """Yield each batch's result, in this process or in the pool; when a worker dies, the
-    pool is replaced and the unfinished batches rerun (each up to ``max_retries`` times)."""
+    """Yield each batch's result, in this process or in the pool of worker processes."""
     if processes == 1:
         for batch in batches:
             yield batch, _run_batch(payload, batch)
         return
-    attempts = {i: 0 for i in range(len(batches))}
-    while attempts:
-        pool = _local_pool(processes)
-        futures = {pool.submit(_run_batch, payload, batches[i]): i for i in attempts}
-        broken = False
-        try:
-            for future in concurrent.futures.as_completed(futures):
-                i = futures[future]
-                try:
-                    result = future.result()
-                except concurrent.futures.process.BrokenProcessPool:
-                    broken = True
-                    continue
-                del attempts[i]
-                yield batches[i], result
-        finally:  # an interrupted call leaves no queued work behind
-            for future in futures:
-                future.cancel()
-        if broken:
-            _pool.pop(processes).shutdown(wait=True)
-            for i in list(attempts):
-                attempts[i] += 1
-                if attempts[i] > max_retries:
-                    del attempts[i]
-                    yield batches[i], _lost(batches[i], f"the worker process died "
-                                                        f"{max_retries + 1} times")
+    yield from _local_pool(processes).run(payload, batches, max_retries)
 
 
 def _lost(batch, reason):
@@ -531,6 +631,7 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client
     root = _root_seed(seed)
     mapping = _check_mapping(position_mapping)
     if client is None:
+        _check_mapping_fits(scenario(seed=_children(_children(root, 1)[0], 2)[0]), mapping)
         processes = _local_cores() if processes is None else count(processes, "processes")
         batches = _batches(root, n_runs, batch_size, processes)
         payload = _serialise(scenario, make_filter, metrics, mapping,

@@ -1,6 +1,7 @@
 """Predictors: ``predictor.predict(prior, timestamp)``."""
 import numpy as np
 
+from . import _errors
 from . import _validate
 from . import random as _random
 from ._jit import akkf as _akkf
@@ -10,7 +11,7 @@ from .kernel import Kernel, as_kernel
 from .models.transition import TransitionModel
 from .types import (GaussianState, GaussianStatePrediction, KernelParticleState,
                     KernelParticleStatePrediction, ParticleState, ParticleStatePrediction,
-                    check_timestamp, time_interval)
+                    check_timestamp, time_interval, weak)
 
 
 def _interval(prior, timestamp):
@@ -53,7 +54,8 @@ class ParticlePredictor:
         -------
         ParticleStatePrediction
             New (d, N) particles; the prior's ``log_weight`` array (shared, unchanged);
-            ``parent`` and ``prior`` both the prior; ``transition_model``; ``timestamp``.
+            ``parent`` and ``prior`` both the prior (weak links: see
+            :mod:`fasttrack.types`); ``transition_model``; ``timestamp``.
         """
         if not isinstance(prior, ParticleState):
             raise TypeError(f"prior must be a ParticleState, got {type(prior).__name__}")
@@ -63,14 +65,11 @@ class ParticlePredictor:
         dt = _interval(prior, timestamp)
         particles = self.transition_model._propagate(prior.state_vector, dt,
                                                      _random.stream_key(self.rng))
+        link = weak(prior)
         return ParticleStatePrediction._trusted(
-            particles, prior.log_weight, timestamp=timestamp, parent=prior, prior=prior,
+            particles, prior.log_weight, timestamp=timestamp, parent=link, prior=link,
             transition_model=self.transition_model, fixed_covar=prior.fixed_covar)
 
-
-_STATUS_ERRORS = {
-    _kalman.PRIOR_NOT_PD: "prior.covar is not positive definite",
-}
 
 JACOBIAN_METHODS = {"analytic": _jacobian.ANALYTIC, "forward": _jacobian.FORWARD,
                     "central": _jacobian.CENTRAL}
@@ -118,12 +117,14 @@ class KalmanPredictor:
         Returns
         -------
         GaussianStatePrediction
-            With ``transition_model``, ``prior`` and ``timestamp``.
+            With ``transition_model``, ``prior`` (a weak link: see :mod:`fasttrack.types`)
+            and ``timestamp``.
 
         Raises
         ------
         ValueError
-            If the prior's covariance is not positive definite.
+            If the prior's covariance is not positive semi-definite, or a user transition
+            function returns a wrong shape or non-finite values.
         """
         model = self.transition_model
         _gaussian_prior(prior, model.ndim_state)
@@ -132,10 +133,9 @@ class KalmanPredictor:
         x_out = np.empty((d, 1))
         covar_out = np.empty((d, d))
         status = self._predict(dt, prior.state_vector, prior.covar, x_out, covar_out)
-        if status != _kalman.OK:
-            raise ValueError(_STATUS_ERRORS[status])
+        _errors.check(status, getattr(model, "_function", None), prior.state_vector, dt)
         return GaussianStatePrediction._trusted(
-            x_out, covar_out, timestamp, {"transition_model": model, "prior": prior})
+            x_out, covar_out, timestamp, {"transition_model": model, "prior": weak(prior)})
 
     def _predict(self, dt, x, covar, x_out, covar_out):
         kind, rates, matrix, noise = self.transition_model._kalman_spec(dt)
@@ -171,11 +171,16 @@ class ExtendedKalmanPredictor(KalmanPredictor):
                                         x, covar, x_out, covar_out)
 
 
-def finite_weights(weight, which):
-    """Raise if kernel filter weights are not finite (the kernel values overflowed)."""
+def check_weights(weight, which):
+    """Raise if kernel filter weights are not finite (the kernel values overflowed) or all
+    zero (nothing carried over)."""
     if not np.isfinite(weight).all():
         raise ValueError(f"the {which} kernel weights are not finite: the kernel values "
                          f"overflow (rescale the states or use a lower-degree kernel)")
+    if not weight.any():
+        raise ValueError(f"the {which} kernel weights are all zero: the kernel carries no "
+                         f"information between the particle sets (its length scale is far "
+                         f"from their spread)")
 
 
 class AdaptiveKernelKalmanPredictor:
@@ -233,11 +238,12 @@ class AdaptiveKernelKalmanPredictor:
             if proposal.shape != x.shape:
                 raise ValueError(f"proposal must have the prior's shape {x.shape}, "
                                  f"got {proposal.shape}")
-        kind, params = self.kernel._spec()
+        angles = Kernel.angle_mask(x.shape[0])
+        kind, params = self.kernel._spec(angles, proposal, x)
         w, lt, v1t, v2t = _akkf.predict_embedding(
-            kind, params, Kernel.angle_mask(x.shape[0]), proposal, x, prior.weight,
-            *prior._factors, self.lambda_predictor)
-        finite_weights(w, "predicted")
+            kind, params, angles, proposal, x, prior.weight, *prior._factors,
+            self.lambda_predictor)
+        check_weights(w, "predicted")
         return KernelParticleStatePrediction._trusted(
             model._mean(proposal, dt), w, (lt, 1.0 / w.size, v1t, v2t), timestamp,
             transition_model=model)

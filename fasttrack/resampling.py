@@ -205,4 +205,6 @@ def normalise(log_weights):
         A new array.
     """
     log_w, log_w_max = _validate.log_weights(log_weights, "log_weights")
-    return log_w - _weights.log_sum_exp(log_w, log_w_max)
+    out = log_w.copy()
+    _weights.normalise_in_place(out, log_w_max)
+    return out

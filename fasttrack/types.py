@@ -1,9 +1,19 @@
 """State types. A particle cloud is a (d, N) float64 state array (one column per particle)
-with (N,) float64 log weights; linear weights are derived on request."""
+with (N,) float64 log weights; linear weights are derived on request.
+
+Ownership of history: a state's links to the states it came from (``prior`` of a
+prediction, ``parent`` of a particle state) are weak when a filter makes them, so a
+filter loop keeps only what the program itself keeps. ``prediction.prior`` is the prior
+object while anything else (a variable, a :class:`Track`) still holds it, and None after;
+an update holds its ``hypothesis`` (and so its prediction) strongly, but nothing older.
+Links given to a constructor, and the indexed parent a resampler makes (which has no links
+of its own), are held strongly.
+"""
 import copy
 import datetime
 import numbers
 import uuid
+import weakref
 
 import numpy as np
 
@@ -24,6 +34,28 @@ def check_timestamp(value, name="timestamp"):
         return value
     raise TypeError(f"{name} must be None, a datetime or a number of seconds, "
                     f"got {type(value).__name__}")
+
+
+class Link:
+    """An attribute linking to an earlier state: held strongly when assigned the state,
+    weakly when assigned a ``weakref.ref`` to it (then None once the state is gone)."""
+
+    def __set_name__(self, owner, name):
+        self.slot = "_" + name
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:
+            return self
+        value = obj.__dict__.get(self.slot)
+        return value() if type(value) is weakref.ref else value
+
+    def __set__(self, obj, value):
+        obj.__dict__[self.slot] = value
+
+
+def weak(state):
+    """A weak link to ``state`` (None stays None)."""
+    return None if state is None else weakref.ref(state)
 
 
 class Particle:
@@ -85,6 +117,8 @@ class ParticleState:
         Covariance returned by :attr:`covar` instead of the weighted sample covariance.
     """
 
+    parent = Link()
+
     def __init__(self, state_vector=None, timestamp=None, weight=None, log_weight=None,
                  parent=None, particle_list=None, fixed_covar=None):
         self._source = None
@@ -110,22 +144,34 @@ class ParticleState:
                             f"got {type(parent).__name__}")
         self.parent = parent
         self.timestamp = check_timestamp(timestamp)
-        self.fixed_covar = None if fixed_covar is None else _validate.square_matrix(
+        self.fixed_covar = None if fixed_covar is None else _validate.psd_covariance(
             fixed_covar, "fixed_covar", self.ndim)
         self._moments = None
 
     @classmethod
     def _trusted(cls, state_vector, log_weight, timestamp=None, parent=None, **attributes):
-        """Build from arrays that a kernel produced (no validation, no copies)."""
+        """Build from arrays that a kernel produced (no validation, no copies); ``parent``
+        and ``prior`` may be weak links (:func:`weak`)."""
         state = cls.__new__(cls)
         state._state_vector = state_vector
         state._log_weight = log_weight
         state.timestamp = timestamp
-        state.parent = parent
+        state._parent = parent
         state.fixed_covar = None
         state._moments = None
         state._source = None
+        if "prior" in attributes:
+            attributes["_prior"] = attributes.pop("prior")
         state.__dict__.update(attributes)
+        return state
+
+    def _detached(self):
+        """A shallow copy of the same type without links to other states (``parent``,
+        ``prior``, ``hypothesis``): the same arrays, none of the history."""
+        state = self._replace(parent=None)
+        for slot in ("_prior", "hypothesis"):
+            if slot in state.__dict__:
+                state.__dict__[slot] = None
         return state
 
     def _replace(self, **changes):
@@ -141,9 +187,9 @@ class ParticleState:
         return state
 
     def _indexed(self, idx):
-        """A copy of the same type holding the particles ``idx`` (its own parent dropped),
-        gathered on first access: most parents are never read."""
-        state = self._replace(parent=None)
+        """A :meth:`_detached` copy holding the particles ``idx``, gathered on first access:
+        most parents are never read."""
+        state = self._detached()
         state._source = (state._state_vector, state._log_weight, idx)
         state._state_vector = state._log_weight = None
         return state
@@ -233,7 +279,7 @@ class ParticleState:
     def __getitem__(self, item):
         """``state[i]`` for an int is a :class:`Particle`; an int array, boolean mask or
         slice gives a new state of the same type (with ``parent`` indexed alike)."""
-        parent = None if self.parent is None else self.parent._replace(parent=None)[item]
+        parent = None if self.parent is None else self.parent._detached()[item]
         if isinstance(item, numbers.Integral):
             return Particle(self.state_vector[:, item], float(np.exp(self.log_weight[item])),
                             parent=parent)
@@ -282,7 +328,10 @@ def as_particle_state(value, name="particles"):
 
 class ParticleStatePrediction(ParticleState):
     """A predicted particle state: a :class:`ParticleState` with the ``transition_model`` that
-    produced it and the ``prior`` it came from (also its ``parent``)."""
+    produced it and the ``prior`` it came from (also its ``parent``; weak links when a
+    predictor made them, see the module's notes)."""
+
+    prior = Link()
 
     def __init__(self, state_vector=None, timestamp=None, weight=None, log_weight=None,
                  parent=None, particle_list=None, fixed_covar=None, transition_model=None,
@@ -488,13 +537,18 @@ class GaussianState(State):
         attributes = {"state_vector": state_vector, "covar": covar, "timestamp": timestamp}
         if extra:
             attributes.update(extra)
+            if "prior" in attributes:
+                attributes["_prior"] = attributes.pop("prior")
         state.__dict__ = attributes
         return state
 
 
 class GaussianStatePrediction(GaussianState):
     """A predicted Gaussian state, with the ``transition_model`` that produced it and the
-    ``prior`` it came from."""
+    ``prior`` it came from (a weak link when a predictor made it, see the module's
+    notes)."""
+
+    prior = Link()
 
     def __init__(self, state_vector, covar, timestamp=None, transition_model=None, prior=None):
         super().__init__(state_vector, covar, timestamp)

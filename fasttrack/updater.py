@@ -1,6 +1,7 @@
 """Updaters: ``updater.update(hypothesis)``."""
 import numpy as np
 
+from . import _errors
 from . import _validate
 from . import random as _random
 from ._jit import akkf as _akkf
@@ -9,12 +10,12 @@ from ._jit import kalman as _kalman
 from ._jit import weights as _weights
 from .models.measurement import LinearGaussian, MeasurementModel, NonlinearGaussianMeasurement
 from .kernel import as_kernel
-from .predictor import finite_weights, jacobian_method
+from .predictor import check_weights, jacobian_method
 from .resampler import Resampler
 from .types import (GaussianMeasurementPrediction, GaussianState, GaussianStateUpdate,
                     KernelParticleState, KernelParticleStateMeasurementPrediction,
                     KernelParticleStateUpdate, ParticleState, ParticleStateUpdate,
-                    SingleHypothesis)
+                    SingleHypothesis, weak)
 
 
 def _measurement_model(hypothesis, default):
@@ -66,7 +67,8 @@ class ParticleUpdater:
         -------
         ParticleStateUpdate
             Sharing the prediction's ``state_vector`` (unless resampled), with ``hypothesis``,
-            ``parent`` = the prediction's parent (its prior), and the prediction's timestamp.
+            ``parent`` = the prediction's parent (its prior, a weak link), and the
+            prediction's timestamp.
         """
         update = self.weigh(hypothesis)
         if self.resampler is not None:
@@ -103,16 +105,8 @@ class ParticleUpdater:
         _weights.normalise_in_place(log_w, top)
         return ParticleStateUpdate._trusted(
             prediction.state_vector, log_w, timestamp=prediction.timestamp,
-            parent=prediction.parent, hypothesis=hypothesis, fixed_covar=prediction.fixed_covar)
-
-
-_STATUS_ERRORS = {
-    _kalman.INNOVATION_NOT_PD: "the innovation covariance H P H^T + R is not positive "
-                               "definite (singular)",
-    _kalman.JACOBIAN_UNDEFINED: "the measurement Jacobian is undefined at the predicted state "
-                                "(for a polar sensor: the target is at the sensor)",
-    _kalman.MEASUREMENT_NOT_FINITE: "hypothesis.measurement contains NaN or infinite values",
-}
+            parent=weak(prediction.parent), hypothesis=hypothesis,
+            fixed_covar=prediction.fixed_covar)
 
 
 class KalmanUpdater:
@@ -125,13 +119,16 @@ class KalmanUpdater:
     force_symmetric_covariance : bool
         Accepted for compatibility: covariances are always computed exactly symmetric.
     use_joseph_cov : bool
-        Joseph form ``(I - K H) P (I - K H)^T + K R K^T`` instead of ``P - K S K^T``.
+        The Joseph form ``(I - K H) P (I - K H)^T + K R K^T`` (the default), which keeps the
+        covariance positive semi-definite at any ratio of prediction and measurement
+        noise; False for the standard form ``P - K S K^T`` (Stone Soup's default), which
+        can lose it to cancellation (a zero or negative variance when P >> R).
     """
 
     _method = _jacobian.ANALYTIC
 
     def __init__(self, measurement_model=None, force_symmetric_covariance=False,
-                 use_joseph_cov=False):
+                 use_joseph_cov=True):
         if measurement_model is not None:
             self._check_model(measurement_model)
         self.measurement_model = measurement_model
@@ -187,8 +184,7 @@ class KalmanUpdater:
         else:
             status = _kalman.update_one(*model._kalman_args, self._method, self.use_joseph_cov,
                                         *arguments)
-        if status != _kalman.OK:
-            raise ValueError(_STATUS_ERRORS[status])
+        _errors.check(status, getattr(model, "_function", None), prediction.state_vector)
         return x_out, covar_out, z_hat, s, cross
 
     def update(self, hypothesis):
@@ -205,7 +201,9 @@ class KalmanUpdater:
         Raises
         ------
         ValueError
-            If the innovation covariance is singular or the Jacobian undefined.
+            If the prediction's covariance is not positive semi-definite, the innovation
+            covariance is singular, the Jacobian undefined, or a user measurement function
+            returns a wrong shape or non-finite values.
         """
         _check_hypothesis(hypothesis)
         prediction = hypothesis.prediction
@@ -236,7 +234,7 @@ class ExtendedKalmanUpdater(KalmanUpdater):
     """
 
     def __init__(self, measurement_model=None, force_symmetric_covariance=False,
-                 use_joseph_cov=False, jacobian="analytic"):
+                 use_joseph_cov=True, jacobian="analytic"):
         super().__init__(measurement_model, force_symmetric_covariance, use_joseph_cov)
         self._method = jacobian_method(jacobian)
         self.jacobian = jacobian
@@ -247,7 +245,7 @@ class ExtendedKalmanUpdater(KalmanUpdater):
                             f"got {type(model).__name__}")
 
     def _function_update(self, model, arguments):
-        return _kalman.update_function(model.measurement_function, model.noise_covar,
+        return _kalman.update_function(model.measurement_function, model._noise_covar,
                                        model._angles, self._method == _jacobian.CENTRAL,
                                        self.use_joseph_cov, *arguments)
 
@@ -327,13 +325,13 @@ class AdaptiveKernelKalmanUpdater:
         if y.shape != (model.ndim_meas, x.shape[1]):
             raise ValueError(f"hypothesis.measurement_prediction must have shape "
                              f"{(model.ndim_meas, x.shape[1])}, got {y.shape}")
-        kind, params = self.kernel._spec()
+        z = z.reshape(-1, 1)
+        kind, params = self.kernel._spec(model._angles, y, z)
         proposal = np.empty_like(x)
         w, lt, v1t, v2t = _akkf.update_embedding(
-            kind, params, model._angles, y, z.reshape(-1, 1), prediction.weight,
-            *prediction._factors, self.lambda_updater, x, _random.stream_key(self.rng),
-            proposal)
-        finite_weights(w, "updated")
+            kind, params, model._angles, y, z, prediction.weight, *prediction._factors,
+            self.lambda_updater, x, _random.stream_key(self.rng), proposal)
+        check_weights(w, "updated")
         sigma = prediction._factors[1]
         return KernelParticleStateUpdate._trusted(
             x, w, (lt, sigma, v1t, v2t), hypothesis.measurement.timestamp,

@@ -51,6 +51,14 @@ def wrap_angle(a):
     return np.mod(a + np.pi, 2 * np.pi) - np.pi
 
 
+def fill(out, value):
+    out[...] = value
+
+
+def copy_into(source, out):
+    out.reshape(-1)[:] = source.reshape(-1)
+
+
 def n_chunks(n):
     return min(max(n // 8192, 1), 4096)
 
@@ -61,6 +69,31 @@ def chunk_bounds(c, k, n):
 
 def cumulate(w):
     w[:] = np.cumsum(w)
+
+
+# --- status and user functions -------------------------------------------------------------
+
+OK, PRIOR_NOT_PSD, INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE = 0, 1, 2, 3, 4
+PREDICTION_NOT_PSD, FUNCTION_SHAPE, FUNCTION_NOT_FINITE = 5, 6, 7
+
+
+def columns(x, lo, hi):
+    return np.ascontiguousarray(x[:, lo:hi])
+
+
+def store(values, out, lo):
+    out[:, lo:lo + values.shape[1]] = values
+
+
+def output_status(values, rows, cols):
+    if values.shape != (rows, cols):
+        return FUNCTION_SHAPE
+    return OK if np.isfinite(values).all() else FUNCTION_NOT_FINITE
+
+
+def first_failure(codes):
+    bad = [code for code in codes if code != OK]
+    return bad[0] if bad else OK
 
 
 # --- weights -------------------------------------------------------------------------------
@@ -86,9 +119,9 @@ def weighted_mean_covar(x, log_w, log_w_max, mean, covar):
 
 
 def normalise_in_place(log_w, log_w_max):
-    shift = log_sum_exp(log_w, log_w_max)
-    log_w -= shift
-    return shift
+    log_total = np.log(np.sum(np.exp(log_w - log_w_max)))
+    log_w[:] = (log_w - log_w_max) - log_total
+    return log_w_max + log_total
 
 
 # --- propagate -----------------------------------------------------------------------------
@@ -119,9 +152,13 @@ def propagate_linear(x, matrix, noise_root, key, out):
 
 
 def propagate_function(function, time_interval, x, noise_root, key, out):
-    out[:] = function(x, time_interval)
-    if np.any(noise_root != 0):
-        out += _process_noise(noise_root, key, x.shape[1])
+    values = function(np.ascontiguousarray(x), time_interval)
+    status = output_status(values, x.shape[0], x.shape[1])
+    if status == OK:
+        out[:] = values
+        if np.any(noise_root != 0):
+            out += _process_noise(noise_root, key, x.shape[1])
+    return status
 
 
 # --- likelihood ----------------------------------------------------------------------------
@@ -153,12 +190,20 @@ def log_likelihood(kind, z, x, mapping, offset, rotation, angles, whiten, log_no
 
 
 def measure_function(function, x, angles, out):
-    out[:] = function(x)
-    out[angles] = wrap_angle(out[angles])
+    values = function(np.ascontiguousarray(x))
+    status = output_status(values, out.shape[0], x.shape[1])
+    if status == OK:
+        out[:] = values
+        out[angles] = wrap_angle(out[angles])
+    return status
 
 
 def log_likelihood_function(function, z, x, angles, whiten, log_norm, log_w, out):
-    return _log_likelihoods(z, function(x), angles, whiten, log_norm, log_w, out)
+    values = function(np.ascontiguousarray(x))
+    status = output_status(values, z.size, x.shape[1])
+    if status != OK:
+        return np.nan, status
+    return _log_likelihoods(z, values, angles, whiten, log_norm, log_w, out), status
 
 
 # --- resample ------------------------------------------------------------------------------
@@ -341,19 +386,37 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
     out[:] = _difference_jacobian(evaluate, x, angles, method == CENTRAL)
 
 
+class _BadOutput(Exception):
+    """A user function's output failed :func:`output_status`."""
+
+
+def _checked_jacobian(evaluate, rows, x, angles, central, out):
+    """:func:`_difference_jacobian` of a user function, or the status of a bad output."""
+    def checked(points):
+        values = evaluate(np.ascontiguousarray(points))
+        status = output_status(values, rows, points.shape[1])
+        if status != OK:
+            raise _BadOutput(status)
+        return values
+    try:
+        out[:] = _difference_jacobian(checked, x, angles, central)
+    except _BadOutput as bad:
+        return bad.args[0]
+    return OK
+
+
 def measurement_jacobian_function(function, x, angles, central, out):
-    out[:] = _difference_jacobian(function, x, angles, central)
+    return _checked_jacobian(function, out.shape[0], x, angles, central, out)
 
 
 def transition_jacobian_function(function, time_interval, x, central, out):
-    out[:] = _difference_jacobian(lambda points: function(points, time_interval), x,
-                                  np.zeros(x.size, dtype=bool), central)
+    return _checked_jacobian(lambda points: function(points, time_interval), x.size, x,
+                             np.zeros(x.size, dtype=bool), central, out)
 
 
 # --- kalman --------------------------------------------------------------------------------
 
 FIXED, CV = 0, 1
-OK, PRIOR_NOT_PD, INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE = 0, 1, 2, 3, 4
 
 
 def _transition(kind, rates, fixed_matrix, fixed_covar, dt, d):
@@ -374,20 +437,31 @@ def _positive_definite(a):
         return False
 
 
+def _positive_semi_definite(a, tolerance=1e-10):
+    values = np.linalg.eigvalsh(a)
+    return values.min() >= -tolerance * max(values.max(), 0.0)
+
+
 def predict_one(kind, rates, fixed_matrix, fixed_covar, dt, x, covariance, x_out,
                 covariance_out):
     f, q = _transition(kind, rates, fixed_matrix, fixed_covar, dt, x.shape[0])
     x_out[:] = f @ x
     covariance_out[:] = f @ covariance @ f.T + q
-    return OK if _positive_definite(covariance) else PRIOR_NOT_PD
+    return OK if _positive_semi_definite(covariance) else PRIOR_NOT_PSD
 
 
 def predict_function(function, dt, covar, central, x, covariance, x_out, covariance_out):
     f = np.empty((x.shape[0], x.shape[0]))
-    transition_jacobian_function(function, dt, x[:, 0], central, f)
-    x_out[:] = function(x, dt)
+    status = transition_jacobian_function(function, dt, x[:, 0], central, f)
+    if status != OK:
+        return status
+    values = function(np.ascontiguousarray(x), dt)
+    status = output_status(values, x.shape[0], 1)
+    if status != OK:
+        return status
+    x_out[:] = values
     covariance_out[:] = f @ covariance @ f.T + covar
-    return OK if _positive_definite(covariance) else PRIOR_NOT_PD
+    return OK if _positive_semi_definite(covariance) else PRIOR_NOT_PSD
 
 
 def _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out, covariance_out,
@@ -413,6 +487,8 @@ def _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out, cov
 def update_one(kind, mapping, offset, rotation, noise, angles, method, joseph, x, covariance,
                z, x_out, covariance_out, z_hat, innovation_covar, cross):
     m, d = noise.shape[0], x.shape[0]
+    if not _positive_semi_definite(covariance):
+        return PREDICTION_NOT_PSD
     measure(kind, x, mapping, offset, rotation, z_hat)
     h = np.empty((m, d))
     measurement_jacobian(kind, x[:, 0], mapping, offset, rotation, angles, method, h)
@@ -424,10 +500,18 @@ def update_one(kind, mapping, offset, rotation, noise, angles, method, joseph, x
 
 def update_function(function, noise, angles, central, joseph, x, covariance, z, x_out,
                     covariance_out, z_hat, innovation_covar, cross):
-    z_hat[:] = function(x)
-    z_hat[angles] = wrap_angle(z_hat[angles])
+    values = function(np.ascontiguousarray(x))
+    status = output_status(values, noise.shape[0], 1)
+    if status != OK:
+        return status
     h = np.empty((noise.shape[0], x.shape[0]))
-    measurement_jacobian_function(function, x[:, 0], angles, central, h)
+    status = measurement_jacobian_function(function, x[:, 0], angles, central, h)
+    if status != OK:
+        return status
+    if not _positive_semi_definite(covariance):
+        return PREDICTION_NOT_PSD
+    z_hat[:] = values
+    z_hat[angles] = wrap_angle(z_hat[angles])
     return _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out,
                           covariance_out, innovation_covar, cross)
 
@@ -477,10 +561,36 @@ def gram(kind, params, angles, x1, x2, out):
     if kind == POLYNOMIAL:
         out[:] = (x1.T @ x2 / params[2] + params[1]) ** int(params[0])
         return
+    variance, norm = resolve(kind, params, angles, x1, x2)[:2]
     diff = x1[:, :, None] - x2[:, None, :]
     diff[angles] = 2 * np.sin(diff[angles] / 2)
-    variance = params[0]
-    out[:] = np.exp(-np.sum(diff ** 2, axis=0) / (2 * variance)) / np.sqrt(2 * np.pi * variance)
+    out[:] = norm * np.exp(-np.sum(diff ** 2, axis=0) / (2 * variance))
+
+
+def median_variance(angles, x):
+    n = x.shape[1]
+    if n < 2:
+        return 1.0
+    if n * (n - 1) // 2 <= 256:
+        i, j = np.triu_indices(n, 1)
+    else:
+        k = np.arange(256, dtype=np.int64)
+        i = (k * 2654435761) % n
+        j = (i + 1 + (k * 40503) % (n - 1)) % n
+    diff = x[:, i] - x[:, j]
+    diff[angles] = 2 * np.sin(diff[angles] / 2)
+    squared = np.sum(diff ** 2, axis=0)
+    for value in (np.median(squared), np.mean(squared)):
+        if value > 0:
+            return value
+    return 1.0
+
+
+def resolve(kind, params, angles, x1, x2):
+    if kind != GAUSSIAN or params[0] > 0:
+        return params
+    variance = params[2] ** 2 * median_variance(angles, np.hstack((x1, x2)))
+    return np.array([variance, 1.0, params[2]])
 
 
 def factor(kind, params, angles, points):
@@ -489,7 +599,8 @@ def factor(kind, params, angles, points):
         k = points.copy()
     else:
         k = np.empty((points.shape[1], points.shape[1]))
-        gram(kind, params, angles, points, points, k)
+        gram(kind, resolve(kind, params, angles, points, points[:, :0]), angles, points,
+             points, k)
     n = k.shape[0]
     tol = n * np.finfo(float).eps * max(np.diag(k).max(), 0.0)
     rows = []
@@ -526,6 +637,7 @@ def predict_embedding(kind, params, angles, proposal, x, w, lt, sigma, v1t, v2t,
 def predict_dense(kind, params, angles, proposal, x, w, s, lam):
     """``(w-, S-)`` from a dense S, with A = (K + lam I)^-1 by inversion."""
     m = w.size
+    params = resolve(kind, params, angles, proposal, x)
     k = np.empty((m, m))
     kx = np.empty((m, m))
     gram(kind, params, angles, proposal, proposal, k)
@@ -549,6 +661,7 @@ def update_embedding(kind, params, angles, y, z, w, lt, sigma, v1t, v2t, lam, x,
 def update_dense(kind, params, angles, y, z, w, s, lam):
     """``(w+, S+)`` from a dense S, with Q = S (G S + lam I)^-1 by a solve."""
     m = w.size
+    params = resolve(kind, params, angles, y, z)
     g_mat = np.empty((m, m))
     g_vec = np.empty((m, 1))
     gram(kind, params, angles, y, y, g_mat)

@@ -57,7 +57,7 @@ def test_kernel_formulas_and_defaults():
     assert ft.QuarticKernel(c=2, ialpha=4)(x, y)[0, 0] == pytest.approx((1 / 4 + 2) ** 4)
     assert ft.LinearKernel()(x, y)[0, 0] == pytest.approx(1.0)
     expected = np.exp(-13 / 20) / np.sqrt(20 * np.pi)
-    assert ft.GaussianKernel()(x, y)[0, 0] == pytest.approx(expected)
+    assert ft.GaussianKernel(variance=10.0)(x, y)[0, 0] == pytest.approx(expected)
 
 
 def test_kernel_accepts_states_and_defaults_second_argument():
@@ -330,3 +330,84 @@ def test_tutorial_runs_to_the_end_for_ten_seeds(name, m):
             assert (np.diag(state.covar) >= 0).all()
             assert np.isfinite(state.proposal).all()
         assert position_rmse(track, scenario.truth) < 5.0
+
+
+# --- kernel scale: sensible for the data, validated, and no positive-definiteness failure ------
+
+def _scaled_tutorial(scale, m, seed=50):
+    """The AKKF tutorial with every length multiplied by ``scale`` (the sensor stays at the
+    origin, bearings are unchanged)."""
+    from fasttrack.scenarios import START
+    rng = np.random.default_rng(seed)
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(1e-4 * scale**2)] * 2)
+    sensor = ft.Cartesian2DToBearing(4, (0, 2), np.array([[0.005 ** 2]]))
+    start = np.array([-0.3, 0.001, 0.7, -0.055]) * scale
+    truth = ft.ground_truth(transition, start, 30, start_time=START, rng=rng)
+    detections = ft.detections(truth, sensor, rng=rng)
+    spread = np.array([0.1, 0.005, 0.1, 0.01]) * scale
+    prior = ft.KernelParticleState(start[:, None] + spread[:, None] * rng.standard_normal((4, m)),
+                                   timestamp=START)
+    return transition, sensor, truth, detections, prior
+
+
+@pytest.mark.parametrize("m", [10, 70, 300])
+def test_default_gaussian_kernel_tracks_the_same_at_any_scale(m):
+    results = {}
+    for scale in (1.0, 100.0, 1e4):
+        transition, sensor, truth, detections, prior = _scaled_tutorial(scale, m)
+        predictor = ft.AdaptiveKernelKalmanPredictor(transition, ft.GaussianKernel())
+        updater = ft.AdaptiveKernelKalmanUpdater(sensor, ft.GaussianKernel(), rng=1)
+        track = _track(predictor, updater, prior, detections)
+        results[scale] = (np.array([s.weight for s in track]),
+                          np.array([s.mean[:, 0] for s in track]) / scale,
+                          position_rmse(track, truth) / scale)
+    for scale in (100.0, 1e4):
+        np.testing.assert_allclose(results[scale][0], results[1.0][0], rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(results[scale][1], results[1.0][1], rtol=1e-6, atol=1e-9)
+    assert results[1.0][2] < 1.0  # the track does not collapse to the sensor (at 0.76 .. 2)
+
+
+def test_a_fixed_gaussian_variance_far_below_the_spread_is_an_error():
+    transition, sensor, _, detections, prior = _scaled_tutorial(1e4, 100)
+    predictor = ft.AdaptiveKernelKalmanPredictor(transition, ft.GaussianKernel(variance=10.0))
+    with pytest.raises(ValueError, match=r"GaussianKernel\(variance=10.0\) is too narrow for "
+                                         r"these points: their median squared distance is"):
+        predictor.predict(prior, detections[0].timestamp)
+    assert ft.GaussianKernel()(prior.state_vector).min() > 0.99  # the default suits them
+    narrow = ft.GaussianKernel(variance=10.0)(prior.state_vector)  # a Gram matrix is allowed
+    np.testing.assert_allclose(np.diag(narrow), 1 / np.sqrt(20 * np.pi))
+    assert (narrow - np.diag(np.diag(narrow))).max() < 1e-80
+
+
+def test_polynomial_kernel_far_from_the_origin_runs_without_positive_definiteness_failure():
+    for seed in range(5):
+        transition, sensor, truth, detections, prior = _scaled_tutorial(1e4, 10, seed)
+        track = _track(ft.AdaptiveKernelKalmanPredictor(transition, ft.PolynomialKernel(3)),
+                       ft.AdaptiveKernelKalmanUpdater(sensor, ft.PolynomialKernel(3), rng=seed),
+                       prior, detections)
+        assert len(track) == 30 and all(np.isfinite(s.mean).all() for s in track)
+
+
+def test_ridge_map_is_accurate_where_the_normal_equations_break_down():
+    rng = np.random.default_rng(1)
+    for scale in (1.0, 1e10):
+        f = rng.normal(size=(6, 40)) * scale
+        f[5] = f[4] * (1 + 1e-9)  # nearly dependent rows
+        got = akkf._ridge_map(f, 1e-3)
+        assert np.isfinite(got).all()
+        # (F F^T + lam I) got = F, to rounding relative to |F F^T| |got|
+        residual = (f @ f.T + 1e-3 * np.eye(6)) @ got - f
+        assert np.abs(residual).max() <= 1e-9 * np.abs(f @ f.T).max() * np.abs(got).max()
+    # at unit scale it is the textbook formula
+    f = rng.normal(size=(3, 20))
+    np.testing.assert_allclose(akkf._ridge_map(f, 0.5), np.linalg.solve(f @ f.T + 0.5 * np.eye(3), f),
+                               rtol=1e-12, atol=1e-14)
+
+
+def test_weights_that_carry_nothing_are_an_error():
+    from fasttrack.predictor import check_weights
+    with pytest.raises(ValueError, match="predicted kernel weights are all zero"):
+        check_weights(np.zeros(5), "predicted")
+    with pytest.raises(ValueError, match="updated kernel weights are not finite"):
+        check_weights(np.array([1.0, np.inf]), "updated")
+    check_weights(np.array([1e-30, 0.0]), "predicted")  # tiny but informative: allowed

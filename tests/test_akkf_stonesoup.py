@@ -29,7 +29,7 @@ KERNELS = {  # Stone Soup's and fasttrack's kernel of each name
     "quadratic": (lambda: ss_kernel.QuadraticKernel(c=1, ialpha=1),
                   ft.QuadraticKernel(c=1, ialpha=1)),
     "quartic": (lambda: ss_kernel.QuarticKernel(c=1, ialpha=1), ft.QuarticKernel(c=1, ialpha=1)),
-    "gaussian": (lambda: ss_kernel.GaussianKernel(), ft.GaussianKernel()),
+    "gaussian": (lambda: ss_kernel.GaussianKernel(), ft.GaussianKernel(variance=10.0)),
 }
 
 

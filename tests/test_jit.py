@@ -7,6 +7,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 from numba.core.caching import FunctionCache
 from numba.core.registry import CPUDispatcher
 
@@ -117,6 +118,7 @@ def test_cumulate_integer_is_exact_and_float_close():
 _THREAD_SCRIPT = r"""
 import json, sys
 import numpy as np
+import pytest
 import fasttrack as ft
 rng = np.random.default_rng(7)
 n = 300_000
@@ -192,3 +194,76 @@ def test_chunking_mirrors():
         assert bounds == [reference.chunk_bounds(c, k, n) for c in range(k)]
         assert bounds[0][0] == 0 and bounds[-1][1] == n
         assert all(a[1] == b[0] for a, b in zip(bounds, bounds[1:]))
+
+
+_SMALL_KERNEL = "import fasttrack._jit.numeric as n; print(n.wrap_angle(7.0))"
+
+
+def _python(code, **env):
+    return subprocess.run([sys.executable, "-W", "always", "-c", code],
+                          env=dict(os.environ, **env), capture_output=True, text=True,
+                          timeout=600)
+
+
+def test_a_damaged_cache_entry_is_compiled_again_and_replaced(tmp_path):
+    env = {"NUMBA_CACHE_DIR": str(tmp_path)}
+    first = _python(_SMALL_KERNEL, **env)
+    assert first.returncode == 0, first.stderr
+    files = {kind: sorted(tmp_path.rglob(f"numeric.wrap_angle-*.{kind}")) for kind in ("nbi", "nbc")}
+    assert files["nbi"] and files["nbc"]
+    for kind in ("nbi", "nbc"):
+        for damage in ("truncated", "empty", "garbage"):
+            for path in files[kind]:
+                data = path.read_bytes()
+                path.write_bytes({"truncated": data[:len(data) // 2], "empty": b"",
+                                  "garbage": os.urandom(len(data))}[damage])
+            damaged = _python(_SMALL_KERNEL, **env)
+            assert damaged.returncode == 0, (kind, damage, damaged.stderr)
+            assert damaged.stdout.strip() == first.stdout.strip()
+            assert "compile cache entry of wrap_angle" in damaged.stderr
+            assert "damaged" in damaged.stderr and "compiling it again" in damaged.stderr
+            again = _python(_SMALL_KERNEL, **env)  # replaced: loads quietly
+            assert again.returncode == 0 and "damaged" not in again.stderr, again.stderr
+            files = {k: sorted(tmp_path.rglob(f"numeric.wrap_angle-*.{k}")) for k in ("nbi", "nbc")}
+
+
+_TWO_THREADS = """
+import sys, threading
+import numpy as np
+import pytest
+import fasttrack as ft
+from fasttrack.scenarios import particle_filter_tutorial
+
+def run(results, key):
+    scenario = particle_filter_tutorial(20_000, seed=key)
+    predictor = ft.ParticlePredictor(scenario.transition_model, rng=key)
+    updater = ft.ParticleUpdater(scenario.measurement_model, ft.SystematicResampler(rng=key))
+    state = scenario.prior
+    for detection in scenario.detections[1:]:
+        state = updater.update(ft.SingleHypothesis(predictor.predict(state, detection.timestamp),
+                                                   detection))
+    results[key] = state.mean.ravel().tolist()
+
+alone, together = {}, {}
+for key in (1, 2):
+    run(alone, key)
+threads = [threading.Thread(target=run, args=(together, key)) for key in (1, 2)]
+for thread in threads:
+    thread.start()
+for thread in threads:
+    thread.join()
+import numba, fasttrack._jit as jit
+print(numba.threading_layer(), type(jit.CALL_LOCK).__name__, jit.layer_is_threadsafe())
+assert alone == together, (alone, together)
+print("same")
+"""
+
+
+@pytest.mark.parametrize("layer", ["workqueue", "default"])
+def test_two_python_threads_may_run_filters_at_once_on_any_layer(layer):
+    result = _python(_TWO_THREADS, NUMBA_THREADING_LAYER=layer)
+    assert result.returncode == 0, result.stderr[-3000:]
+    lines = result.stdout.split("\n")
+    if layer == "workqueue":
+        assert lines[0].startswith("workqueue") and lines[0].endswith("False")
+    assert lines[1] == "same"

@@ -206,6 +206,7 @@ def test_kalman_filter_matches_the_textbook():
         z = rng.normal(k, 1.0, (2, 1))
         prediction = predictor.predict(state, float(k))
         hypothesis = ft.SingleHypothesis(prediction, ft.Detection(z, timestamp=float(k)))
+        assert isinstance(prediction, ft.GaussianStatePrediction) and prediction.prior is state
         state = updater.update(hypothesis)
         f, q, h, r = transition.matrix(1.0), transition.covar(1.0), sensor.matrix(), sensor.noise_covar
         x, p = f @ x, f @ p @ f.T + q
@@ -214,7 +215,6 @@ def test_kalman_filter_matches_the_textbook():
         x, p = x + gain @ (z - h @ x), p - gain @ s @ gain.T
         np.testing.assert_allclose(state.state_vector, x, rtol=1e-11, atol=1e-11)
         np.testing.assert_allclose(state.covar, p, rtol=1e-11, atol=1e-13)
-        assert isinstance(prediction, ft.GaussianStatePrediction) and prediction.prior is not None
         assert isinstance(state, ft.GaussianStateUpdate) and state.hypothesis is hypothesis
         np.testing.assert_allclose(hypothesis.measurement_prediction.covar, s, rtol=1e-11)
     mp = updater.predict_measurement(prediction)
@@ -333,8 +333,8 @@ def test_user_njit_models_through_the_ekf():
 def test_bad_input_is_a_clear_error():
     transition, sensor = _models()
     predictor, updater = ft.ExtendedKalmanPredictor(transition), ft.ExtendedKalmanUpdater(sensor)
-    with pytest.raises(ValueError, match="prior.covar is not positive definite"):
-        predictor.predict(ft.GaussianState([0, 1, 0, 1], np.diag([1, 0, 1, 1.0]), timestamp=0.0), 1.0)
+    with pytest.raises(ValueError, match="prior.covar is not positive semi-definite"):
+        predictor.predict(ft.GaussianState([0, 1, 0, 1], np.diag([1, -1, 1, 1.0]), timestamp=0.0), 1.0)
     prediction = predictor.predict(ft.GaussianState([50, 0, 0, 0], PRIOR_COVAR, timestamp=0.0), 1e-9)
     with pytest.raises(ValueError, match="Jacobian is undefined"):
         updater.update(ft.SingleHypothesis(prediction, ft.Detection([0.0, 1.0], timestamp=1.0)))
@@ -369,3 +369,65 @@ def test_bad_input_is_a_clear_error():
     with pytest.raises(TypeError, match="built-in MeasurementModel"):
         ft.BatchExtendedKalmanFilter(transition, ft.NonlinearGaussianMeasurement(
             bearing_range_from_50_0, 4, NOISE))
+
+
+# --- covariance checks where they belong, and an update that stays PSD ---------------------------
+
+def test_singular_priors_are_accepted_and_indefinite_ones_rejected():
+    transition, sensor = _models()
+    # Stone Soup's MultiMeasurementInitiator starts tracks with zero velocity variance
+    singular = ft.GaussianState([0, 1, 0, 1], np.diag([1.0, 0.0, 1.0, 0.0]), timestamp=0.0)
+    for predictor in (ft.KalmanPredictor(transition), ft.ExtendedKalmanPredictor(transition)):
+        prediction = predictor.predict(singular, 1.0)
+        assert np.linalg.eigvalsh(prediction.covar).min() > 0
+    zero = ft.GaussianState([0, 1, 0, 1], np.zeros((4, 4)), timestamp=0.0)
+    np.testing.assert_allclose(ft.KalmanPredictor(transition).predict(zero, 1.0).covar,
+                               transition.covar(1.0))
+    batch = ft.BatchExtendedKalmanFilter(transition, sensor)
+    means, covars = batch.step(np.array([[0, 1, 0, 1.0]]), singular.covar[None],
+                               np.array([[0.0, 50.0]]), 1.0)
+    assert np.isfinite(means).all()
+    indefinite = ft.GaussianState([0, 1, 0, 1], np.diag([1.0, -1e-3, 1.0, 1.0]), timestamp=0.0)
+    with pytest.raises(ValueError, match="prior.covar is not positive semi-definite"):
+        ft.KalmanPredictor(transition).predict(indefinite, 1.0)
+    # an off-diagonal entry where a variance is zero is indefinite too
+    with pytest.raises(ValueError, match="prior.covar is not positive semi-definite"):
+        ft.KalmanPredictor(ft.LinearGaussianTransitionModel(np.eye(2), np.eye(2))).predict(
+            ft.GaussianState([0.0, 0.0], [[0.0, 1.0], [1.0, 1.0]], timestamp=0.0), 1.0)
+
+
+def test_updaters_reject_an_indefinite_prediction():
+    sensor = ft.LinearGaussian(2, (0, 1), np.eye(2))
+    prediction = ft.GaussianStatePrediction([0.0, 0.0], [[1.0, 2.0], [2.0, 1.0]], timestamp=1.0)
+    for updater in (ft.KalmanUpdater(sensor), ft.ExtendedKalmanUpdater(sensor),
+                    ft.KalmanUpdater(sensor, use_joseph_cov=False)):
+        with pytest.raises(ValueError, match="prediction's covariance is not positive "
+                                             "semi-definite"):
+            updater.update(ft.SingleHypothesis(prediction, ft.Detection([0.0, 0.0])))
+
+
+def test_default_update_keeps_the_covariance_positive_at_extreme_noise_ratios():
+    sensor = ft.LinearGaussian(2, (0, 1), np.eye(2) * 1e-12)
+    prediction = ft.GaussianStatePrediction([0.0, 0.0], np.eye(2) * 1e12, timestamp=1.0)
+    standard = ft.KalmanUpdater(sensor, use_joseph_cov=False).update(
+        ft.SingleHypothesis(prediction, ft.Detection([1.0, 1.0], timestamp=1.0)))
+    joseph = ft.KalmanUpdater(sensor).update(
+        ft.SingleHypothesis(prediction, ft.Detection([1.0, 1.0], timestamp=1.0)))
+    assert np.linalg.eigvalsh(standard.covar).min() <= 0  # the standard form loses it
+    np.testing.assert_allclose(np.diag(joseph.covar), 1e-12, rtol=1e-6)
+    transition = ft.LinearGaussianTransitionModel(np.eye(2), np.eye(2) * 1e-12)
+    ft.KalmanPredictor(transition).predict(joseph, 2.0)  # and the next step goes on
+
+
+@pytest.mark.parametrize("q, r", [(1e-12, 1e12), (1e12, 1e-12), (1e-12, 1e-12), (1e12, 1e12),
+                                  (1e6, 1e-6)])
+def test_ten_thousand_steps_stay_positive_semi_definite_at_any_noise_ratio(q, r):
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(q)] * 2)
+    batch = ft.BatchExtendedKalmanFilter(transition, ft.LinearGaussian(4, (0, 2), np.eye(2) * r))
+    z = np.random.default_rng(7).normal(0, np.sqrt(r), (10_000, 1, 2)) \
+        + np.arange(10_000)[:, None, None]
+    means, covars = batch.run(np.array([[0, 1, 0, 1.0]]), np.eye(4)[None] * 1e6, z, 1.0)
+    covars = covars[:, 0]
+    assert np.isfinite(means).all() and np.array_equal(covars, np.swapaxes(covars, 1, 2))
+    values = np.linalg.eigvalsh(covars)
+    assert (values.min(axis=1) >= -1e-10 * values.max(axis=1)).all()

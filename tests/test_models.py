@@ -160,7 +160,7 @@ def test_measurement_noise_is_wrapped_and_sampled():
     (lambda: ft.LinearGaussianTransitionModel(np.eye(2), np.eye(3)), ValueError, r"shape \(2, 2\)"),
     (lambda: ft.LinearGaussian(4, (0, 5), np.eye(2)), ValueError, r"mapping indices must lie in \[0, 4\)"),
     (lambda: ft.LinearGaussian(4, (0, 2), np.eye(3)), ValueError, r"noise_covar must have shape \(2, 2\)"),
-    (lambda: ft.CartesianToBearingRange(4, (0,), np.eye(2)), ValueError, "at least 2 state indices"),
+    (lambda: ft.CartesianToBearingRange(4, (0,), np.eye(2)), ValueError, "must give the 2 state indices"),
     (lambda: ft.CartesianToBearingRange(4, (0, 2), np.eye(2), translation_offset=[1, 2, 3]),
      ValueError, "translation_offset must have 2 components"),
     (lambda: ft.CartesianToBearingRange(4, (0, 2), np.eye(2), rotation_offset=[1, 2]),

@@ -60,9 +60,16 @@ def dropout_scenario(seed):
     return scenario
 
 
+def in_worker():
+    """Whether this is a worker process (run_trials builds run 0's scenario in the calling
+    process too, to check it up front)."""
+    import multiprocessing
+    return multiprocessing.parent_process() is not None
+
+
 def killing_scenario(marker, seed):
-    """The PF scenario, but the first call anywhere kills its own process (SIGKILL)."""
-    if not os.path.exists(marker):
+    """The PF scenario, but the first call in a worker kills its process (SIGKILL)."""
+    if in_worker() and not os.path.exists(marker):
         open(marker, "w").close()
         os.kill(os.getpid(), signal.SIGKILL)
     return pf_scenario(seed)
@@ -222,7 +229,9 @@ def test_killed_local_worker_is_replaced_and_its_batch_rerun(tmp_path, serial_pf
 
 def test_a_batch_that_always_kills_its_worker_fails_its_runs():
     def always_killing(seed):
-        os.kill(os.getpid(), signal.SIGKILL)
+        if in_worker():
+            os.kill(os.getpid(), signal.SIGKILL)
+        return pf_scenario(seed)
 
     with pytest.warns(RuntimeWarning, match="4 of 4 runs failed"):
         results = mc.run_trials(always_killing, make_pf, 4, seed=1, processes=2,
@@ -344,3 +353,26 @@ def test_dataframe():
     results = mc.run_trials(pf_scenario, make_pf, 2, seed=1, processes=1, progress=False)
     frame = results.to_dataframe()
     assert list(frame.columns) == list(results.table.dtype.names) and len(frame) == 20
+
+
+def test_a_dead_worker_costs_only_the_batch_it_was_running(tmp_path, serial_pf):
+    """One SIGKILL with max_retries=0: the killed batch fails, every other run completes
+    (queued batches and the batch on the other worker are not charged)."""
+    scenario = functools.partial(killing_scenario, str(tmp_path / "killed"))
+    with pytest.warns(RuntimeWarning, match="2 of 12 runs failed"):
+        results = mc.run_trials(scenario, make_pf, 12, seed=7, processes=2, batch_size=2,
+                                max_retries=0, progress=False)
+    failed = [f.run for f in results.failures]
+    assert len(failed) == 2 and failed[1] == failed[0] + 1 and failed[0] % 2 == 0
+    assert all("died 1 times" in f.error for f in results.failures)
+    kept = ~np.isin(serial_pf.table["run"], failed)
+    for name in COLUMNS:
+        np.testing.assert_array_equal(results.table[name], serial_pf.table[name][kept])
+
+
+def test_a_position_mapping_outside_the_states_is_an_error_up_front():
+    with pytest.raises(ValueError, match=r"position_mapping \(0, 5\) is outside the "
+                                         r"scenario's 4-dimensional states"):
+        mc.run_trials(pf_scenario, make_pf, 3, seed=1, position_mapping=(0, 5), progress=False)
+    with pytest.raises(ValueError, match="position_mapping"):
+        mc.run_trial(pf_scenario, make_pf, mc.run_seeds(1, 1)[0], position_mapping=(0, 5))

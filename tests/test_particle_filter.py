@@ -83,7 +83,8 @@ def test_update_weights_and_links():
 def test_detection_model_wins_and_resampling():
     transition, sensor = _models()
     other = ft.CartesianToBearingRange(4, (0, 2), NOISE * 100, translation_offset=[50, 0])
-    prediction = ft.ParticlePredictor(transition, rng=1).predict(_prior(3000), START + datetime.timedelta(seconds=1))
+    prior = _prior(3000)  # held: the prediction's links to it are weak
+    prediction = ft.ParticlePredictor(transition, rng=1).predict(prior, START + datetime.timedelta(seconds=1))
     z = sensor.function([1, 1, 1, 1])
     with_model = ft.ParticleUpdater(other).update(ft.SingleHypothesis(
         prediction, ft.Detection(z, timestamp=prediction.timestamp, measurement_model=sensor)))
@@ -134,7 +135,7 @@ def test_update_errors():
     assert np.isfinite(lost.log_weight).any() and not np.isnan(lost.log_weight).any()
     assert np.exp(lost.log_weight).sum() == pytest.approx(1.0)
     broken = ft.NonlinearGaussianMeasurement(_infinite, 4, [[1.0]])
-    with pytest.raises(ValueError, match="every particle has zero likelihood"):
+    with pytest.raises(ValueError, match="'_infinite' returned NaN or infinite values"):
         updater.update(ft.SingleHypothesis(prediction, ft.Detection([0.0], measurement_model=broken)))
     nan_model = ft.NonlinearGaussianMeasurement(_half_nan, 4, NOISE)
     with pytest.raises(ValueError, match="NaN"):
@@ -221,3 +222,16 @@ def test_user_njit_models_run_through_the_filter():
                                                    measurement))
         track.append(prior)
     assert len(track) == 15 and _rmse(track, truth) < 3.0
+
+
+def test_an_outlying_measurement_leaves_weights_that_sum_to_one():
+    transition, sensor = _models()
+    prior = _prior(2000)
+    prediction = ft.ParticlePredictor(transition, rng=1).predict(prior, START + datetime.timedelta(seconds=1))
+    for outlier in (1e6, 1e150):
+        update = ft.ParticleUpdater(sensor).update(ft.SingleHypothesis(
+            prediction, ft.Detection([0.3, outlier], timestamp=prediction.timestamp)))
+        assert np.exp(update.log_weight).sum() == pytest.approx(1.0, rel=1e-12, abs=0)
+    with pytest.raises(ValueError, match="every particle has zero likelihood"):
+        ft.ParticleUpdater(sensor).update(ft.SingleHypothesis(  # the squares overflow
+            prediction, ft.Detection([0.3, 1e200], timestamp=prediction.timestamp)))

@@ -1,9 +1,11 @@
-"""Particle and ParticleState."""
+"""Particle and ParticleState, and the ownership of a filter's history."""
 import datetime
+import os
 
 import numpy as np
 import pytest
 
+import fasttrack as ft
 from fasttrack import Particle, ParticleState
 
 
@@ -147,3 +149,92 @@ def test_gaussian_state_detection_and_hypothesis():
     detection = ft.Detection([0.5, 10.0], timestamp=2.0)
     assert detection.state_vector.shape == (2, 1) and detection.measurement_model is None
     assert ft.SingleHypothesis(g, detection) and not ft.SingleHypothesis(g, None)
+
+
+# --- ownership of history: a filter loop keeps only what the program keeps ------------------
+
+def _pf_filter(n):
+    from fasttrack.scenarios import particle_filter_tutorial
+    scenario = particle_filter_tutorial(n, steps=2)
+    predictor = ft.ParticlePredictor(scenario.transition_model, rng=1)
+    updater = ft.ParticleUpdater(scenario.measurement_model, ft.SystematicResampler(rng=2))
+    return scenario, predictor, updater
+
+
+def _ekf_filter():
+    from fasttrack.scenarios import extended_kalman_tutorial
+    scenario = extended_kalman_tutorial(steps=2)
+    return (scenario, ft.ExtendedKalmanPredictor(scenario.transition_model),
+            ft.ExtendedKalmanUpdater(scenario.measurement_model))
+
+
+def _loop(scenario, predictor, updater, steps, track=None):
+    """The ordinary filter loop, from scenario.prior: a new detection each step."""
+    import datetime
+    state, sensor, truth = scenario.prior, scenario.measurement_model, np.array([0.0, 1, 0, 1])
+    for k in range(1, steps + 1):
+        truth = truth + np.array([1.0, 0, 1, 0])
+        timestamp = scenario.prior.timestamp + datetime.timedelta(seconds=k)
+        prediction = predictor.predict(state, timestamp)
+        state = updater.update(ft.SingleHypothesis(prediction, ft.Detection(
+            sensor.function(truth), timestamp=timestamp)))
+        if track is not None:
+            track.append(state)
+        yield state
+
+
+@pytest.mark.parametrize("make", [lambda: _pf_filter(500), _ekf_filter])
+def test_a_filter_loop_keeps_no_history_alive(make):
+    import gc
+    import weakref
+    loop = _loop(*make(), 50)
+    early = [weakref.ref(next(loop)) for _ in range(5)]
+    last = None
+    for last in loop:
+        pass
+    gc.collect()
+    assert [ref() for ref in early] == [None] * 5
+    assert last.hypothesis.prediction.prior is None  # its prior is gone: nothing held it
+    # holding states keeps them, and the links between them, alive
+    track = ft.Track()
+    scenario, predictor, updater = make()
+    states = list(_loop(scenario, predictor, updater, 5, track))
+    assert [s.hypothesis.prediction.prior for s in states[1:]] == states[:-1]
+    assert all(a is b for a, b in zip(track, states))
+
+
+def test_links_are_weak_when_filters_make_them_and_strong_when_given():
+    scenario, predictor, updater = _pf_filter(200)
+    prior = scenario.prior
+    prediction = predictor.predict(prior, prior.timestamp)
+    assert prediction.prior is prior and prediction.parent is prior
+    update = updater.update(ft.SingleHypothesis(prediction, scenario.detections[0]))
+    assert len(update.parent) == 200 and update.parent.parent is None  # indexed, detached
+    assert getattr(update.parent, "hypothesis", None) is None
+    del scenario, prior
+    import gc
+    gc.collect()
+    assert prediction.prior is None and prediction.parent is None
+    assert len(update.parent) == 200  # the resampler's indexed copy is the update's own
+    parent = ft.ParticleState(np.zeros((1, 3)))
+    assert ft.ParticleState(np.ones((1, 3)), parent=ft.ParticleState(np.zeros((1, 3)))).parent \
+        is not None  # a constructor argument is held
+    assert ft.ParticleStatePrediction(np.ones((1, 3)), prior=parent).prior is parent
+
+
+def _rss_mb():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * 4096 / 2**20
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="needs /proc")
+@pytest.mark.parametrize("make, steps", [(lambda: _pf_filter(100_000), 300),
+                                         (_ekf_filter, 30_000)])
+def test_long_loops_run_in_flat_memory(make, steps):
+    loop = _loop(*make(), steps)
+    for _ in range(50):
+        next(loop)
+    before = _rss_mb()
+    for _ in loop:
+        pass
+    assert _rss_mb() - before < 50  # a particle filter at 1e5 used to grow 7 MB a step

@@ -3,12 +3,15 @@
 A kernel is a kind code plus a float parameter array:
 
 - ``POLYNOMIAL``, params ``(power, c, ialpha)``: ``k(x, y) = (x.y / ialpha + c) ** power``;
-- ``GAUSSIAN``, params ``(variance,)``: ``exp(-|x - y|^2 / 2 variance) / sqrt(2 pi variance)``,
+- ``GAUSSIAN``, params ``(variance, norm, width)``: ``norm exp(-|x - y|^2 / 2 variance)``,
   where a component flagged in ``angles`` contributes its chord ``(2 sin(diff / 2))^2``
   instead of ``diff^2``: periodic, equal to the wrapped difference squared to within a
   relative ``diff^2 / 12``, and, unlike the wrapped difference, it keeps the kernel
   positive semi-definite (it is the Gaussian kernel of the angle's point on the unit
-  circle);
+  circle). A variance of 0 means *from the data*: ``width**2`` times the median of the
+  squared distances between the points of the Gram matrix (over all pairs of up to 23
+  points, else over 256 fixed pseudo-random pairs), with norm 1, so that the kernel does
+  not depend on the units of the points (see :func:`resolve`);
 - ``MATRIX`` (internal): the "points" are a symmetric matrix and ``k(i, j)`` its entry, so
   that :func:`factor` also factors explicit matrices.
 """
@@ -19,6 +22,68 @@ from . import jit
 from .numeric import fast_exp
 
 POLYNOMIAL, GAUSSIAN, MATRIX = 0, 1, 2
+
+
+#: Pairs of points sampled by the median heuristic when there are more than all pairs.
+_PAIRS = 256
+
+
+@jit()
+def _squared_distance(angles, x, i, j):
+    total = 0.0
+    for r in range(x.shape[0]):
+        diff = x[r, i] - x[r, j]
+        if angles[r]:
+            diff = 2.0 * np.sin(0.5 * diff)
+        total += diff * diff
+    return total
+
+
+@jit()
+def median_variance(angles, x):
+    """The median of the squared distances between the columns of (d, n) ``x`` (their
+    mean if the median is 0, and 1 if every point is the same)."""
+    n = x.shape[1]
+    if n < 2:
+        return 1.0
+    if n * (n - 1) // 2 <= _PAIRS:
+        distances = np.empty(n * (n - 1) // 2)
+        k = 0
+        for i in range(n):
+            for j in range(i + 1, n):
+                distances[k] = _squared_distance(angles, x, i, j)
+                k += 1
+    else:
+        distances = np.empty(_PAIRS)
+        for k in range(_PAIRS):
+            i = (k * 2654435761) % n
+            j = (i + 1 + (k * 40503) % (n - 1)) % n
+            distances[k] = _squared_distance(angles, x, i, j)
+    variance = np.median(distances)
+    if variance > 0.0:
+        return variance
+    variance = np.mean(distances)
+    return variance if variance > 0.0 else 1.0
+
+
+@jit()
+def resolve(kind, params, angles, x1, x2):
+    """The kernel's parameters for the points ``x1`` and ``x2`` (together): a data-chosen
+    Gaussian variance resolved (``width**2`` times their median squared distance, norm 1);
+    other parameters as given."""
+    if kind != GAUSSIAN or params[0] > 0.0:
+        return params
+    joint = np.empty((x1.shape[0], x1.shape[1] + x2.shape[1]))
+    for r in range(x1.shape[0]):
+        for i in range(x1.shape[1]):
+            joint[r, i] = x1[r, i]
+        for i in range(x2.shape[1]):
+            joint[r, x1.shape[1] + i] = x2[r, i]
+    resolved = np.empty(3)
+    resolved[0] = params[2] * params[2] * median_variance(angles, joint)
+    resolved[1] = 1.0
+    resolved[2] = params[2]
+    return resolved
 
 
 @jit()
@@ -52,7 +117,7 @@ def _kernel_row(kind, params, angles, x1, a, x2, out):
             out[b] = (out[b] * inv_ialpha + c) ** power
     else:
         scale = -0.5 / params[0]
-        norm = 1.0 / np.sqrt(2.0 * np.pi * params[0])
+        norm = params[1]
         for b in range(out.size):
             out[b] = norm * fast_exp(scale * out[b])
 
@@ -60,9 +125,10 @@ def _kernel_row(kind, params, angles, x1, a, x2, out):
 @jit(parallel=True)
 def gram(kind, params, angles, x1, x2, out):
     """The (A, B) Gram matrix ``out[a, b] = k(x1[:, a], x2[:, b])`` of (d, A) and (d, B)
-    points, rows in parallel."""
+    points, rows in parallel (parameters resolved on both sets of points together)."""
+    resolved = resolve(kind, params, angles, x1, x2)
     for a in prange(x1.shape[1]):
-        _kernel_row(kind, params, angles, x1, a, x2, out[a])
+        _kernel_row(kind, resolved, angles, x1, a, x2, out[a])
 
 
 @jit()
@@ -72,7 +138,7 @@ def _diagonal(kind, params, points, out):
         if kind == MATRIX:
             out[j] = points[j, j]
         elif kind == GAUSSIAN:
-            out[j] = 1.0 / np.sqrt(2.0 * np.pi * params[0])
+            out[j] = params[1]
         else:
             norm = 0.0
             for i in range(points.shape[0]):
@@ -91,6 +157,7 @@ def factor(kind, params, angles, points):
     Raises ValueError if its diagonal is not finite.
     """
     n = points.shape[1] if kind != MATRIX else points.shape[0]
+    params = resolve(kind, params, angles, points, np.empty((points.shape[0], 0)))
     residual = np.empty(n)
     _diagonal(kind, params, points, residual)
     tol = n * 2.220446049250313e-16 * max(residual.max(), 0.0) if n > 0 else 0.0
@@ -113,7 +180,9 @@ def factor(kind, params, angles, points):
                 row[b] -= coef * previous[b]
         if rank == rows.shape[0]:
             grown = np.empty((min(n, 2 * rank), n))
-            grown[:rank] = rows
+            for i in range(rank):
+                for b in range(n):
+                    grown[i, b] = rows[i, b]
             rows = grown
         scale = 1.0 / np.sqrt(pivot)
         new = rows[rank]

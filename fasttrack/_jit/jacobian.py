@@ -12,7 +12,9 @@ import numpy as np
 
 from . import jit
 from .likelihood import BEARING_RANGE, SELECT, _predict_block
-from .numeric import wrap_angle
+from .numeric import fill, wrap_angle
+from .status import OK
+from .user import output_status
 
 ANALYTIC, FORWARD, CENTRAL = 0, 1, 2
 
@@ -78,7 +80,7 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
     differences otherwise. A bearing's derivative is undefined at the sensor: NaN there.
     """
     d = x.size
-    out[:, :] = 0.0
+    fill(out, 0.0)
     if kind == SELECT:
         for r in range(mapping.size):
             out[r, mapping[r]] = 1.0
@@ -90,7 +92,7 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
         py = rotation[1, 0] * dx + rotation[1, 1] * dy
         rho2 = px * px + py * py
         if rho2 == 0.0:
-            out[:, :] = np.nan
+            fill(out, np.nan)
             return
         for c in range(2):  # d p / d x[mapping[c]] is column c of the rotation
             column = mapping[c]
@@ -113,20 +115,31 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
 
 @jit()
 def measurement_jacobian_function(function, x, angles, central, out):
-    """Finite-difference Jacobian (m, d) of a user measurement ``h((d, n)) -> (m, n)``."""
+    """Finite-difference Jacobian (m, d) of a user measurement ``h((d, n)) -> (m, n)``;
+    returns the status of the function's outputs (``out`` is written only if OK)."""
     d = x.size
     points = np.empty((d, 2 * d if central else d + 1))
     steps = np.empty(d)
     _evaluation_points(x, central, steps, points)
-    _differences(np.ascontiguousarray(function(points)), steps, angles, central, out)
+    values = function(points)
+    code = output_status(values, out.shape[0], points.shape[1])
+    if code == OK:
+        _differences(np.ascontiguousarray(values), steps, angles, central, out)
+    return code
 
 
 @jit()
 def transition_jacobian_function(function, time_interval, x, central, out):
-    """Finite-difference Jacobian (d, d) of a user transition ``f((d, n), dt) -> (d, n)``."""
+    """Finite-difference Jacobian (d, d) of a user transition ``f((d, n), dt) -> (d, n)``;
+    returns the status of the function's outputs (``out`` is written only if OK)."""
     d = x.size
     points = np.empty((d, 2 * d if central else d + 1))
     steps = np.empty(d)
     _evaluation_points(x, central, steps, points)
-    _differences(np.ascontiguousarray(function(points, time_interval)), steps,
-                 np.zeros(d, dtype=np.bool_), central, out)
+    values = function(points, time_interval)
+    code = output_status(values, d, points.shape[1])
+    if code == OK:
+        _differences(np.ascontiguousarray(values), steps, np.zeros(d, dtype=np.bool_),
+                     central, out)
+    return code
+

@@ -10,19 +10,29 @@ velocity) with rates q: ``F = [[1, dt], [0, 1]]``, ``Q = q [[t^3/3, t^2/2], [t^2
 t = |dt|, per block), with an interval per filter. Measurements are the built-in kinds of
 :mod:`likelihood`; for other models the caller provides the predicted measurement and its
 Jacobian. Covariances are computed on the lower triangle and mirrored, so they are exactly
-symmetric. Each filter gets a status: OK, or why its step is undefined.
+symmetric. Each filter gets a status (:mod:`status`): OK, or why its step is undefined.
+
+Priors and predictions need only be positive semi-definite (a singular covariance is
+legal); the innovation covariance must be positive definite. The covariance update is
+either the standard form ``P - K S K^T`` or the Joseph form
+``(I - K H) P (I - K H)^T + K R K^T``, a sum of two positive semi-definite terms, which
+stays symmetric positive semi-definite when the standard form loses it to cancellation
+(e.g. P = 1e12 I, R = 1e-12 I).
 """
 import numpy as np
 from numba import prange
 
 from . import jit
+from .._validate import PSD_TOLERANCE
 from .jacobian import (ANALYTIC, measurement_jacobian, measurement_jacobian_function,
                        transition_jacobian_function)
 from .likelihood import BEARING_RANGE, SELECT, _predict_block
-from .numeric import fast_atan2, wrap_angle
+from .numeric import copy_into, fast_atan2, fill, wrap_angle
+from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
+                     PREDICTION_NOT_PSD, PRIOR_NOT_PSD)
+from .user import output_status
 
 FIXED, CV = 0, 1
-OK, PRIOR_NOT_PD, INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE = 0, 1, 2, 3, 4
 BLOCK = 128
 
 
@@ -78,6 +88,43 @@ def _cholesky(a, lower, status, code):
 
 
 @jit()
+def _check_psd(a, status, code):
+    """``status[b] = code`` (if still OK) where the symmetric (n, n, B) ``a`` is not
+    positive semi-definite: a Cholesky factorisation in which a pivot within ``tol =
+    PSD_TOLERANCE * max(diag)`` of zero counts as zero (its column must then vanish, to
+    ``sqrt(tol max(diag))``) and a pivot below ``-tol`` means a negative eigenvalue."""
+    n, _, nb = a.shape
+    lower = np.zeros((n, n))
+    for b in range(nb):
+        top = 0.0
+        for j in range(n):
+            top = max(top, a[j, j, b])
+        tol = PSD_TOLERANCE * top
+        column_tol = np.sqrt(tol * top)
+        good = True
+        for j in range(n):
+            s = a[j, j, b]
+            for k in range(j):
+                s -= lower[j, k] * lower[j, k]
+            if s < -tol:
+                good = False
+            pivot = np.sqrt(s) if s > tol else 0.0
+            lower[j, j] = pivot
+            for i in range(j + 1, n):
+                t = a[i, j, b]
+                for k in range(j):
+                    t -= lower[i, k] * lower[j, k]
+                if pivot > 0.0:
+                    lower[i, j] = t / pivot
+                else:
+                    lower[i, j] = 0.0
+                    if abs(t) > column_tol:
+                        good = False
+        if not good and status[b] == OK:
+            status[b] = code
+
+
+@jit()
 def _sandwich(left, middle, work, out):
     """``out += left middle left^T`` per filter (lower triangle computed, mirrored)."""
     rows, inner, nb = left.shape
@@ -100,12 +147,11 @@ def _sandwich(left, middle, work, out):
 
 @jit()
 def _predict_covariance(matrix, covar, covariance, covariance_out, status):
-    """``P_out = F P F^T + Q`` per filter; the prior covariance must be positive definite
-    (else PRIOR_NOT_PD)."""
-    work = np.empty(covariance.shape)
-    _cholesky(covariance, work, status, PRIOR_NOT_PD)
-    covariance_out[:, :, :] = covar
-    _sandwich(matrix, covariance, work, covariance_out)
+    """``P_out = F P F^T + Q`` per filter; the prior covariance must be positive
+    semi-definite (else PRIOR_NOT_PSD)."""
+    _check_psd(covariance, status, PRIOR_NOT_PSD)
+    copy_into(covar, covariance_out)
+    _sandwich(matrix, covariance, np.empty(covariance.shape), covariance_out)
 
 
 @jit()
@@ -128,7 +174,7 @@ def _measure(kind, mapping, offset, rotation, method, x, z_hat, jacobian, status
     d, nb = x.shape
     m = z_hat.shape[0]
     if kind == SELECT or method == ANALYTIC:
-        jacobian[:, :, :] = 0.0
+        fill(jacobian, 0.0)
         if kind == SELECT:
             for r in range(m):
                 for b in range(nb):
@@ -158,13 +204,20 @@ def _measure(kind, mapping, offset, rotation, method, x, z_hat, jacobian, status
     one = np.empty((m, d))
     angles = np.zeros(m, dtype=np.bool_)
     angles[0] = True
+    point = np.empty(d)
     for b in range(nb):
-        column[:, 0] = x[:, b]
+        for r in range(d):
+            column[r, 0] = x[r, b]
+            point[r] = x[r, b]
         _predict_block(kind, column, 0, 1, mapping, offset, rotation, values, 0)
-        z_hat[:, b] = values[:, 0]
-        measurement_jacobian(kind, column[:, 0], mapping, offset, rotation, angles, method, one)
-        jacobian[:, :, b] = one
-        if not np.isfinite(one).all() and status[b] == OK:
+        measurement_jacobian(kind, point, mapping, offset, rotation, angles, method, one)
+        finite = True
+        for r in range(m):
+            z_hat[r, b] = values[r, 0]
+            for c in range(d):
+                jacobian[r, c, b] = one[r, c]
+                finite &= np.isfinite(one[r, c])
+        if not finite and status[b] == OK:
             status[b] = JACOBIAN_UNDEFINED
 
 
@@ -244,7 +297,7 @@ def _update(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, cov
                 for k in range(m):
                     s -= gain_t[k, r, b] * jacobian[k, c, b]
                 square[r, c, b] = s
-    covariance_out[:, :, :] = 0.0
+    fill(covariance_out, 0.0)
     _sandwich(square, covariance, np.empty((d, d, nb)), covariance_out)
     gain = np.empty((d, m, nb))
     noises = np.empty((m, m, nb))
@@ -319,7 +372,8 @@ def batch_step(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, o
                     covariance_out, block_status)
         _from_block(x_out, lo, hi, means_out)
         _from_block(covariance_out, lo, hi, covariances_out)
-        status[lo:hi] = block_status
+        for b in range(nb):
+            status[lo + b] = block_status[b]
 
 
 @jit(parallel=True)
@@ -352,8 +406,8 @@ def batch_run(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, of
                     first_failure[b] = t
             _from_block(x_out, lo, hi, means_out[t])
             _from_block(covariance_out, lo, hi, covariances_out[t])
-            x[:, :] = x_out
-            covariance[:, :, :] = covariance_out
+            copy_into(x_out, x)
+            copy_into(covariance_out, covariance)
         for b in range(nb):
             status[lo + b, 0] = first_failure[b]
             status[lo + b, 1] = block_status[b]
@@ -378,31 +432,43 @@ def predict_one(kind, rates, fixed_matrix, fixed_covar, dt, x, covariance, x_out
 @jit()
 def predict_function(function, dt, covar, central, x, covariance, x_out, covariance_out):
     """One filter through a user transition ``f((d, n), dt)``: ``x_out = f(x)``, and F its
-    finite-difference Jacobian at x; returns the status."""
+    finite-difference Jacobian at x; returns the status (the function's outputs are
+    checked first, see :mod:`user`)."""
     d = x.shape[0]
-    matrix = np.empty((d, d, 1))
     jacobian = np.empty((d, d))
-    transition_jacobian_function(function, dt, x[:, 0].copy(), central, jacobian)
-    matrix[:, :, 0] = jacobian
-    x_out[:, :] = function(x, dt)
+    code = transition_jacobian_function(function, dt, x[:, 0].copy(), central, jacobian)
+    if code != OK:
+        return code
+    values = function(x, dt)
+    code = output_status(values, d, 1)
+    if code != OK:
+        return code
+    matrix = np.empty((d, d, 1))
+    for r in range(d):
+        x_out[r, 0] = values[r, 0]
+        for c in range(d):
+            matrix[r, c, 0] = jacobian[r, c]
     status = np.zeros(1, dtype=np.int64)
     _predict_covariance(matrix, covar.reshape((d, d, 1)), covariance.reshape((d, d, 1)),
-                       covariance_out.reshape((d, d, 1)), status)
+                        covariance_out.reshape((d, d, 1)), status)
     return status[0]
 
 
 @jit()
 def update_one(kind, mapping, offset, rotation, noise, angles, method, joseph, x, covariance,
                z, x_out, covariance_out, z_hat, innovation_covar, cross):
-    """One filter's update with a built-in measurement kind; returns its status."""
+    """One filter's update with a built-in measurement kind; returns its status (the
+    prediction's covariance must be positive semi-definite)."""
     d = x.shape[0]
     m = z.shape[0]
     status = np.zeros(1, dtype=np.int64)
+    covariance = covariance.reshape((d, d, 1))
+    _check_psd(covariance, status, PREDICTION_NOT_PSD)
     jacobian = np.empty((m, d, 1))
     _measure(kind, mapping, offset, rotation, method, x, z_hat, jacobian, status)
-    _update(x, covariance.reshape((d, d, 1)), z, z_hat, jacobian, noise, angles, joseph, x_out,
-           covariance_out.reshape((d, d, 1)), innovation_covar.reshape((m, m, 1)),
-           cross.reshape((d, m, 1)), status)
+    _update(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out,
+            covariance_out.reshape((d, d, 1)), innovation_covar.reshape((m, m, 1)),
+            cross.reshape((d, m, 1)), status)
     return status[0]
 
 
@@ -410,20 +476,26 @@ def update_one(kind, mapping, offset, rotation, noise, angles, method, joseph, x
 def update_function(function, noise, angles, central, joseph, x, covariance, z, x_out,
                     covariance_out, z_hat, innovation_covar, cross):
     """One filter's update with a user measurement ``h((d, n)) -> (m, n)`` (Jacobian by
-    finite differences); returns its status."""
+    finite differences); returns its status (the function's outputs are checked first)."""
     d = x.shape[0]
     m = z.shape[0]
-    status = np.zeros(1, dtype=np.int64)
     values = function(x)
+    code = output_status(values, m, 1)
+    if code != OK:
+        return code
+    one = np.empty((m, d))
+    code = measurement_jacobian_function(function, x[:, 0].copy(), angles, central, one)
+    if code != OK:
+        return code
+    status = np.zeros(1, dtype=np.int64)
+    covariance = covariance.reshape((d, d, 1))
+    _check_psd(covariance, status, PREDICTION_NOT_PSD)
+    jacobian = np.empty((m, d, 1))
     for r in range(m):
         z_hat[r, 0] = wrap_angle(values[r, 0]) if angles[r] else values[r, 0]
-    one = np.empty((m, d))
-    measurement_jacobian_function(function, x[:, 0].copy(), angles, central, one)
-    if not np.isfinite(one).all():
-        status[0] = JACOBIAN_UNDEFINED
-    jacobian = np.empty((m, d, 1))
-    jacobian[:, :, 0] = one
-    _update(x, covariance.reshape((d, d, 1)), z, z_hat, jacobian, noise, angles, joseph, x_out,
-           covariance_out.reshape((d, d, 1)), innovation_covar.reshape((m, m, 1)),
-           cross.reshape((d, m, 1)), status)
+        for c in range(d):
+            jacobian[r, c, 0] = one[r, c]
+    _update(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out,
+            covariance_out.reshape((d, d, 1)), innovation_covar.reshape((m, m, 1)),
+            cross.reshape((d, m, 1)), status)
     return status[0]

@@ -16,6 +16,8 @@ from numba import prange
 
 from . import jit
 from .numeric import fast_atan2, wrap_angle
+from .status import OK
+from .user import columns, first_failure, output_status, store
 
 SELECT, BEARING_RANGE, BEARING = 0, 1, 2
 BLOCK = 1024
@@ -118,28 +120,43 @@ def log_likelihood(kind, z, x, mapping, offset, rotation, angles, whiten, log_no
 
 @jit(parallel=True)
 def measure_function(function, x, angles, out):
-    """Predicted measurements of a user model ``h((d, n) states) -> (m, n)``."""
+    """Predicted measurements of a user model ``h((d, n) states) -> (m, n)``; returns the
+    status of its outputs (see :mod:`user`)."""
+    m = out.shape[0]
     n = x.shape[1]
-    for b in prange((n + BLOCK - 1) // BLOCK):
+    blocks = (n + BLOCK - 1) // BLOCK
+    codes = np.zeros(blocks, dtype=np.int64)
+    for b in prange(blocks):
         lo = b * BLOCK
         hi = min(lo + BLOCK, n)
-        out[:, lo:hi] = function(x[:, lo:hi])
-        _wrap_rows(out, lo, hi, angles)
+        values = function(columns(x, lo, hi))
+        codes[b] = output_status(values, m, hi - lo)
+        if codes[b] == OK:
+            store(values, out, lo)
+            _wrap_rows(out, lo, hi, angles)
+    return first_failure(codes)
 
 
 @jit(parallel=True)
 def log_likelihood_function(function, z, x, angles, whiten, log_norm, log_w, out):
-    """:func:`log_likelihood` for a user model ``h((d, n) states) -> (m, n)``."""
+    """:func:`log_likelihood` for a user model ``h((d, n) states) -> (m, n)``; returns
+    ``(max(out), status)``, the status of the function's outputs (see :mod:`user`)."""
     n = x.shape[1]
     blocks = (n + BLOCK - 1) // BLOCK
     tops = np.empty(blocks)
+    codes = np.zeros(blocks, dtype=np.int64)
     for b in prange(blocks):
         lo = b * BLOCK
         hi = min(lo + BLOCK, n)
-        predicted = np.ascontiguousarray(function(x[:, lo:hi]))
-        tops[b] = _block_log_likelihoods(z, predicted, angles, whiten, log_norm, log_w[lo:hi],
-                                         out[lo:hi])
-    return _max(tops)
+        predicted = np.empty((z.size, hi - lo))
+        values = function(columns(x, lo, hi))
+        codes[b] = output_status(values, z.size, hi - lo)
+        tops[b] = np.nan
+        if codes[b] == OK:
+            store(values, predicted, 0)
+            tops[b] = _block_log_likelihoods(z, predicted, angles, whiten, log_norm,
+                                             log_w[lo:hi], out[lo:hi])
+    return _max(tops), first_failure(codes)
 
 
 @jit()

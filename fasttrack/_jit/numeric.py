@@ -195,6 +195,24 @@ def wrap_angle(a):
 
 
 @jit()
+def fill(out, value):
+    """Every entry of a C-contiguous array set to ``value`` (a loop: Numba compiles a
+    slice assignment far more slowly)."""
+    flat = out.reshape(-1)
+    for i in range(flat.size):
+        flat[i] = value
+
+
+@jit()
+def copy_into(source, out):
+    """``out[...] = source`` for C-contiguous arrays of the same size."""
+    flat_out = out.reshape(-1)
+    flat_in = source.reshape(-1)
+    for i in range(flat_out.size):
+        flat_out[i] = flat_in[i]
+
+
+@jit()
 def n_chunks(n):
     """Number of work chunks for ``n`` items: a function of ``n`` alone, so chunked
     reductions give the same bits whatever the thread count."""

@@ -10,6 +10,8 @@ from numba import prange
 
 from . import jit
 from .numeric import fill_normals
+from .status import OK
+from .user import columns, first_failure, output_status, store
 
 BLOCK = 1024
 
@@ -65,12 +67,19 @@ def propagate_linear(x, matrix, noise_root, key, out):
 @jit(parallel=True)
 def propagate_function(function, time_interval, x, noise_root, key, out):
     """``out = f(x, dt) + S z`` for a user transition ``f((d, n) states, dt) -> (d, n)``,
-    called block by block."""
+    called block by block; returns the status of its outputs (see :mod:`user`): where it
+    is not OK, ``out`` is not meaningful."""
     d, n = x.shape
     noisy = _any_nonzero(noise_root)
-    for b in prange((n + BLOCK - 1) // BLOCK):
+    blocks = (n + BLOCK - 1) // BLOCK
+    codes = np.zeros(blocks, dtype=np.int64)
+    for b in prange(blocks):
         lo = b * BLOCK
         hi = min(lo + BLOCK, n)
-        out[:, lo:hi] = function(x[:, lo:hi], time_interval)
-        if noisy:
-            _add_noise(noise_root, key, b, lo, hi, out)
+        values = function(columns(x, lo, hi), time_interval)
+        codes[b] = output_status(values, d, hi - lo)
+        if codes[b] == OK:
+            store(values, out, lo)
+            if noisy:
+                _add_noise(noise_root, key, b, lo, hi, out)
+    return first_failure(codes)

@@ -129,8 +129,14 @@ def _sum_rows(partial):
 
 @jit(parallel=True)
 def normalise_in_place(log_w, log_w_max):
-    """Shift log weights so that their exponentials sum to 1; returns the shift (logsumexp)."""
-    shift = log_sum_exp(log_w, log_w_max)
+    """Shift log weights so that their exponentials sum to 1; returns the shift (logsumexp).
+
+    Each weight becomes ``(log_w - log_w_max) - log(sum exp(log_w - log_w_max))``: the
+    large common offset is removed first, exactly, so the sum of the normalised weights is
+    1 to rounding whatever the magnitude of the log weights (subtracting the logsumexp
+    itself would lose up to its last bit, half a unit at 1e15).
+    """
+    log_total = np.log(_power_sums(log_w, log_w_max)[0])
     for i in prange(log_w.size):
-        log_w[i] -= shift
-    return shift
+        log_w[i] = (log_w[i] - log_w_max) - log_total
+    return log_w_max + log_total

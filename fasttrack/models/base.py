@@ -1,10 +1,15 @@
-"""What the models share: state arrays, Gaussian noise and its square root."""
+"""What the models share: state arrays, Gaussian noise and its square root, and the
+checked wrapper of a user's model function."""
 import functools
 
 import numpy as np
+from numba import types as _types
 
+from .. import _errors
 from .. import _validate
 from .. import random as _random
+from .._jit import status as _status
+from .._jit.user import output_status
 
 
 def state_columns(state, name="state"):
@@ -77,6 +82,14 @@ def _noise_by_value(data, shape, name):
     return GaussianNoise(np.frombuffer(data).reshape(shape).copy(), name)
 
 
+def read_only(array):
+    """A read-only view of ``array``: what a model shows of a parameter, keeping the
+    writable original for its kernels (which compile for writable arrays)."""
+    view = array.view()
+    view.flags.writeable = False
+    return view
+
+
 def wrap_angle(a):
     """Angles wrapped to [-pi, pi), by the kernels' formula ``a - 2 pi floor((a + pi) / 2 pi)``."""
     return a - 6.283185307179586 * np.floor((a + 3.141592653589793) * 0.15915494309189535)
@@ -85,3 +98,93 @@ def wrap_angle(a):
 def scalar_or_array(values):
     """A float for a single value, else the array (Stone Soup's logpdf convention)."""
     return float(values[0]) if values.size == 1 else values
+
+
+#: The argument types user functions are compiled for: a C-contiguous (d, n) float64 array
+#: (and, for a transition, the interval in seconds). Kernels and Python calls both use them.
+_STATES = _types.Array(_types.float64, 2, "C")
+
+
+class UserFunction:
+    """A user's ``@numba.njit`` model function, checked before anything is read from its
+    output.
+
+    At construction it is compiled for the argument types the kernels pass (a C-contiguous
+    (d, n) float64 array, and a float interval for a transition), its return type must be
+    a 2-D float64 array, and a call on a probe of 3 states must return ``(rows, 3)``. Every
+    later call (in a kernel or from Python) checks the shape and that the values are
+    finite, and a bad output raises ValueError naming the function.
+
+    Parameters
+    ----------
+    function : numba dispatcher
+    role : str
+        'transition function' or 'measurement function' (for messages).
+    ndim_state, rows : int
+        d, and the number of rows it must return.
+    interval : bool
+        Whether it takes a time interval (seconds) after the states.
+    """
+
+    def __init__(self, function, role, ndim_state, rows, interval):
+        signature = "f(states, dt)" if interval else "h(states)"
+        if not (hasattr(function, "py_func") and hasattr(function, "compile")):
+            raise TypeError(f"the {role} must be a numba.njit function {signature}, "
+                            f"got {type(function).__name__}")
+        self.function, self.role, self.rows = function, role, rows
+        self.name = getattr(function.py_func, "__name__", repr(function))
+        self.ndim_state, self.interval = ndim_state, interval
+        arguments = (_STATES, _types.float64) if interval else (_STATES,)
+        try:
+            function.compile(arguments)
+        except Exception as error:
+            raise TypeError(f"{self._label} cannot be compiled for a (d, n) float64 array of "
+                            f"states{' and a float interval' if interval else ''} "
+                            f"(signature {signature}, states one per column): "
+                            f"{_first_line(error)}") from error
+        returned = function.overloads[arguments].signature.return_type
+        if not (isinstance(returned, _types.Array) and returned.ndim == 2
+                and returned.dtype == _types.float64):
+            raise TypeError(f"{self._label} must return a 2-D float64 array of shape "
+                            f"({rows}, n), one column per state; it returns {returned}")
+        probe = 1.0 + 0.25 * np.arange(ndim_state)[:, None] + 0.125 * np.arange(3)
+        try:
+            values = self._raw(probe, 1.0)
+        except Exception:  # the probe may lie outside its domain: calls still check
+            return
+        if values.shape != (rows, 3):
+            raise ValueError(self._shape_message(values.shape, probe.shape))
+
+    @property
+    def _label(self):
+        return f"{self.role} {self.name!r}"
+
+    def _raw(self, states, dt):
+        return self.function(states, dt) if self.interval else self.function(states)
+
+    def __call__(self, states, dt=None):
+        """The checked output for (d, n) C-contiguous float64 ``states`` (and the interval
+        ``dt`` in seconds, for a transition)."""
+        values = self._raw(states, dt)
+        _errors.check(output_status(values, self.rows, states.shape[1]), self, states, dt)
+        return values
+
+    def _shape_message(self, got, states_shape):
+        return (f"{self._label} returned an array of shape {got} for states of shape "
+                f"{states_shape}; expected ({self.rows}, {states_shape[1]}), one column per "
+                f"state")
+
+    def error(self, code, states, dt=None):
+        """The ValueError for a kernel's status ``code`` about this function's output on
+        (d, n) ``states`` (called again here, on at most 1024 of them, to describe it)."""
+        sample = np.ascontiguousarray(states[:, :1024])
+        if code == _status.FUNCTION_SHAPE:
+            got = np.shape(self._raw(sample, 1.0 if dt is None else dt))
+            return ValueError(self._shape_message(got, sample.shape))
+        return ValueError(f"{self._label} returned NaN or infinite values for states of "
+                          f"shape {states.shape}")
+
+
+def _first_line(error):
+    lines = [line for line in str(error).splitlines() if line.strip()]
+    return f"{type(error).__name__}: {' '.join(lines[:3])}"

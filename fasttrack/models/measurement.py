@@ -1,28 +1,24 @@
 """Measurement models: z = h(x) + v, v ~ N(0, R), with angle components wrapped to [-pi, pi)
-wherever a difference of angles is formed."""
+wherever a difference of angles is formed.
+
+Parameters may be assigned after construction (a moving sensor changes its
+``translation_offset`` every step): each assignment is validated and honoured by every
+method and filter from the next call. Array parameters are stored read-only, so they
+cannot be changed in place behind the model's back; the dimensions (``ndim_state``,
+``ndim_meas``) and a user model's function are fixed.
+"""
 import numpy as np
 
+from .. import _errors
 from .. import _validate
 from .._jit import likelihood as _kernels
-from .base import check_rows, gaussian_noise, scalar_or_array, state_columns, wrap_angle
-
-
-def _mapping(mapping, ndim_state, minimum=1):
-    try:
-        values = tuple(int(m) for m in mapping)
-    except TypeError:
-        raise TypeError(f"mapping must be a sequence of state indices, "
-                        f"got {type(mapping).__name__}") from None
-    if len(values) < minimum:
-        raise ValueError(f"mapping needs at least {minimum} state indices, got {values}")
-    if any(not 0 <= m < ndim_state for m in values):
-        raise ValueError(f"mapping indices must lie in [0, {ndim_state}), got {values}")
-    return values
+from .base import (UserFunction, check_rows, gaussian_noise, read_only, scalar_or_array,
+                   state_columns, wrap_angle)
 
 
 def rotation_matrix(rotation_offset):
     """The 3x3 sensor rotation ``Rx(-roll) Ry(pitch) Rz(-yaw)`` of angles (roll, pitch, yaw)."""
-    roll, pitch, yaw = rotation_offset
+    roll, pitch, yaw = np.ravel(rotation_offset)
 
     def rot(axis, theta):
         c, s = np.cos(theta), np.sin(theta)
@@ -36,6 +32,15 @@ def rotation_matrix(rotation_offset):
     return rot(0, -roll) @ rot(1, pitch) @ rot(2, -yaw)
 
 
+def _components(value, name, size, what):
+    """A finite (size,) float64 copy of a (size,) or (size, 1) array_like; ``what``
+    describes the entries in the error."""
+    array = _validate.finite_array(value, name)
+    if array.size != size or array.ndim > 2 or (array.ndim == 2 and array.shape[1] != 1):
+        raise ValueError(f"{name} must have {what}, got shape {array.shape}")
+    return array.ravel().copy()
+
+
 class MeasurementModel:
     """Base class of the measurement models.
 
@@ -46,11 +51,33 @@ class MeasurementModel:
     angle_components = ()
 
     def __init__(self, ndim_state, noise_covar, ndim_meas):
-        self.ndim_state = _validate.count(ndim_state, "ndim_state")
-        self.ndim_meas = ndim_meas
-        self.noise_covar = _validate.covariance(noise_covar, "noise_covar", ndim_meas)
-        self._noise = gaussian_noise(self.noise_covar, "noise_covar")
-        self._angles = np.array([r in self.angle_components for r in range(ndim_meas)])
+        self._ndim_state = _validate.count(ndim_state, "ndim_state")
+        self._ndim_meas = ndim_meas
+        self._angles = np.array([r in self.angle_components for r in range(ndim_meas)],
+                                dtype=np.bool_)
+        self.noise_covar = noise_covar
+
+    ndim_state = property(lambda self: self._ndim_state,
+                          doc="Number of state dimensions d (fixed).")
+    ndim_meas = property(lambda self: self._ndim_meas,
+                         doc="Number of measurement dimensions m (fixed).")
+
+    @property
+    def noise_covar(self):
+        """R (m, m), symmetric positive semi-definite (positive definite for densities and
+        Kalman updates); read-only array, assign a new one to change it."""
+        return self._public_noise_covar
+
+    @noise_covar.setter
+    def noise_covar(self, value):
+        covar = _validate.psd_covariance(value, "noise_covar", self.ndim_meas).copy()
+        self._noise_covar = covar
+        self._public_noise_covar = read_only(covar)
+        self._noise = gaussian_noise(covar, "noise_covar")
+        self._refresh()
+
+    def _refresh(self):
+        """Recompute what the kernels are given after a parameter changed."""
 
     def covar(self, **kwargs):
         """R (m, m)."""
@@ -69,16 +96,18 @@ class MeasurementModel:
                 and z.dtype == np.float64 and z.flags.c_contiguous:
             return z
         z = _validate.float_array(z, name)
-        if z.size != self.ndim_meas or (z.ndim == 2 and z.shape[1] != 1) or z.ndim > 2:
-            raise ValueError(f"{name} must have {self.ndim_meas} components for "
+        if z.ndim not in (1, 2) or z.size != self.ndim_meas or (z.ndim == 2 and z.shape[1] != 1):
+            raise ValueError(f"{name} must have {self.ndim_meas} components, as a "
+                             f"({self.ndim_meas},) or ({self.ndim_meas}, 1) array, for "
                              f"{type(self).__name__}, got shape {z.shape}")
         return np.ascontiguousarray(z.reshape(-1, 1))
 
     def measurement_vector(self, measurement, name="measurement"):
         """A finite (m,) float64 vector from a Detection or array_like."""
         z = _validate.finite_array(getattr(measurement, "state_vector", measurement), name)
-        if z.size != self.ndim_meas or (z.ndim == 2 and z.shape[1] != 1) or z.ndim > 2:
-            raise ValueError(f"{name} must have {self.ndim_meas} components for "
+        if z.ndim not in (1, 2) or z.size != self.ndim_meas or (z.ndim == 2 and z.shape[1] != 1):
+            raise ValueError(f"{name} must have {self.ndim_meas} components, as a "
+                             f"({self.ndim_meas},) or ({self.ndim_meas}, 1) array, for "
                              f"{type(self).__name__}, got shape {z.shape}")
         return np.ascontiguousarray(z.reshape(-1))
 
@@ -108,7 +137,12 @@ class MeasurementModel:
         if noise is True:
             out += self._noise.sample(x.shape[1], rng)
         elif noise is not False and noise is not None:
-            out += _validate.finite_array(noise, "noise")
+            noise = _validate.finite_array(noise, "noise")
+            if noise.shape not in ((self.ndim_meas, x.shape[1]), (self.ndim_meas, 1),
+                                   (self.ndim_meas,)):
+                raise ValueError(f"noise must have shape {(self.ndim_meas, x.shape[1])}, "
+                                 f"got {noise.shape}")
+            out += noise.reshape(self.ndim_meas, -1)
         return self.wrap(out)
 
     def rvs(self, num_samples=1, rng=None):
@@ -140,15 +174,10 @@ class _KernelModel(MeasurementModel):
 
     kind = None
 
-    @property
-    def _kalman_args(self):
-        """The model's arguments to the Kalman kernels."""
-        args = self.__dict__.get("_kalman_args_cache")
-        if args is None:
-            args = (self.kind, self._mapping, self._offset, self._rotation, self.noise_covar,
-                    self._angles)
-            self.__dict__["_kalman_args_cache"] = args
-        return args
+    def _refresh(self):
+        if "_mapping" in self.__dict__:
+            self._kalman_args = (self.kind, self._mapping, self._offset, self._rotation,
+                                 self._noise_covar, self._angles)
 
     def _predict(self, x):
         out = np.empty((self.ndim_meas, x.shape[1]))
@@ -169,19 +198,35 @@ class LinearGaussian(_KernelModel):
     ----------
     ndim_state : int
     mapping : sequence of int
-        The state components measured, in measurement order.
+        The state components measured, in measurement order (may be reassigned with the
+        same number of components).
     noise_covar : (m, m) array_like
     """
 
     kind = _kernels.SELECT
 
     def __init__(self, ndim_state, mapping, noise_covar):
-        mapping = _mapping(mapping, _validate.count(ndim_state, "ndim_state"))
-        super().__init__(ndim_state, noise_covar, len(mapping))
-        self.mapping = mapping
-        self._mapping = np.array(mapping, dtype=np.int64)
+        ndim_state = _validate.count(ndim_state, "ndim_state")
+        mapping = _validate.indices(mapping, "mapping", ndim_state, minimum=1)
         self._offset = np.zeros(2)
         self._rotation = np.eye(2)
+        super().__init__(ndim_state, noise_covar, len(mapping))
+        self.mapping = mapping
+
+    @property
+    def mapping(self):
+        """The measured state components (a tuple of ints)."""
+        return self._mapping_tuple
+
+    @mapping.setter
+    def mapping(self, value):
+        mapping = _validate.indices(value, "mapping", self.ndim_state, minimum=1)
+        if len(mapping) != self.ndim_meas:
+            raise ValueError(f"mapping must keep {self.ndim_meas} components (the size of "
+                             f"noise_covar), got {mapping}")
+        self._mapping_tuple = mapping
+        self._mapping = np.array(mapping, dtype=np.int64)
+        self._refresh()
 
     def matrix(self, **kwargs):
         """H (m, d)."""
@@ -196,41 +241,77 @@ class LinearGaussian(_KernelModel):
 
 class _PolarSensor(_KernelModel):
     """A sensor at ``translation_offset`` with orientation ``rotation_offset`` measuring the
-    bearing (and range) of the position ``x[mapping[:2]]``."""
+    bearing (and range) of the position ``x[mapping]``."""
 
     angle_components = (0,)
 
     def __init__(self, ndim_state, mapping, noise_covar, translation_offset=None,
                  rotation_offset=None):
-        mapping = _mapping(mapping, _validate.count(ndim_state, "ndim_state"), minimum=2)
-        super().__init__(ndim_state, noise_covar, self.ndim_meas)
+        ndim_state = _validate.count(ndim_state, "ndim_state")
+        super().__init__(ndim_state, noise_covar, self._NDIM_MEAS)
         self.mapping = mapping
-        self._mapping = np.array(mapping[:2], dtype=np.int64)
-        offset = np.zeros(2) if translation_offset is None else _validate.finite_array(
-            translation_offset, "translation_offset").ravel()
-        if offset.size != 2:
-            raise ValueError(f"translation_offset must have 2 components (x, y), "
-                             f"got {offset.size}")
-        self.translation_offset = offset.reshape(2, 1)
-        self._offset = offset
-        angles = np.zeros(3) if rotation_offset is None else _validate.finite_array(
-            rotation_offset, "rotation_offset").ravel()
-        if angles.size != 3:
-            raise ValueError(f"rotation_offset must have 3 angles (roll, pitch, yaw), "
-                             f"got {angles.size}")
-        self.rotation_offset = angles.reshape(3, 1)
-        self.rotation_matrix = rotation_matrix(angles)
-        self._rotation = np.ascontiguousarray(self.rotation_matrix[:2, :2])
+        self.translation_offset = np.zeros(2) if translation_offset is None \
+            else translation_offset
+        self.rotation_offset = np.zeros(3) if rotation_offset is None else rotation_offset
+
+    @property
+    def mapping(self):
+        """The state indices (x, y) of the position (a tuple of 2 ints)."""
+        return self._mapping_tuple
+
+    @mapping.setter
+    def mapping(self, value):
+        mapping = _validate.indices(value, "mapping", self.ndim_state)
+        if len(mapping) != 2:
+            raise ValueError(f"mapping must give the 2 state indices (x, y) of the position, "
+                             f"got {mapping}")
+        self._mapping_tuple = mapping
+        self._mapping = np.array(mapping, dtype=np.int64)
+        self._refresh()
+
+    @property
+    def translation_offset(self):
+        """Sensor position (2, 1) (read-only array; assign a new one to move the sensor)."""
+        return self._translation
+
+    @translation_offset.setter
+    def translation_offset(self, value):
+        self._offset = _components(value, "translation_offset", 2, "2 components (x, y)")
+        self._translation = read_only(self._offset.reshape(2, 1))
+        self._refresh()
+
+    @property
+    def rotation_offset(self):
+        """Sensor orientation (roll, pitch, yaw) in rad (3, 1) (read-only array)."""
+        return self._rotation_angles
+
+    @rotation_offset.setter
+    def rotation_offset(self, value):
+        angles = _components(value, "rotation_offset", 3, "3 angles (roll, pitch, yaw)")
+        self._rotation_angles = read_only(angles.reshape(3, 1))
+        matrix = rotation_matrix(angles)
+        self._rotation_matrix = read_only(matrix)
+        self._rotation = np.ascontiguousarray(matrix[:2, :2])
+        self._refresh()
+
+    @property
+    def rotation_matrix(self):
+        """The (3, 3) rotation of ``rotation_offset`` (derived, read-only)."""
+        return self._rotation_matrix
+
+    def _refresh(self):
+        if "_rotation" in self.__dict__ and "_offset" in self.__dict__:
+            super()._refresh()
 
 
 class CartesianToBearingRange(_PolarSensor):
-    """z = (bearing, range) of the position ``x[mapping[:2]]`` seen from a sensor at
+    """z = (bearing, range) of the position ``x[mapping]`` seen from a sensor at
     ``translation_offset`` rotated by ``rotation_offset``; the bearing (rad) is an angle.
 
     Parameters
     ----------
     ndim_state : int
-    mapping : sequence of int
+    mapping : sequence of 2 int
         State indices of x and y.
     noise_covar : (2, 2) array_like
         R for (bearing in rad, range in state units).
@@ -242,7 +323,7 @@ class CartesianToBearingRange(_PolarSensor):
     """
 
     kind = _kernels.BEARING_RANGE
-    ndim_meas = 2
+    _NDIM_MEAS = 2
 
     def inverse_function(self, detection):
         """The state (d, K) whose position gives each measurement column (other state
@@ -255,20 +336,22 @@ class CartesianToBearingRange(_PolarSensor):
             raise ValueError("inverse_function needs a sensor without roll or pitch "
                              f"(rotation_offset {self.rotation_offset.ravel()})")
         z = _validate.finite_array(getattr(detection, "state_vector", detection), "detection")
+        if z.size == 0 or z.size % 2 or z.ndim > 2 or (z.ndim == 2 and z.shape[0] != 2):
+            raise ValueError(f"detection must have shape (2,) or (2, K), got {z.shape}")
         z = z.reshape(2, -1)
         xy = np.vstack([z[1] * np.cos(z[0]), z[1] * np.sin(z[0])])
         xy = np.linalg.inv(self._rotation) @ xy + self._offset[:, None]
         state = np.zeros((self.ndim_state, z.shape[1]))
-        state[list(self.mapping[:2])] = xy
+        state[list(self.mapping)] = xy
         return state
 
 
 class Cartesian2DToBearing(_PolarSensor):
-    """z = bearing (rad, an angle) of the position ``x[mapping[:2]]``; parameters as
+    """z = bearing (rad, an angle) of the position ``x[mapping]``; parameters as
     :class:`CartesianToBearingRange` with a (1, 1) ``noise_covar``."""
 
     kind = _kernels.BEARING
-    ndim_meas = 1
+    _NDIM_MEAS = 1
 
 
 class NonlinearGaussianMeasurement(MeasurementModel):
@@ -277,8 +360,10 @@ class NonlinearGaussianMeasurement(MeasurementModel):
     Parameters
     ----------
     function : numba.njit function ``h(states) -> measurements``
-        ``states`` is a (d, n) float64 array (a block of particles, or one state as a
-        column); returns an (m, n) float64 array.
+        ``states`` is a C-contiguous (d, n) float64 array, one state per column (a block
+        of particles, or one state); it returns an (m, n) float64 array. It is compiled
+        and tried on a probe at construction, and its output is checked on every call
+        (shape, finite values): see :class:`~fasttrack.models.base.UserFunction`.
     ndim_state : int
         d.
     noise_covar : (m, m) array_like
@@ -288,22 +373,29 @@ class NonlinearGaussianMeasurement(MeasurementModel):
     """
 
     def __init__(self, function, ndim_state, noise_covar, angle_components=()):
-        if not hasattr(function, "py_func"):
-            raise TypeError("function must be a numba.njit function h(states)")
+        ndim_state = _validate.count(ndim_state, "ndim_state")
         covar = _validate.finite_array(noise_covar, "noise_covar", 2)
-        self.angle_components = tuple(int(a) for a in angle_components)
-        if any(not 0 <= a < covar.shape[0] for a in self.angle_components):
-            raise ValueError(f"angle_components must lie in [0, {covar.shape[0]}), "
-                             f"got {self.angle_components}")
+        self._angle_components = _validate.indices(angle_components, "angle_components",
+                                                   covar.shape[0])
         super().__init__(ndim_state, covar, covar.shape[0])
-        self.measurement_function = function
+        self._function = UserFunction(function, "measurement function", ndim_state,
+                                      covar.shape[0], interval=False)
+
+    angle_components = property(lambda self: self._angle_components,
+                                doc="Measurement rows that are angles (fixed).")
+    measurement_function = property(lambda self: self._function.function,
+                                    doc="The user's function h (fixed).")
 
     def _predict(self, x):
         out = np.empty((self.ndim_meas, x.shape[1]))
-        _kernels.measure_function(self.measurement_function, x, self._angles, out)
+        code = _kernels.measure_function(self.measurement_function, x, self._angles, out)
+        _errors.check(code, self._function, x)
         return out
 
     def log_likelihood(self, z, x, log_w, out):
         whiten, log_norm = self._noise.whitening()
-        return _kernels.log_likelihood_function(self.measurement_function, z, x, self._angles,
-                                                whiten, log_norm, log_w, out)
+        top, code = _kernels.log_likelihood_function(self.measurement_function, z, x,
+                                                     self._angles, whiten, log_norm, log_w,
+                                                     out)
+        _errors.check(code, self._function, x)
+        return top

@@ -1,17 +1,24 @@
 """Transition models: x_k = f(x_{k-1}, dt) + w, w ~ N(0, Q(dt)).
 
 Time intervals are ``datetime.timedelta`` or seconds. States are (d, N) arrays, one column per
-particle, or state objects (their ``state_vector``)."""
+particle, or state objects (their ``state_vector``).
+
+Parameters may be assigned after construction; each assignment is validated and honoured
+from the next call. Array parameters are stored read-only (assign a new array to change
+one), and ``ndim_state`` is fixed.
+"""
 import functools
-import numbers
+import itertools
 
 import numpy as np
 
+from .. import _errors
 from .. import _validate
 from ..types import seconds
 from .._jit import kalman as _kalman
 from .._jit import propagate as _kernels
-from .base import GaussianNoise, check_rows, gaussian_noise, scalar_or_array, state_columns
+from .base import (UserFunction, check_rows, gaussian_noise, read_only, scalar_or_array,
+                   state_columns)
 
 
 class TransitionModel:
@@ -54,7 +61,10 @@ class TransitionModel:
             return mean + self._noise(dt).sample(x.shape[1], rng)
         if noise is False or noise is None:
             return mean
-        return mean + _validate.finite_array(noise, "noise")
+        noise = _validate.finite_array(noise, "noise")
+        if noise.shape not in (x.shape, (x.shape[0], 1), (x.shape[0],)):
+            raise ValueError(f"noise must have shape {x.shape}, got {noise.shape}")
+        return mean + noise.reshape(x.shape[0], -1)
 
     def rvs(self, num_samples=1, time_interval=None, rng=None):
         """(d, num_samples) draws of the process noise."""
@@ -85,9 +95,8 @@ _NO_MATRIX = np.empty((0, 0))
 
 @functools.lru_cache(maxsize=64)
 def _rates_array(rates):
-    array = np.array(rates, dtype=np.float64)
-    array.flags.writeable = False
-    return array
+    """The rates as an array (shared: kernels only read it)."""
+    return np.array(rates, dtype=np.float64)
 
 
 def _block_diag(blocks):
@@ -102,20 +111,31 @@ def _block_diag(blocks):
     return out
 
 
+#: Revision numbers of model parameters, unique over the process's lifetime.
+_REVISIONS = itertools.count()
+
+
 class _LinearGaussian(TransitionModel):
-    """x_k = F(dt) x_{k-1} + w: subclasses define ``matrix(time_interval)``."""
+    """x_k = F(dt) x_{k-1} + w: subclasses define ``matrix(time_interval)`` and
+    ``_parameters()``, a hashable value that changes whenever F can."""
 
     def _mean(self, x, dt):
         return self._matrix(dt) @ x
 
     def _matrix(self, dt):
-        """F(dt) as a C-contiguous array, memoised for the last interval (filters step at
-        a constant interval, and building F costs more than applying it)."""
+        """F(dt) as a C-contiguous array, memoised for the last interval and parameters
+        (filters step at a constant interval, and building F costs more than applying
+        it)."""
+        key = (dt, self._parameters())
         memo = self.__dict__.get("_matrix_memo")
-        if memo is None or memo[0] != dt:
-            memo = (dt, np.ascontiguousarray(self.matrix(dt), dtype=np.float64))
+        if memo is None or memo[0] != key:
+            memo = (key, np.ascontiguousarray(self.matrix(dt), dtype=np.float64))
             self.__dict__["_matrix_memo"] = memo
         return memo[1]
+
+    def _covar(self, dt):
+        """Q(dt) as a C-contiguous float64 array for the kernels."""
+        return np.ascontiguousarray(self.covar(dt), dtype=np.float64)
 
     def _propagate(self, x, dt, key):
         out = np.empty_like(x)
@@ -133,8 +153,7 @@ class _LinearGaussian(TransitionModel):
         rates = self._cv_rates()
         if rates is not None:
             return _kalman.CV, _rates_array(rates), _NO_MATRIX, _NO_MATRIX
-        return (_kalman.FIXED, _NO_RATES, np.ascontiguousarray(self.matrix(dt)),
-                np.ascontiguousarray(self.covar(dt)))
+        return _kalman.FIXED, _NO_RATES, self._matrix(dt), self._covar(dt)
 
     def _cv_rates(self):
         """The rates q of the constant-velocity blocks, as a tuple, or None if a part is
@@ -153,23 +172,50 @@ class LinearGaussianTransitionModel(_LinearGaussian):
     """
 
     def __init__(self, transition_matrix, covariance_matrix):
-        self.transition_matrix = _validate.finite_array(transition_matrix, "transition_matrix", 2)
-        d = self.transition_matrix.shape[0]
-        _validate.square_matrix(self.transition_matrix, "transition_matrix", d)
-        self.covariance_matrix = _validate.covariance(covariance_matrix, "covariance_matrix", d)
-        self.ndim_state = d
-        GaussianNoise(self.covariance_matrix, "covariance_matrix")  # checks it is PSD
+        matrix = _validate.finite_array(transition_matrix, "transition_matrix", 2)
+        self._ndim_state = matrix.shape[0]
+        self.transition_matrix = matrix
+        self.covariance_matrix = covariance_matrix
+
+    ndim_state = property(lambda self: self._ndim_state, doc="Number of state dimensions d.")
+
+    @property
+    def transition_matrix(self):
+        """F (d, d) (read-only array; assign a new one to change it)."""
+        return read_only(self._transition_matrix)
+
+    @transition_matrix.setter
+    def transition_matrix(self, value):
+        self._transition_matrix = _validate.square_matrix(value, "transition_matrix",
+                                                          self.ndim_state).copy()
+        self._revision = next(_REVISIONS)
+
+    @property
+    def covariance_matrix(self):
+        """Q (d, d), symmetric positive semi-definite (read-only array)."""
+        return read_only(self._covariance_matrix)
+
+    @covariance_matrix.setter
+    def covariance_matrix(self, value):
+        self._covariance_matrix = _validate.psd_covariance(value, "covariance_matrix",
+                                                           self.ndim_state).copy()
 
     def matrix(self, time_interval=None):
         """F (d, d); the time interval is ignored."""
         return self.transition_matrix
 
     def _matrix(self, dt):
-        return np.ascontiguousarray(self.transition_matrix, dtype=np.float64)
+        return self._transition_matrix
+
+    def _parameters(self):
+        return self._revision
 
     def covar(self, time_interval=None):
         """Q (d, d); the time interval is ignored."""
         return self.covariance_matrix
+
+    def _covar(self, dt):
+        return self._covariance_matrix
 
     def _seconds(self, time_interval):
         return 0.0 if time_interval is None else seconds(time_interval)
@@ -186,15 +232,22 @@ class ConstantVelocity(_LinearGaussian):
         q >= 0, in (state units)^2 / s^3.
     """
 
-    ndim_state = 2
+    ndim_state = property(lambda self: 2, doc="Number of state dimensions (2).")
 
     def __init__(self, noise_diff_coeff):
-        if not isinstance(noise_diff_coeff, numbers.Real) or isinstance(noise_diff_coeff, bool):
-            raise TypeError(f"noise_diff_coeff must be a real number, "
-                            f"got {type(noise_diff_coeff).__name__}")
-        if not (np.isfinite(noise_diff_coeff) and noise_diff_coeff >= 0):
-            raise ValueError(f"noise_diff_coeff must be finite and >= 0, got {noise_diff_coeff}")
-        self.noise_diff_coeff = float(noise_diff_coeff)
+        self.noise_diff_coeff = noise_diff_coeff
+
+    @property
+    def noise_diff_coeff(self):
+        """q >= 0, in (state units)^2 / s^3."""
+        return self._q
+
+    @noise_diff_coeff.setter
+    def noise_diff_coeff(self, value):
+        self._q = _validate.non_negative(value, "noise_diff_coeff")
+
+    def _parameters(self):
+        return None  # F does not depend on q
 
     def matrix(self, time_interval):
         dt = self._seconds(time_interval)
@@ -217,15 +270,39 @@ class CombinedLinearGaussianTransitionModel(_LinearGaussian):
     """
 
     def __init__(self, model_list):
-        models = list(model_list)
+        self.model_list = model_list
+
+    @property
+    def model_list(self):
+        """The parts (a tuple; assign a new sequence to change them)."""
+        return self._models
+
+    @model_list.setter
+    def model_list(self, value):
+        if not hasattr(value, "__iter__"):
+            raise TypeError(f"model_list must be a sequence of linear-Gaussian transition "
+                            f"models, got {type(value).__name__}")
+        models = tuple(value)
         if not models:
             raise ValueError("model_list is empty")
         for model in models:
             if not isinstance(model, _LinearGaussian):
                 raise TypeError(f"model_list must hold linear-Gaussian transition models, "
                                 f"got {type(model).__name__}")
-        self.model_list = models
-        self.ndim_state = sum(model.ndim_state for model in models)
+        dimension = sum(model.ndim_state for model in models)
+        if "_models" in self.__dict__ and dimension != self.ndim_state:
+            raise ValueError(f"model_list must keep {self.ndim_state} state dimensions, "
+                             f"got {dimension}")
+        self._models = models
+        self._revision = next(_REVISIONS)
+
+    @property
+    def ndim_state(self):
+        """Number of state dimensions d (the parts' sum)."""
+        return sum(model.ndim_state for model in self._models)
+
+    def _parameters(self):
+        return self._revision, tuple(model._parameters() for model in self._models)
 
     def matrix(self, time_interval):
         dt = self._seconds(time_interval)
@@ -251,8 +328,11 @@ class NonlinearGaussianTransitionModel(TransitionModel):
     Parameters
     ----------
     function : numba.njit function ``f(states, dt) -> new_states``
-        ``states`` is a (d, n) float64 array (a block of particles, or one state as a column),
-        ``dt`` the time interval in seconds; returns a (d, n) float64 array.
+        ``states`` is a C-contiguous (d, n) float64 array, one state per column (a block of
+        particles, or one state), ``dt`` the time interval in seconds; it returns a (d, n)
+        float64 array. It is compiled and tried on a probe at construction, and its output
+        is checked on every call (shape, finite values): see
+        :class:`~fasttrack.models.base.UserFunction`.
     covariance : (d, d) array_like or callable
         Q, or ``covariance(dt) -> (d, d)`` for a Q that depends on the interval.
     ndim_state : int
@@ -260,30 +340,29 @@ class NonlinearGaussianTransitionModel(TransitionModel):
     """
 
     def __init__(self, function, covariance, ndim_state):
-        if not hasattr(function, "py_func"):
-            raise TypeError("function must be a numba.njit function f(states, dt)")
-        self.transition_function = function
-        self.ndim_state = _validate.count(ndim_state, "ndim_state")
+        self._ndim_state = _validate.count(ndim_state, "ndim_state")
+        self._function = UserFunction(function, "transition function", self._ndim_state,
+                                      self._ndim_state, interval=True)
         if callable(covariance):
             self._covariance = covariance
         else:
-            fixed = _validate.covariance(covariance, "covariance", self.ndim_state)
-            GaussianNoise(fixed, "covariance")
+            fixed = _validate.psd_covariance(covariance, "covariance", self.ndim_state)
             self._covariance = lambda dt: fixed
+
+    ndim_state = property(lambda self: self._ndim_state, doc="Number of state dimensions d.")
+    transition_function = property(lambda self: self._function.function,
+                                   doc="The user's function f (fixed).")
 
     def covar(self, time_interval):
         return _validate.covariance(self._covariance(self._seconds(time_interval)),
                                     "covariance(dt)", self.ndim_state)
 
     def _mean(self, x, dt):
-        out = np.asarray(self.transition_function(x, dt), dtype=np.float64)
-        if out.shape != x.shape:
-            raise ValueError(f"transition function returned shape {out.shape} for states of "
-                             f"shape {x.shape}")
-        return out
+        return self._function(x, dt)
 
     def _propagate(self, x, dt, key):
         out = np.empty_like(x)
-        _kernels.propagate_function(self.transition_function, dt, x, self._noise(dt).root,
-                                    key, out)
+        code = _kernels.propagate_function(self.transition_function, dt, x,
+                                           self._noise(dt).root, key, out)
+        _errors.check(code, self._function, x, dt)
         return out

@@ -130,7 +130,9 @@ def kernel_spec(kernel):
     range)."""
     if isinstance(kernel, GaussianKernel) and type(kernel).__call__ in _CALLS:
         if kernel.variance > 0:
-            return _gram.GAUSSIAN, np.array([float(kernel.variance)])
+            variance = float(kernel.variance)
+            return _gram.GAUSSIAN, np.array([variance, 1.0 / np.sqrt(2.0 * np.pi * variance),
+                                             0.0])
         return None
     if isinstance(kernel, PolynomialKernel) and type(kernel).__call__ in _CALLS:
         power, c, ialpha = kernel.power, kernel.c, kernel.ialpha

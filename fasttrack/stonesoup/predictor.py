@@ -15,9 +15,9 @@ from stonesoup.types.prediction import GaussianStatePrediction, Prediction
 from stonesoup.types.state import GaussianState
 from stonesoup.types.update import GaussianStateUpdate, KernelParticleStateUpdate
 
+from .. import _errors
 from .. import predictor as ft_predictor
 from .._jit import akkf as _akkf
-from .._jit import kalman as _kalman
 from ._convert import (fast_model, floats, kernel_spec, model_rng, stream_key, uncached,
                        zero_control)
 from .resampler import _plain
@@ -72,8 +72,7 @@ class _Kalman:
         status = ft_predictor.KalmanPredictor(model)._predict(_seconds(timestamp, prior.timestamp),
                                               floats(prior.state_vector), floats(prior.covar),
                                               x_out, covar_out)
-        if status != _kalman.OK:
-            raise ValueError(ft_predictor._STATUS_ERRORS[status])
+        _errors.check(status)
         return Prediction.from_state(prior, x_out, covar_out, timestamp=timestamp,
                                      transition_model=self.transition_model, prior=prior)
 
@@ -109,7 +108,7 @@ class AdaptiveKernelKalmanPredictor(ss_kernel.AdaptiveKernelKalmanPredictor):
         w, lt, v1t, v2t = _akkf.predict_embedding(
             *spec, np.zeros(x.shape[0], dtype=np.bool_), proposal, x, floats(prior.weight),
             *kernel_factors(prior), self.lambda_predictor)
-        ft_predictor.finite_weights(w, "predicted")
+        ft_predictor.check_weights(w, "predicted")
         factors = (lt, 1.0 / w.size, v1t, v2t)
         prediction = Prediction.from_state(
             prior, state_vector=StateVectors(model._mean(proposal, _seconds(timestamp,

@@ -20,7 +20,7 @@ from .. import updater as ft_updater
 from ..models import LinearGaussian
 from .._jit import akkf as _akkf
 from .._jit import weights as _weights
-from ..predictor import finite_weights
+from ..predictor import check_weights
 from ._convert import (fast_model, floats, global_rng, kernel_spec, stream_key,
                        typed_measurement, uncached)
 from .resampler import _plain
@@ -157,7 +157,7 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
             *spec, fast._angles, floats(hypothesis.measurement_prediction.state_vector),
             z.reshape(-1, 1), floats(prediction.weight), *predicted, self.lambda_updater, x,
             stream_key(global_rng()), proposal)
-        finite_weights(w, "updated")
+        check_weights(w, "updated")
         factors = (lt, predicted[1], v1t, v2t)
         update = Update.from_state(
             prediction, state_vector=prediction.state_vector, proposal=StateVectors(proposal),

@@ -1,0 +1,37 @@
+"""What the kernels' status codes (``fasttrack._jit.status``) mean: one message per code, and
+the error raised for it."""
+from ._jit import status as _status
+
+#: The message of each status code that does not concern a user's function.
+MESSAGES = {
+    _status.PRIOR_NOT_PSD: "prior.covar is not positive semi-definite",
+    _status.PREDICTION_NOT_PSD: "the prediction's covariance is not positive semi-definite",
+    _status.INNOVATION_NOT_PD: "the innovation covariance H P H^T + R is not positive "
+                               "definite (singular)",
+    _status.JACOBIAN_UNDEFINED: "the measurement Jacobian is undefined at the predicted "
+                                "state (for a polar sensor: the target is at the sensor)",
+    _status.MEASUREMENT_NOT_FINITE: "hypothesis.measurement contains NaN or infinite values",
+}
+
+#: Codes about the output of a user's model function.
+FUNCTION_CODES = (_status.FUNCTION_SHAPE, _status.FUNCTION_NOT_FINITE)
+
+
+def check(code, function=None, states=None, dt=None):
+    """Raise the ValueError for a kernel status ``code`` (nothing for OK).
+
+    Parameters
+    ----------
+    code : int
+    function : fasttrack.models.base.UserFunction, optional
+        The user function the kernel called, for codes about its output.
+    states : (d, n) ndarray, optional
+        The states it was called on.
+    dt : float, optional
+        The time interval it was called with (a transition).
+    """
+    if code == _status.OK:
+        return
+    if code in FUNCTION_CODES:
+        raise function.error(code, states, dt)
+    raise ValueError(MESSAGES[code])
