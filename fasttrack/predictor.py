@@ -67,7 +67,7 @@ class ParticlePredictor:
                                                      _random.stream_key(self.rng))
         link = weak(prior)
         return ParticleStatePrediction._trusted(
-            particles, prior.log_weight, timestamp=timestamp, parent=link, prior=link,
+            particles, prior.log_weight, timestamp=timestamp, parent=link, _prior=link,
             transition_model=self.transition_model, fixed_covar=prior.fixed_covar)
 
 
@@ -133,9 +133,10 @@ class KalmanPredictor:
         x_out = np.empty((d, 1))
         covar_out = np.empty((d, d))
         status = self._predict(dt, prior.state_vector, prior.covar, x_out, covar_out)
-        _errors.check(status, getattr(model, "_function", None), prior.state_vector, dt)
+        if status:
+            _errors.check(status, model._function, prior.state_vector, dt)
         return GaussianStatePrediction._trusted(
-            x_out, covar_out, timestamp, {"transition_model": model, "prior": weak(prior)})
+            x_out, covar_out, timestamp, {"transition_model": model, "_prior": weak(prior)})
 
     def _predict(self, dt, x, covar, x_out, covar_out):
         kind, rates, matrix, noise = self.transition_model._kalman_spec(dt)
@@ -174,10 +175,11 @@ class ExtendedKalmanPredictor(KalmanPredictor):
 def check_weights(weight, which):
     """Raise if kernel filter weights are not finite (the kernel values overflowed) or all
     zero (nothing carried over)."""
-    if not np.isfinite(weight).all():
+    largest = _akkf.largest_magnitude(weight)
+    if not largest <= 1.7976931348623157e308:
         raise ValueError(f"the {which} kernel weights are not finite: the kernel values "
                          f"overflow (rescale the states or use a lower-degree kernel)")
-    if not weight.any():
+    if largest == 0.0:
         raise ValueError(f"the {which} kernel weights are all zero: the kernel carries no "
                          f"information between the particle sets (its length scale is far "
                          f"from their spread)")

@@ -151,7 +151,8 @@ class ParticleState:
     @classmethod
     def _trusted(cls, state_vector, log_weight, timestamp=None, parent=None, **attributes):
         """Build from arrays that a kernel produced (no validation, no copies); ``parent``
-        and ``prior`` may be weak links (:func:`weak`)."""
+        may be a weak link (:func:`weak`), and so may ``_prior`` (the slot of a
+        prediction's ``prior``) among the ``attributes``."""
         state = cls.__new__(cls)
         state._state_vector = state_vector
         state._log_weight = log_weight
@@ -160,8 +161,6 @@ class ParticleState:
         state.fixed_covar = None
         state._moments = None
         state._source = None
-        if "prior" in attributes:
-            attributes["_prior"] = attributes.pop("prior")
         state.__dict__.update(attributes)
         return state
 
@@ -532,14 +531,12 @@ class GaussianState(State):
     @classmethod
     def _trusted(cls, state_vector, covar, timestamp, extra=None):
         """Build from arrays that a kernel produced (no validation, no copies), with the
-        ``extra`` attributes (a dict) if given."""
+        ``extra`` attributes (a dict) if given; a :class:`Link` goes under its slot name
+        (``_prior``)."""
         state = object.__new__(cls)
-        attributes = {"state_vector": state_vector, "covar": covar, "timestamp": timestamp}
+        state.__dict__ = {"state_vector": state_vector, "covar": covar, "timestamp": timestamp}
         if extra:
-            attributes.update(extra)
-            if "prior" in attributes:
-                attributes["_prior"] = attributes.pop("prior")
-        state.__dict__ = attributes
+            state.__dict__.update(extra)
         return state
 
 

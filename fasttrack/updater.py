@@ -152,7 +152,7 @@ class KalmanUpdater:
         if not isinstance(prediction, GaussianState):
             raise TypeError(f"the prediction must be a GaussianState, "
                             f"got {type(prediction).__name__}")
-        if model.ndim_state != prediction.state_vector.shape[0]:
+        if model._ndim_state != prediction.state_vector.shape[0]:
             raise ValueError(f"the measurement model expects {model.ndim_state} state "
                              f"dimensions, the prediction has {prediction.ndim}")
         return model
@@ -174,7 +174,7 @@ class KalmanUpdater:
     def _update(self, model, prediction, z):
         """``(x, P, z_hat, S, cross)`` of one update (shapes (d, 1), (d, d), (m, 1), (m, m),
         (d, m)); raises ValueError when the step is undefined."""
-        m, d = model.ndim_meas, model.ndim_state
+        m, d = model._ndim_meas, model._ndim_state
         x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
         z_hat, s, cross = np.empty((m, 1)), np.empty((m, m)), np.empty((d, m))
         arguments = (prediction.state_vector, prediction.covar, z, x_out, covar_out, z_hat, s,
@@ -184,7 +184,8 @@ class KalmanUpdater:
         else:
             status = _kalman.update_one(*model._kalman_args, self._method, self.use_joseph_cov,
                                         *arguments)
-        _errors.check(status, getattr(model, "_function", None), prediction.state_vector)
+        if status:
+            _errors.check(status, model._function, prediction.state_vector)
         return x_out, covar_out, z_hat, s, cross
 
     def update(self, hypothesis):

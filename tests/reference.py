@@ -574,9 +574,10 @@ def median_variance(angles, x):
     if n * (n - 1) // 2 <= 256:
         i, j = np.triu_indices(n, 1)
     else:
-        k = np.arange(256, dtype=np.int64)
-        i = (k * 2654435761) % n
-        j = (i + 1 + (k * 40503) % (n - 1)) % n
+        k = np.arange(256)
+        u, v = k * 0.6180339887498949, k * 0.41421356237309503
+        i = ((u - np.floor(u)) * n).astype(np.int64)
+        j = (i + 1 + ((v - np.floor(v)) * (n - 1)).astype(np.int64)) % n
     diff = x[:, i] - x[:, j]
     diff[angles] = 2 * np.sin(diff[angles] / 2)
     squared = np.sum(diff ** 2, axis=0)
@@ -677,6 +678,10 @@ def proposal_dense(x, w, s, key, out):
     fill_normals(key, 0, normals)
     scale = np.sqrt(np.diag(x @ s @ x.T))
     out[:] = (x @ w)[:, None] + scale[:, None] * normals[:d * m].reshape(d, m)
+
+
+def largest_magnitude(w):
+    return np.nan if np.isnan(w).any() else float(np.abs(w).max(initial=0.0))
 
 
 def draw_proposal(x, w, lt, sigma, v1t, v2t, key, out):

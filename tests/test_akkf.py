@@ -398,10 +398,11 @@ def test_ridge_map_is_accurate_where_the_normal_equations_break_down():
         # (F F^T + lam I) got = F, to rounding relative to |F F^T| |got|
         residual = (f @ f.T + 1e-3 * np.eye(6)) @ got - f
         assert np.abs(residual).max() <= 1e-9 * np.abs(f @ f.T).max() * np.abs(got).max()
-    # at unit scale it is the textbook formula
+    # at unit scale it is the textbook formula, by either route
     f = rng.normal(size=(3, 20))
-    np.testing.assert_allclose(akkf._ridge_map(f, 0.5), np.linalg.solve(f @ f.T + 0.5 * np.eye(3), f),
-                               rtol=1e-12, atol=1e-14)
+    want = np.linalg.solve(f @ f.T + 0.5 * np.eye(3), f)
+    for route in (akkf._ridge_map, akkf._lq_ridge_map):
+        np.testing.assert_allclose(route(f, 0.5), want, rtol=1e-12, atol=1e-14)
 
 
 def test_weights_that_carry_nothing_are_an_error():
@@ -410,4 +411,9 @@ def test_weights_that_carry_nothing_are_an_error():
         check_weights(np.zeros(5), "predicted")
     with pytest.raises(ValueError, match="updated kernel weights are not finite"):
         check_weights(np.array([1.0, np.inf]), "updated")
-    check_weights(np.array([1e-30, 0.0]), "predicted")  # tiny but informative: allowed
+    with pytest.raises(ValueError, match="updated kernel weights are not finite"):
+        check_weights(np.array([np.nan, 1.0]), "updated")
+    check_weights(np.array([1e-300, 0.0]), "predicted")  # tiny but informative: allowed
+    for w in (np.array([1.0, -3.0, np.inf]), np.array([np.nan, 2.0]), np.zeros(3), np.array([-2.0, 1e-300])):
+        got, want = akkf.largest_magnitude(w), reference.largest_magnitude(w)
+        assert got == want or (np.isnan(got) and np.isnan(want))

@@ -28,10 +28,11 @@ particles (r > M) the same is done in particle space: Gamma and ``A K`` from M x
 the Joseph form, equal to ``S- - Q G S-`` and a sum of two positive semi-definite terms.
 
 Every inverse above is applied as the *ridge map* ``(F F^T + lambda I)^-1 F`` of a factor F
-(:func:`_ridge_map`), from an orthogonal factorisation of ``[F, sqrt(lambda) I]``: the
-regularised matrices are never formed, so kernel values of any magnitude (a polynomial
-kernel far from the origin reaches 1e21 against lambda = 1e-3) cost accuracy in proportion
-to the square root of their condition number and never fail to factorise.
+(:func:`_ridge_map`): by Cholesky when it is well conditioned, else from an orthogonal
+factorisation of ``[F, sqrt(lambda) I]`` that never forms the regularised matrix, so kernel
+values of any magnitude (a polynomial kernel far from the origin reaches 1e21 against
+lambda = 1e-3) cost accuracy in proportion to the square root of its condition number and
+never fail to factorise.
 """
 import numpy as np
 
@@ -62,9 +63,70 @@ def _reflect(rows, v):
             row[j] -= scale * v[j]
 
 
+#: Up to this bound on the condition number of ``F F^T + lam I`` the ridge map is computed
+#: through its Cholesky factorisation (relative error about cond * eps <= 2e-8); above it,
+#: by LQ, whose error grows with the square root of the condition number only.
+_CHOLESKY_CONDITION = 1e8
+
+
 @jit()
 def _ridge_map(f, lam):
-    """``(F F^T + lam I)^-1 F`` for F (p, n) and lam > 0, without forming ``F F^T``.
+    """``(F F^T + lam I)^-1 F`` for F (p, n) and lam > 0.
+
+    The eigenvalues of ``F F^T + lam I`` lie in ``[lam, trace]``, so ``trace / lam`` bounds
+    its condition number: a well-conditioned problem (kernel values near 1, the usual
+    case) takes a Cholesky factorisation, an ill-conditioned one (a polynomial kernel far
+    from the origin: 1e21 against lam = 1e-3) the LQ route of :func:`_lq_ridge_map`.
+    Neither can fail.
+    """
+    p, n = f.shape
+    trace = p * lam
+    for i in range(p):
+        row = f[i]
+        for j in range(n):
+            trace += row[j] * row[j]
+    if trace > _CHOLESKY_CONDITION * lam:
+        return _lq_ridge_map(f, lam)
+    a = _mul_t(f, f)
+    c = np.zeros((p, p))  # lower Cholesky factor of a + lam I
+    for i in range(p):
+        ci = c[i]
+        for j in range(i + 1):
+            cj = c[j]
+            total = a[i, j]
+            for k in range(j):
+                total -= ci[k] * cj[k]
+            if j < i:
+                ci[j] = total / cj[j]
+            else:
+                ci[i] = np.sqrt(max(total, 0.0) + lam)
+    out = f.copy()  # (c c^T) out = f, by forward and back substitution
+    for i in range(p):
+        row = out[i]
+        for j in range(i):
+            coef = c[i, j]
+            other = out[j]
+            for col in range(n):
+                row[col] -= coef * other[col]
+        inv = 1.0 / c[i, i]
+        for col in range(n):
+            row[col] *= inv
+    for i in range(p - 1, -1, -1):
+        row = out[i]
+        for j in range(i + 1, p):
+            coef = c[j, i]
+            other = out[j]
+            for col in range(n):
+                row[col] -= coef * other[col]
+        inv = 1.0 / c[i, i]
+        for col in range(n):
+            row[col] *= inv
+    return out
+
+
+@jit()
+def _lq_ridge_map(f, lam):
+    """:func:`_ridge_map` without forming ``F F^T``.
 
     The LQ factorisation (Householder reflections on the rows) of ``B = [F, sqrt(lam) I]``
     (p, n + p) gives ``B = L Q`` with ``L L^T = F F^T + lam I``, so the map is
@@ -264,6 +326,17 @@ def update_embedding(kind, params, angles, y, z, w, lt, sigma, v1t, v2t, lam, x,
     v2t_post = np.vstack((v2t, u))
     draw_proposal(x, w_post, lt_post, sigma, v1t_post, v2t_post, key, proposal_out)
     return w_post, lt_post, v1t_post, v2t_post
+
+
+@jit()
+def largest_magnitude(w):
+    """``max |w_i|`` of a weight vector, NaN if any entry is NaN."""
+    top = 0.0
+    for value in w:
+        if value != value:
+            return value
+        top = max(top, abs(value))
+    return top
 
 
 @jit()

@@ -10,7 +10,7 @@ A kernel is a kind code plus a float parameter array:
   positive semi-definite (it is the Gaussian kernel of the angle's point on the unit
   circle). A variance of 0 means *from the data*: ``width**2`` times the median of the
   squared distances between the points of the Gram matrix (over all pairs of up to 23
-  points, else over 256 fixed pseudo-random pairs), with norm 1, so that the kernel does
+  points, else over 256 fixed quasi-random pairs), with norm 1, so that the kernel does
   not depend on the units of the points (see :func:`resolve`);
 - ``MATRIX`` (internal): the "points" are a symmetric matrix and ``k(i, j)`` its entry, so
   that :func:`factor` also factors explicit matrices.
@@ -53,11 +53,14 @@ def median_variance(angles, x):
             for j in range(i + 1, n):
                 distances[k] = _squared_distance(angles, x, i, j)
                 k += 1
-    else:
+    else:  # pair k: i from the golden-ratio sequence, j = i + 1 + an offset below n - 1
         distances = np.empty(_PAIRS)
         for k in range(_PAIRS):
-            i = (k * 2654435761) % n
-            j = (i + 1 + (k * 40503) % (n - 1)) % n
+            u = k * 0.6180339887498949
+            v = k * 0.41421356237309503
+            i = np.int64((u - np.floor(u)) * n)
+            j = i + 1 + np.int64((v - np.floor(v)) * (n - 1))
+            j = j - n if j >= n else j
             distances[k] = _squared_distance(angles, x, i, j)
     variance = np.median(distances)
     if variance > 0.0:

@@ -49,6 +49,9 @@ class MeasurementModel:
     """
 
     angle_components = ()
+    #: The checked user function (:class:`~fasttrack.models.base.UserFunction`) of a model
+    #: built from one, else None.
+    _function = None
 
     def __init__(self, ndim_state, noise_covar, ndim_meas):
         self._ndim_state = _validate.count(ndim_state, "ndim_state")
@@ -92,7 +95,7 @@ class MeasurementModel:
         """The measurement as an (m, 1) float64 C-contiguous array, not checked for NaN (the
         Kalman kernels check it): the detection's own array when it is one."""
         z = getattr(measurement, "state_vector", measurement)
-        if type(z) is np.ndarray and z.shape == (self.ndim_meas, 1) \
+        if type(z) is np.ndarray and z.shape == (self._ndim_meas, 1) \
                 and z.dtype == np.float64 and z.flags.c_contiguous:
             return z
         z = _validate.float_array(z, name)

@@ -29,6 +29,9 @@ class TransitionModel:
     """
 
     ndim_state = None
+    #: The checked user function (:class:`~fasttrack.models.base.UserFunction`) of a model
+    #: built from one, else None.
+    _function = None
 
     def _noise(self, dt):
         return gaussian_noise(self.covar(dt), f"{type(self).__name__}.covar")
@@ -258,7 +261,7 @@ class ConstantVelocity(_LinearGaussian):
         return self.noise_diff_coeff * np.array([[t**3 / 3, t**2 / 2], [t**2 / 2, t]])
 
     def _cv_rates(self):
-        return (self.noise_diff_coeff,)
+        return (self._q,)
 
 
 class CombinedLinearGaussianTransitionModel(_LinearGaussian):
@@ -314,7 +317,7 @@ class CombinedLinearGaussianTransitionModel(_LinearGaussian):
 
     def _cv_rates(self):
         rates = ()
-        for model in self.model_list:
+        for model in self._models:
             part = model._cv_rates()
             if part is None:
                 return None
