@@ -6,6 +6,8 @@ from ._jit import status as _status
 MESSAGES = {
     _status.PRIOR_NOT_PSD: "prior.covar is not positive semi-definite",
     _status.PREDICTION_NOT_PSD: "the prediction's covariance is not positive semi-definite",
+    _status.PRIOR_NOT_SYMMETRIC: "prior.covar is not symmetric",
+    _status.PREDICTION_NOT_SYMMETRIC: "the prediction's covariance is not symmetric",
     _status.INNOVATION_NOT_PD: "the innovation covariance H P H^T + R is not positive "
                                "definite (singular)",
     _status.JACOBIAN_UNDEFINED: "the measurement Jacobian is undefined at the predicted "

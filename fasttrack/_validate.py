@@ -53,7 +53,7 @@ def float_array(value, name, ndim=None):
         if a.dtype.kind not in "fiu":
             raise TypeError(f"{name} must be a numeric array of real numbers, got "
                             f"{_describe(value) if a.dtype.kind == 'O' else _describe(a)}")
-    a = np.ascontiguousarray(a, dtype=np.float64)
+    a = np.asarray(a, dtype=np.float64, order="C")  # keeps a scalar 0-D
     if not a.flags.writeable:
         a = a.copy()
     if ndim is not None and a.ndim != ndim:

@@ -57,13 +57,6 @@ class BatchExtendedKalmanFilter:
         covars = _validate.finite_array(covars, "covars", 3)
         if covars.shape != (k, d, d):
             raise ValueError(f"covars must have shape ({k}, {d}, {d}), got {covars.shape}")
-        if k:
-            scale = np.maximum(np.abs(covars).max(axis=(1, 2)), np.finfo(float).tiny)
-            asymmetric = np.abs(covars - covars.transpose(0, 2, 1)).max(axis=(1, 2)) \
-                > 1e-9 * scale
-            if asymmetric.any():
-                raise ValueError(f"covars must be symmetric; covars[{np.argmax(asymmetric)}] "
-                                 f"is not ({asymmetric.sum()} of {k})")
         measurements = _validate.finite_array(measurements, "measurements", len(leading) + 2)
         if measurements.shape != (*leading, k, m):
             raise ValueError(f"measurements must have shape {(*leading, k, m)}, "

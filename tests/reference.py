@@ -75,6 +75,7 @@ def cumulate(w):
 
 OK, PRIOR_NOT_PSD, INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE = 0, 1, 2, 3, 4
 PREDICTION_NOT_PSD, FUNCTION_SHAPE, FUNCTION_NOT_FINITE = 5, 6, 7
+PRIOR_NOT_SYMMETRIC, PREDICTION_NOT_SYMMETRIC = 8, 9
 
 
 def columns(x, lo, hi):
@@ -442,12 +443,18 @@ def _positive_semi_definite(a, tolerance=1e-10):
     return values.min() >= -tolerance * max(values.max(), 0.0)
 
 
+def _covariance_status(a, asymmetric, indefinite):
+    if np.abs(a - a.T).max() > 1e-9 * np.abs(a).max():
+        return asymmetric
+    return OK if _positive_semi_definite(a) else indefinite
+
+
 def predict_one(kind, rates, fixed_matrix, fixed_covar, dt, x, covariance, x_out,
                 covariance_out):
     f, q = _transition(kind, rates, fixed_matrix, fixed_covar, dt, x.shape[0])
     x_out[:] = f @ x
     covariance_out[:] = f @ covariance @ f.T + q
-    return OK if _positive_semi_definite(covariance) else PRIOR_NOT_PSD
+    return _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
 
 
 def predict_function(function, dt, covar, central, x, covariance, x_out, covariance_out):
@@ -461,7 +468,7 @@ def predict_function(function, dt, covar, central, x, covariance, x_out, covaria
         return status
     x_out[:] = values
     covariance_out[:] = f @ covariance @ f.T + covar
-    return OK if _positive_semi_definite(covariance) else PRIOR_NOT_PSD
+    return _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
 
 
 def _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out, covariance_out,
@@ -487,8 +494,9 @@ def _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out, cov
 def update_one(kind, mapping, offset, rotation, noise, angles, method, joseph, x, covariance,
                z, x_out, covariance_out, z_hat, innovation_covar, cross):
     m, d = noise.shape[0], x.shape[0]
-    if not _positive_semi_definite(covariance):
-        return PREDICTION_NOT_PSD
+    status = _covariance_status(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    if status != OK:
+        return status
     measure(kind, x, mapping, offset, rotation, z_hat)
     h = np.empty((m, d))
     measurement_jacobian(kind, x[:, 0], mapping, offset, rotation, angles, method, h)
@@ -508,8 +516,9 @@ def update_function(function, noise, angles, central, joseph, x, covariance, z, 
     status = measurement_jacobian_function(function, x[:, 0], angles, central, h)
     if status != OK:
         return status
-    if not _positive_semi_definite(covariance):
-        return PREDICTION_NOT_PSD
+    status = _covariance_status(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    if status != OK:
+        return status
     z_hat[:] = values
     z_hat[angles] = wrap_angle(z_hat[angles])
     return _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out,

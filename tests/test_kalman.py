@@ -431,3 +431,22 @@ def test_ten_thousand_steps_stay_positive_semi_definite_at_any_noise_ratio(q, r)
     assert np.isfinite(means).all() and np.array_equal(covars, np.swapaxes(covars, 1, 2))
     values = np.linalg.eigvalsh(covars)
     assert (values.min(axis=1) >= -1e-10 * values.max(axis=1)).all()
+
+
+def test_covariance_checks_of_the_kernels_match_the_mirror():
+    transition, sensor = _models()
+    means, covars, measurements, intervals = _batch_inputs(8)
+    covars[1] = np.diag([1.0, 0.0, 1.0, 0.0])  # singular: fine
+    covars[2] = np.diag([1.0, -1e-3, 1.0, 1.0])  # indefinite
+    covars[3, 0, 1] += 0.5  # not symmetric
+    covars[4] = np.zeros((4, 4))  # zero: fine
+    covars[5] = [[1.0, 1.0, 0, 0], [1.0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]]  # rank 3: fine
+    covars[6] = [[0.0, 1e-3, 0, 0], [1e-3, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]]  # indefinite
+    args = (*transition._kalman_spec(1.0), intervals, *sensor._kalman_args, 0, True, means, covars,
+            measurements)
+    got, want = np.empty(8, dtype=np.int64), np.empty(8, dtype=np.int64)
+    kernels.batch_step(*args, np.empty_like(means), np.empty_like(covars), got)
+    reference.batch_step(*args, np.empty_like(means), np.empty_like(covars), want)
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(got, [0, 0, reference.PRIOR_NOT_PSD, reference.PRIOR_NOT_SYMMETRIC,
+                                        0, 0, reference.PRIOR_NOT_PSD, 0])

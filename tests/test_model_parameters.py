@@ -158,6 +158,14 @@ def test_arrays_are_read_only_and_dimensions_fixed():
      ValueError, "fixed_covar is not positive semi-definite"),
     (lambda: ft.Detection("1.5"), TypeError, "state_vector must be a numeric"),
     (lambda: ft.GaussianState([1.0, 2.0], np.eye(2) * (1 + 0j)), TypeError, "covar must be a numeric"),
+    # scalars where arrays are expected
+    (lambda: ft.systematic(0.5), ValueError, "log_weights must be 1-D, got 0-D"),
+    (lambda: ft.ess(0.5), ValueError, "log_weights must be 1-D, got 0-D"),
+    (lambda: ft.Detection(3.0), ValueError, r"state_vector must have shape \(d,\) or \(d, 1\)"),
+    (lambda: ft.GaussianState(1.0, np.eye(1)), ValueError, "state_vector must have shape"),
+    (lambda: ft.Particle(1.0, 1.0), ValueError, "state_vector must have shape"),
+    (lambda: ft.GaussianKernel()(1.0), ValueError, "state1 must be a"),
+    (lambda: ft.ParticleState(np.zeros((2, 3)), weight=1.0), ValueError, "weight must be 1-D"),
 ])
 def test_strict_inputs(build, error, message):
     with pytest.raises(error, match=message):
@@ -183,7 +191,8 @@ def test_strict_inputs_of_calls():
     with pytest.raises(TypeError, match="time_intervals must be a numeric"):
         batch.step(means, covars, np.zeros((2, 2)), "1.0")
     covars[1, 0, 1] = 0.5
-    with pytest.raises(ValueError, match=r"covars must be symmetric; covars\[1\] is not"):
+    with pytest.raises(ValueError, match=r"1 of 2 filters failed; filter 1: prior.covar is not "
+                                         r"symmetric"):
         batch.step(means, covars, np.zeros((2, 2)), 1.0)
 
 

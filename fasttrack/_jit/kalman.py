@@ -29,7 +29,8 @@ from .jacobian import (ANALYTIC, measurement_jacobian, measurement_jacobian_func
 from .likelihood import BEARING_RANGE, SELECT, _predict_block
 from .numeric import copy_into, fast_atan2, fill, wrap_angle
 from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
-                     PREDICTION_NOT_PSD, PRIOR_NOT_PSD)
+                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
+                     PRIOR_NOT_SYMMETRIC)
 from .user import output_status
 
 FIXED, CV = 0, 1
@@ -88,40 +89,50 @@ def _cholesky(a, lower, status, code):
 
 
 @jit()
-def _check_psd(a, status, code):
-    """``status[b] = code`` (if still OK) where the symmetric (n, n, B) ``a`` is not
-    positive semi-definite: a Cholesky factorisation in which a pivot within ``tol =
-    PSD_TOLERANCE * max(diag)`` of zero counts as zero (its column must then vanish, to
-    ``sqrt(tol max(diag))``) and a pivot below ``-tol`` means a negative eigenvalue."""
+def _check_covariance(a, status, asymmetric, indefinite):
+    """``status[b]`` (if still OK) becomes ``asymmetric`` where the (n, n, B) ``a`` is not
+    symmetric (to 1e-9 of its largest entry) and ``indefinite`` where it is not positive
+    semi-definite: a Cholesky factorisation in which a pivot within ``tol = PSD_TOLERANCE *
+    max(diag)`` of zero counts as zero (its column must then vanish, to
+    ``sqrt(tol max(diag))``) and a pivot below ``-tol`` means a negative eigenvalue. The
+    loops run innermost over the B filters, branch-free, so that they vectorise."""
     n, _, nb = a.shape
-    lower = np.zeros((n, n))
-    for b in range(nb):
-        top = 0.0
+    top = np.zeros(nb)
+    largest = np.zeros(nb)
+    for i in range(n):
         for j in range(n):
-            top = max(top, a[j, j, b])
-        tol = PSD_TOLERANCE * top
-        column_tol = np.sqrt(tol * top)
-        good = True
-        for j in range(n):
+            for b in range(nb):
+                largest[b] = max(largest[b], abs(a[i, j, b]))
+                top[b] = max(top[b], a[i, j, b] if i == j else 0.0)
+    symmetric = np.ones(nb, dtype=np.bool_)
+    for i in range(n):
+        for j in range(i):
+            for b in range(nb):
+                symmetric[b] &= abs(a[i, j, b] - a[j, i, b]) <= 1e-9 * largest[b]
+    good = np.ones(nb, dtype=np.bool_)
+    lower = np.zeros((n, n, nb))
+    for j in range(n):
+        for b in range(nb):
             s = a[j, j, b]
             for k in range(j):
-                s -= lower[j, k] * lower[j, k]
-            if s < -tol:
-                good = False
-            pivot = np.sqrt(s) if s > tol else 0.0
-            lower[j, j] = pivot
-            for i in range(j + 1, n):
+                s -= lower[j, k, b] * lower[j, k, b]
+            tol = PSD_TOLERANCE * top[b]
+            good[b] &= s >= -tol
+            lower[j, j, b] = np.sqrt(s) if s > tol else 0.0
+        for i in range(j + 1, n):
+            for b in range(nb):
                 t = a[i, j, b]
                 for k in range(j):
-                    t -= lower[i, k] * lower[j, k]
-                if pivot > 0.0:
-                    lower[i, j] = t / pivot
-                else:
-                    lower[i, j] = 0.0
-                    if abs(t) > column_tol:
-                        good = False
-        if not good and status[b] == OK:
-            status[b] = code
+                    t -= lower[i, k, b] * lower[j, k, b]
+                pivot = lower[j, j, b]
+                lower[i, j, b] = t / pivot if pivot > 0.0 else 0.0
+                good[b] &= pivot > 0.0 or abs(t) <= np.sqrt(PSD_TOLERANCE) * top[b]
+    for b in range(nb):
+        if status[b] == OK:
+            if not symmetric[b]:
+                status[b] = asymmetric
+            elif not good[b]:
+                status[b] = indefinite
 
 
 @jit()
@@ -149,7 +160,7 @@ def _sandwich(left, middle, work, out):
 def _predict_covariance(matrix, covar, covariance, covariance_out, status):
     """``P_out = F P F^T + Q`` per filter; the prior covariance must be positive
     semi-definite (else PRIOR_NOT_PSD)."""
-    _check_psd(covariance, status, PRIOR_NOT_PSD)
+    _check_covariance(covariance, status, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
     copy_into(covar, covariance_out)
     _sandwich(matrix, covariance, np.empty(covariance.shape), covariance_out)
 
@@ -463,7 +474,7 @@ def update_one(kind, mapping, offset, rotation, noise, angles, method, joseph, x
     m = z.shape[0]
     status = np.zeros(1, dtype=np.int64)
     covariance = covariance.reshape((d, d, 1))
-    _check_psd(covariance, status, PREDICTION_NOT_PSD)
+    _check_covariance(covariance, status, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
     jacobian = np.empty((m, d, 1))
     _measure(kind, mapping, offset, rotation, method, x, z_hat, jacobian, status)
     _update(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out,
@@ -489,7 +500,7 @@ def update_function(function, noise, angles, central, joseph, x, covariance, z, 
         return code
     status = np.zeros(1, dtype=np.int64)
     covariance = covariance.reshape((d, d, 1))
-    _check_psd(covariance, status, PREDICTION_NOT_PSD)
+    _check_covariance(covariance, status, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
     jacobian = np.empty((m, d, 1))
     for r in range(m):
         z_hat[r, 0] = wrap_angle(values[r, 0]) if angles[r] else values[r, 0]

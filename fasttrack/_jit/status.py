@@ -16,3 +16,7 @@ PREDICTION_NOT_PSD = 5
 FUNCTION_SHAPE = 6
 #: A user's model function returned NaN or infinite values.
 FUNCTION_NOT_FINITE = 7
+#: A prior covariance that is not symmetric.
+PRIOR_NOT_SYMMETRIC = 8
+#: A predicted covariance that is not symmetric.
+PREDICTION_NOT_SYMMETRIC = 9
