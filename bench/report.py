@@ -33,6 +33,9 @@ TARGETS = [
 ]
 # (workload, N, most microseconds per item): batches timed as one call over N items
 PER_ITEM_TARGETS = [("ekf-batch", 10**4, 0.5)]
+# (configuration, bound on default / one-thread step time) of bench/test_load.py; at
+# N = 1000 both run the same one-thread code, so "never slower" allows the 5 % of noise
+LOAD_TARGETS = [("alone", 1 / 1.6), ("pair", 1.3), ("small", 1.05)]
 
 IMPLEMENTATIONS = ("fasttrack", "numpy_reference", "stonesoup", "dropin")
 
@@ -147,6 +150,43 @@ def montecarlo_table(path):
     return "\n".join(lines)
 
 
+def load_steps(path):
+    """Step seconds of ``bench/test_load.py`` by configuration and thread setting."""
+    with open(path) as f:
+        benchmarks = json.load(f)["benchmarks"]
+    steps = {}
+    for bench in benchmarks:
+        group, info = bench["group"] or "", bench.get("extra_info", {})
+        if group.startswith("load-") and "default_step_seconds" in info:
+            steps[group[len("load-"):]] = {"default": info["default_step_seconds"],
+                                           "one": info["one_step_seconds"]}
+    return steps
+
+
+def load_table(steps):
+    """The load benchmark: default threads against one thread, per configuration."""
+    if not steps:
+        return ""
+    lines = ["| configuration | default threads | one thread | default / one thread |",
+             "|---|---|---|---|"]
+    for config, times in sorted(steps.items()):
+        default, one = times.get("default"), times.get("one")
+        ratio = f"{default / one:.2f}" if default and one else ""
+        lines.append(f"| {config} | {_ms(default)} | {_ms(one)} | {ratio} |")
+    return "\n".join(lines)
+
+
+def check_load(steps):
+    """Messages for the load targets that are missed (only if the benchmark ran)."""
+    failures = []
+    for config, most in LOAD_TARGETS:
+        times = steps.get(config, {})
+        if "default" in times and "one" in times and times["default"] / times["one"] > most:
+            failures.append(f"load-{config}: default / one thread "
+                            f"{times['default'] / times['one']:.2f} > target {most:.2f}")
+    return failures
+
+
 def check(rows):
     """Messages for the targets that are missed or not measured."""
     found = {(w, n): r for w, n, _, r in rows}
@@ -208,7 +248,8 @@ def main(argv=None):
     medians, floors, machine = load(args.json)
     rows = ratios(medians, floors)
     print(table(rows))
-    for extra in (dropin_table(rows), montecarlo_table(args.json)):
+    steps = load_steps(args.json)
+    for extra in (dropin_table(rows), montecarlo_table(args.json), load_table(steps)):
         if extra:
             print("\n" + extra)
     cpu = machine.get("cpu", {}).get("brand_raw", "")
@@ -216,7 +257,7 @@ def main(argv=None):
     if args.plot:
         print(f"Plot: {plot(medians, args.plot)}")
     if args.check:
-        failures = check(rows)
+        failures = check(rows) + check_load(steps)
         for failure in failures:
             print("MISSED:", failure)
         return 1 if failures else 0

@@ -10,7 +10,6 @@ overhead per run over the local pool.
 """
 import functools
 
-import numba
 import pytest
 
 import fasttrack as ft
@@ -43,13 +42,13 @@ def test_thousand_pf_runs(benchmark, setup, request):
     benchmark.extra_info["runs"] = N_RUNS
     where = ({"client": request.getfixturevalue("cluster")} if setup == "dask-2"
              else {"processes": 1 if setup == "serial" else 2})
-    threads = numba.get_num_threads()
-    numba.set_num_threads(1)  # for the serial setup: one core (workers use one thread each)
+    threads = ft.get_threads()
+    ft.set_threads(1)  # for the serial setup: one core (workers use one thread each)
     try:
         _trials(8, where)  # workers started, kernels loaded
         results = benchmark.pedantic(lambda: _trials(N_RUNS, where), rounds=3, iterations=1)
     finally:
-        numba.set_num_threads(threads)
+        ft.set_threads(threads)
     assert not results.failures and len(results.table) == 21 * N_RUNS
 
 

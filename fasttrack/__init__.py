@@ -2,7 +2,11 @@
 
 Classes keep Stone Soup's names and call patterns; the hot loops run in compiled kernels.
 """
-from .random import seed
+from ._version import __version__
+from . import threads as _threads
+_threads.configure()
+from .threads import get_threads, set_threads  # noqa: E402
+from .random import seed  # noqa: E402
 from .resampler import (ESSResampler, MultinomialResampler, Resampler, ResidualResampler,
                         StratifiedResampler, SystematicResampler)
 from .resampling import (ResidualMethod, ess, multinomial, normalise, residual, stratified,
@@ -32,7 +36,6 @@ from ._warmup import warmup
 from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, KalmanUpdater,
                       ParticleUpdater)
 
-__version__ = "0.1.0"
 
 __all__ = [
     "AdaptiveKernelKalmanPredictor", "AdaptiveKernelKalmanUpdater",

@@ -307,7 +307,8 @@ def _run_batch(payload, runs):
     scenario, make_filter, metrics, mapping, threads = pickle.loads(payload)
     if threads is not None:
         import numba
-        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+        from .threads import set_threads
+        set_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     tables, failures = [], []
     for run, run_seed in runs:
         try:

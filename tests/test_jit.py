@@ -2,6 +2,7 @@
 import importlib
 import json
 import os
+import pathlib
 import pkgutil
 import subprocess
 import sys
@@ -267,3 +268,103 @@ def test_two_python_threads_may_run_filters_at_once_on_any_layer(layer):
     if layer == "workqueue":
         assert lines[0].startswith("workqueue") and lines[0].endswith("False")
     assert lines[1] == "same"
+
+
+_ONE_STEP = """
+import warnings
+warnings.simplefilter("always")
+import numpy as np
+import fasttrack as ft
+from fasttrack.scenarios import particle_filter_tutorial
+from fasttrack._jit import cache
+s = particle_filter_tutorial(200, steps=2)
+d = s.detections[1]
+u = ft.ParticleUpdater(s.measurement_model, ft.SystematicResampler(rng=1)).update(
+    ft.SingleHypothesis(ft.ParticlePredictor(s.transition_model, rng=0).predict(s.prior, d.timestamp), d))
+print(cache.directory(), u.mean.ravel()[0])
+"""
+
+
+def _package_cache_files():
+    root = pathlib.Path(fasttrack.__file__).parent
+    return sorted(str(p) for p in root.rglob("*.nb[ic]"))
+
+
+_SMALL_CALL = ("import fasttrack._jit.numeric as n; from fasttrack._jit import cache; "
+               "print(cache.directory(), n.wrap_angle(7.0))")
+
+
+def test_the_cache_is_per_user_and_never_in_the_package(tmp_path):
+    before = _package_cache_files()
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
+    chosen = subprocess.run([sys.executable, "-c", _SMALL_CALL], capture_output=True, text=True,
+                            env={**env, "FASTTRACK_CACHE_DIR": str(tmp_path / "mine")}, timeout=600)
+    assert chosen.returncode == 0, chosen.stderr
+    assert chosen.stdout.split()[0] == str(tmp_path / "mine" / fasttrack.__version__)
+    assert list((tmp_path / "mine").rglob("numeric.wrap_angle-*.nbi"))
+    home = subprocess.run([sys.executable, "-c", _SMALL_CALL], capture_output=True, text=True,
+                          env={**env, "HOME": str(tmp_path / "home")}, timeout=600)
+    assert home.returncode == 0, home.stderr
+    assert home.stdout.split()[0] == str(tmp_path / "home" / ".cache" / "fasttrack"
+                                         / fasttrack.__version__)
+    assert _package_cache_files() == before
+
+
+def test_with_nothing_writable_fasttrack_still_runs_and_warns_once(tmp_path):
+    blocked = tmp_path / "a-file"
+    blocked.write_text("")  # a directory below a file can never be created, even by root
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
+    env.update(HOME=str(blocked / "home"), FASTTRACK_CACHE_DIR=str(blocked / "cache"))
+    before = _package_cache_files()
+    done = subprocess.run([sys.executable, "-c", _ONE_STEP], capture_output=True, text=True,
+                          env=env, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split()[0] == "None"
+    assert done.stderr.count("no writable directory for its compiled kernels") == 1
+    assert "Set FASTTRACK_CACHE_DIR" in done.stderr
+    assert _package_cache_files() == before
+
+
+def _reaches_parallel(dispatcher, seen=None):
+    """Whether a kernel has parallel regions, or calls a kernel that has (transitively)."""
+    seen = set() if seen is None else seen
+    if id(dispatcher) in seen:
+        return False
+    seen.add(id(dispatcher))
+    if dispatcher.targetoptions.get("parallel"):
+        return True
+    names = dispatcher.py_func.__code__.co_names
+    return any(_reaches_parallel(g, seen) for g in (dispatcher.py_func.__globals__.get(n)
+                                                    for n in names)
+               if isinstance(g, CPUDispatcher))
+
+
+def test_kernels_that_reach_parallel_regions_choose_their_threads():
+    import inspect
+    for name, dispatcher in _dispatchers(jit_pkg):
+        threaded = isinstance(dispatcher, jit_pkg.ThreadedKernel)
+        if name.rsplit(".", 1)[1].startswith("_"):
+            assert not threaded, name  # private: called from kernels only
+            continue
+        assert threaded == _reaches_parallel(dispatcher), name
+        if threaded:
+            assert dispatcher.size < len(inspect.signature(dispatcher.py_func).parameters), name
+
+
+def test_small_work_runs_on_one_thread_and_the_limit_holds():
+    import numba
+    log_w = np.zeros(jit_pkg.SERIAL_BELOW_LIGHT - 1)
+    fasttrack.ess(log_w)
+    assert numba.get_num_threads() == 1
+    fasttrack.ess(np.zeros(jit_pkg.SERIAL_BELOW_LIGHT))
+    assert numba.get_num_threads() == fasttrack.get_threads() == numba.config.NUMBA_NUM_THREADS
+    try:
+        fasttrack.set_threads(1)
+        fasttrack.ess(np.zeros(10**6))
+        assert numba.get_num_threads() == 1
+    finally:
+        fasttrack.set_threads(numba.config.NUMBA_NUM_THREADS)
+    with pytest.raises(ValueError, match="n must be <="):
+        fasttrack.set_threads(numba.config.NUMBA_NUM_THREADS + 1)
+    with pytest.raises(TypeError, match="n must be an int"):
+        fasttrack.set_threads(1.5)

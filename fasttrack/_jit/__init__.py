@@ -16,20 +16,21 @@ Rules for ``parallel=True`` kernels, each learnt from a wrong result:
 
 Two properties of the dispatchers made here go beyond Numba's defaults:
 
-- a damaged entry of the on-disk cache (truncated, empty or garbage files) is recompiled
+- they cache in a per-user directory (:mod:`cache`), where a damaged entry is recompiled
   and replaced, with a warning, instead of failing every call;
-- where Numba's threading layer is its ``workqueue`` (no OpenMP or TBB library), which
-  aborts the process when two threads run parallel regions at once, calls from Python are
-  serialised by one process-wide lock, so kernels may be called from several threads on
-  every layer.
+- kernels that reach parallel regions choose their thread count per call (one thread for
+  small work; see :mod:`fasttrack.threads`), and where Numba's threading layer is its
+  ``workqueue`` (no OpenMP or TBB library), which aborts the process when two threads run
+  parallel regions at once, their calls from Python are serialised by one process-wide
+  lock, so kernels may be called from several threads on every layer.
 """
 import threading
-import warnings
 
-import numba
 from numba.core import config
-from numba.core.caching import CompileResultCacheImpl, FunctionCache
 from numba.core.registry import CPUDispatcher
+
+from . import cache
+from .. import threads
 
 #: Floating-point relaxations allowed in kernels. ``nnan``/``ninf`` are excluded because
 #: ``-inf`` log weights are legal; ``reassoc`` is excluded because it lets LLVM rewrite
@@ -41,46 +42,30 @@ FASTMATH = frozenset({"nsz", "arcp", "contract", "afn"})
 OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 
-class KernelCache(FunctionCache):
-    """Numba's on-disk cache, except that an entry that cannot be read (a truncated, empty
-    or garbage index or data file) is compiled again and replaced, with a warning."""
-
-    _impl_class = CompileResultCacheImpl
-
-    def load_overload(self, sig, target_context):
-        try:
-            return super().load_overload(sig, target_context)
-        except Exception as error:  # any unreadable entry: compile instead
-            warnings.warn(f"fasttrack: the compile cache entry of {self._py_func.__name__} "
-                          f"in {self.cache_path} is damaged ({type(error).__name__}: {error}); "
-                          f"compiling it again and replacing it", RuntimeWarning, stacklevel=2)
-            return None
-
-    def save_overload(self, sig, data):
-        try:
-            super().save_overload(sig, data)
-        except Exception:  # a damaged index: start a new one
-            self._cache_file._save_index({})
-            super().save_overload(sig, data)
-
-
 class Kernel(CPUDispatcher):
-    """A CPU dispatcher that caches through :class:`KernelCache`."""
+    """A CPU dispatcher that caches through :class:`cache.KernelCache` (in memory only, if
+    no cache directory is writable)."""
 
     def enable_caching(self):
-        self._cache = KernelCache(self.py_func)
+        if cache.directory() is not None:
+            self._cache = cache.KernelCache(self.py_func)
 
 
-class SerialKernel(Kernel):
-    """A :class:`Kernel` whose calls from Python hold :data:`CALL_LOCK` (used where the
-    threading layer cannot run two parallel regions at once)."""
+class ThreadedKernel(Kernel):
+    """A :class:`Kernel` that reaches parallel regions. A call from Python runs on one
+    thread when its work (the size of argument ``size``) is below ``serial_below``, else
+    on :func:`fasttrack.threads.get_threads` threads; where the threading layer cannot run
+    two parallel regions at once (Numba's workqueue), calls hold :data:`CALL_LOCK`."""
 
     def __call__(self, *args, **kwargs):
-        with CALL_LOCK:
-            return super().__call__(*args, **kwargs)
+        threads.use(args[self.size].size < self.serial_below)
+        if SERIALISE:
+            with CALL_LOCK:
+                return super().__call__(*args, **kwargs)
+        return super().__call__(*args, **kwargs)
 
 
-#: Held by every call of a :class:`SerialKernel` from Python.
+#: Held by calls of a :class:`ThreadedKernel` from Python when :data:`SERIALISE`.
 CALL_LOCK = threading.RLock()
 
 
@@ -116,10 +101,18 @@ def layer_is_threadsafe():
     return False
 
 
-_DISPATCHER = Kernel if layer_is_threadsafe() else SerialKernel
+#: Whether calls must be serialised (the threading layer is not thread-safe).
+SERIALISE = not layer_is_threadsafe()
+
+#: Work sizes (elements of a kernel's ``size`` argument) below which it runs on one thread,
+#: from the measured crossovers on 2 cores: kernels doing tens of flops per element (a
+#: transition, a likelihood, Gram rows) pay for a second thread from about 4,000 particles
+#: of 4 components; those doing a few (weights, sums, gathers) from about 32,000 elements.
+SERIAL_BELOW_HEAVY = 16_384
+SERIAL_BELOW_LIGHT = 32_768
 
 
-def jit(parallel=False, strict=False):
+def jit(parallel=False, strict=False, size=None, serial_below=SERIAL_BELOW_LIGHT):
     """Return the decorator that compiles a fasttrack kernel.
 
     Parameters
@@ -129,6 +122,11 @@ def jit(parallel=False, strict=False):
     strict : bool
         IEEE arithmetic, no relaxations, for code that must reproduce another library's
         results to the last bit (marked ``dispatcher.strict``).
+    size : int, optional
+        For a kernel that reaches parallel regions (its own or a callee's): the position of
+        the argument whose ``size`` measures its work (a :class:`ThreadedKernel`).
+    serial_below : int
+        With ``size``: the work below which a call runs on one thread.
     """
     def decorate(func):
         fastmath = False if strict else set(FASTMATH)
@@ -137,9 +135,11 @@ def jit(parallel=False, strict=False):
         if config.DISABLE_JIT:
             func.strict = strict
             return func
-        dispatcher = _DISPATCHER(py_func=func, locals={}, targetoptions=options)
+        kind = Kernel if size is None else ThreadedKernel
+        dispatcher = kind(py_func=func, locals={}, targetoptions=options)
         if OPTIONS["cache"]:
             dispatcher.enable_caching()
         dispatcher.strict = strict
+        dispatcher.size, dispatcher.serial_below = size, serial_below
         return dispatcher
     return decorate

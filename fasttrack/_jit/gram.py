@@ -18,7 +18,7 @@ A kernel is a kind code plus a float parameter array:
 import numpy as np
 from numba import prange
 
-from . import jit
+from . import SERIAL_BELOW_HEAVY, jit
 from .numeric import fast_exp
 
 POLYNOMIAL, GAUSSIAN, MATRIX = 0, 1, 2
@@ -125,7 +125,7 @@ def _kernel_row(kind, params, angles, x1, a, x2, out):
             out[b] = norm * fast_exp(scale * out[b])
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=5, serial_below=SERIAL_BELOW_HEAVY)
 def gram(kind, params, angles, x1, x2, out):
     """The (A, B) Gram matrix ``out[a, b] = k(x1[:, a], x2[:, b])`` of (d, A) and (d, B)
     points, rows in parallel (parameters resolved on both sets of points together)."""

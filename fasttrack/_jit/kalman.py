@@ -359,7 +359,7 @@ def _from_block(block, lo, hi, rows):
             row[i] = flat[i, b]
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=13, serial_below=1024)
 def batch_step(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
                rotation, noise, angles, method, joseph, means, covariances, measurements,
                means_out, covariances_out, status):
@@ -387,7 +387,7 @@ def batch_step(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, o
             status[lo + b] = block_status[b]
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=15, serial_below=1024)
 def batch_run(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset, rotation,
               noise, angles, method, joseph, mean0, covariance0, measurements, means_out,
               covariances_out, status):

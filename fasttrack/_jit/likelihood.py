@@ -14,7 +14,7 @@ of the noise covariance. Particles go in blocks of BLOCK.
 import numpy as np
 from numba import prange
 
-from . import jit
+from . import SERIAL_BELOW_HEAVY, jit
 from .numeric import fast_atan2, wrap_angle
 from .status import OK
 from .user import columns, first_failure, output_status, store
@@ -90,7 +90,7 @@ def _block_log_likelihoods(z, predicted, angles, whiten, log_norm, log_w, out):
     return np.nan if invalid else top
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=1, serial_below=SERIAL_BELOW_HEAVY)
 def measure(kind, x, mapping, offset, rotation, out):
     """Predicted measurements (m, N) of (d, N) particles."""
     n = x.shape[1]
@@ -100,7 +100,7 @@ def measure(kind, x, mapping, offset, rotation, out):
         _predict_block(kind, x, lo, hi, mapping, offset, rotation, out, lo)
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=2, serial_below=SERIAL_BELOW_HEAVY)
 def log_likelihood(kind, z, x, mapping, offset, rotation, angles, whiten, log_norm, log_w,
                    out):
     """``out = log_w + log p(z | particle)`` for (d, N) particles; returns ``max(out)`` (NaN
@@ -118,7 +118,7 @@ def log_likelihood(kind, z, x, mapping, offset, rotation, angles, whiten, log_no
     return _max(tops)
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=1, serial_below=SERIAL_BELOW_HEAVY)
 def measure_function(function, x, angles, out):
     """Predicted measurements of a user model ``h((d, n) states) -> (m, n)``; returns the
     status of its outputs (see :mod:`user`)."""
@@ -137,7 +137,7 @@ def measure_function(function, x, angles, out):
     return first_failure(codes)
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=2, serial_below=SERIAL_BELOW_HEAVY)
 def log_likelihood_function(function, z, x, angles, whiten, log_norm, log_w, out):
     """:func:`log_likelihood` for a user model ``h((d, n) states) -> (m, n)``; returns
     ``(max(out), status)``, the status of the function's outputs (see :mod:`user`)."""

@@ -225,7 +225,7 @@ def chunk_bounds(c, k, n):
     return c * n // k, (c + 1) * n // k
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=0)
 def cumulate(w):
     """Running sum of ``w`` (float or int), in place: each of :func:`n_chunks` chunks is
     summed sequentially, then offset by the sequential sum of the chunks before it, so the

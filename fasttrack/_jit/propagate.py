@@ -8,7 +8,7 @@ noise is ``S z`` for a square root S of the covariance (``S S^T = Q``).
 import numpy as np
 from numba import prange
 
-from . import jit
+from . import SERIAL_BELOW_HEAVY, jit
 from .numeric import fill_normals
 from .status import OK
 from .user import columns, first_failure, output_status, store
@@ -41,7 +41,7 @@ def _any_nonzero(matrix):
     return False
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=0, serial_below=SERIAL_BELOW_HEAVY)
 def propagate_linear(x, matrix, noise_root, key, out):
     """``out = F x + S z``: (d, N) particles through the (d, d) transition matrix F, with
     normals z from stream ``key`` (no noise if S is all zero)."""
@@ -64,7 +64,7 @@ def propagate_linear(x, matrix, noise_root, key, out):
             _add_noise(noise_root, key, b, lo, hi, out)
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=2, serial_below=SERIAL_BELOW_HEAVY)
 def propagate_function(function, time_interval, x, noise_root, key, out):
     """``out = f(x, dt) + S z`` for a user transition ``f((d, n) states, dt) -> (d, n)``,
     called block by block; returns the status of its outputs (see :mod:`user`): where it

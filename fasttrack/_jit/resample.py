@@ -68,7 +68,7 @@ def _first_in_stratum(bounds, scale, n, s, start):
     return lo
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=0)
 def systematic_starts(cdf, n, key, starts):
     """Starts for the points ``j + u``, j = 0..n-1, one uniform ``u`` for all."""
     u = uniform(key, 0)
@@ -79,7 +79,7 @@ def systematic_starts(cdf, n, key, starts):
         following[i] = np.int64(min(max(np.ceil(bounds[i] * scale - u), 0.0), n))
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=0)
 def stratified_starts(cdf, n, key, starts):
     """Starts for the points ``j + u_j``, j = 0..n-1, one uniform per stratum.
 
@@ -94,7 +94,7 @@ def stratified_starts(cdf, n, key, starts):
         following[i] = s + np.int64(s + uniform(key, s) < bounds[i] * scale)
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=2)
 def sorted_uniforms(key, n, out):
     """``out[:n]`` = n ascending iid uniforms on [0, n), as normalised partial sums of the
     n + 1 exponentials drawn from counters 0..n; ``out`` has n + 1 entries."""
@@ -106,7 +106,7 @@ def sorted_uniforms(key, n, out):
         out[j] = min(out[j] * scale, n)
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=0)
 def stratum_occupancy(points, n, occupancy):
     """``occupancy[s]`` = number of the n ascending points (in [0, n]) whose stratum
     ``min(floor(p), n - 1)`` is below s, for s = 0..n: per chunk of strata, a histogram of
@@ -128,7 +128,7 @@ def stratum_occupancy(points, n, occupancy):
     occupancy[n] = n
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=0)
 def multinomial_starts(cdf, n, key, occupancy, starts):
     """Starts for n iid uniform points given how many fall in each stratum.
 
@@ -164,7 +164,7 @@ def multinomial_starts(cdf, n, key, occupancy, starts):
                     following[i] += np.int64(s + uniform(key, n + 1 + occupancy[s] + q) < y)
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=1)
 def residual_floors(cdf, log_w, log_w_max, n, floors, residuals):
     """``floors = floor(n w)`` and ``residuals = n w - floors`` for w normalised by the sum
     ``cdf[-1]``.
@@ -180,7 +180,7 @@ def residual_floors(cdf, log_w, log_w_max, n, floors, residuals):
         residuals[i] = max(expected - floors[i], 0.0)
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=0)
 def add_floors(starts, floor_sums):
     """Residual starts: ``starts[i] += floor_sums[i - 1]`` (running sums of the floors)."""
     following = starts[1:]
@@ -188,7 +188,7 @@ def add_floors(starts, floor_sums):
         following[i] += floor_sums[i]
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=1)
 def expand(starts, idx, x, out):
     """``idx[j]`` = largest i with ``starts[i] <= j`` (ascending), and ``out = x[:, idx]``.
 
@@ -218,7 +218,7 @@ def expand(starts, idx, x, out):
                 row_out[j] = row_in[chunk_idx[j]]
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=2)
 def take_columns(x, idx, out):
     """``out = x[:, idx]`` for a (d, N) array and ascending indices."""
     for r in range(x.shape[0]):

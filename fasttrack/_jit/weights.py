@@ -14,7 +14,7 @@ from .numeric import chunk_bounds, fast_exp, n_chunks
 BLOCK = 1024
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=0)
 def relative_weights(log_w, log_w_max, out):
     """``out = exp(log_w - log_w_max)``, shape (N,)."""
     for i in prange(log_w.size):
@@ -55,20 +55,20 @@ def _power_sums(log_w, log_w_max):
     return sums[0], sums[1]
 
 
-@jit()
+@jit(size=0)
 def log_sum_exp(log_w, log_w_max):
     """``log(sum(exp(log_w)))`` given the (finite) maximum."""
     return log_w_max + np.log(_power_sums(log_w, log_w_max)[0])
 
 
-@jit()
+@jit(size=0)
 def ess(log_w, log_w_max):
     """Kish's effective sample size ``(sum w)**2 / sum w**2`` of unnormalised log weights."""
     s1, s2 = _power_sums(log_w, log_w_max)
     return s1 * s1 / s2
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=0)
 def weighted_mean_covar(x, log_w, log_w_max, mean, covar):
     """Weighted mean (d,) and covariance (d, d) of the columns of a (d, N) array, with
     weights ``exp(log_w - log_w_max)``: ``sum w (x - mean)(x - mean)^T / sum w``.
@@ -127,7 +127,7 @@ def _sum_rows(partial):
     return sums
 
 
-@jit(parallel=True)
+@jit(parallel=True, size=0)
 def normalise_in_place(log_w, log_w_max):
     """Shift log weights so that their exponentials sum to 1; returns the shift (logsumexp).
 
