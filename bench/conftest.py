@@ -5,9 +5,10 @@ speed-up ratios.
 Run:  python -m pytest bench --benchmark-json=bench/results/latest.json
 Smoke (no timing, as in CI):  python -m pytest bench --benchmark-disable
 
-The process runs with ``fasttrack.tune_allocator()`` (both sides of every ratio run in it);
-set FASTTRACK_BENCH_DEFAULT_ALLOCATOR=1 for glibc's defaults. Timed rounds start once NumPy's
-BLAS threads, woken by a set-up or the previous benchmark, have gone back to sleep.
+The process runs as a user's would: glibc's default allocator (set
+FASTTRACK_BENCH_TUNED_ALLOCATOR=1 for ``fasttrack.tune_allocator()``), fasttrack's default
+threads. Timed rounds start once NumPy's BLAS threads, woken by a set-up or the previous
+benchmark, have gone back to sleep.
 """
 import os
 import pathlib
@@ -57,9 +58,9 @@ def _compiled():
 
 
 def pytest_configure(config):
-    """Every implementation runs with glibc's malloc keeping freed memory (see
-    fasttrack.tune_allocator), unless FASTTRACK_BENCH_DEFAULT_ALLOCATOR=1."""
-    if os.environ.get("FASTTRACK_BENCH_DEFAULT_ALLOCATOR") != "1":
+    """Every implementation runs with glibc's default malloc, what a user gets, unless
+    FASTTRACK_BENCH_TUNED_ALLOCATOR=1 (fasttrack.tune_allocator, for comparison)."""
+    if os.environ.get("FASTTRACK_BENCH_TUNED_ALLOCATOR") == "1":
         fasttrack.tune_allocator()
 
 

@@ -68,11 +68,13 @@ FAMILIES = {"batch": _batch, "kalman": _kalman, "adaptive_kernel": _adaptive_ker
 
 
 def _run(name):
+    """Compile (or load) one family; returns its name and the seconds it took."""
+    start = time.perf_counter()
     FAMILIES[name]()
-    return name
+    return name, time.perf_counter() - start
 
 
-def warmup(families=None, processes=1):
+def warmup(families=None, processes=1, report=None, load=True):
     """Compile (or load from the on-disk cache) the kernels of ``families`` now rather than
     on first use.
 
@@ -83,22 +85,38 @@ def warmup(families=None, processes=1):
         (default: all).
     processes : int
         With more than one, compile in that many worker processes at once, which fill the
-        shared cache, then load from it: on a first run, about ``processes`` times faster.
+        shared cache, then load from it: on a first run, up to ``processes`` times faster.
+    report : callable, optional
+        Called as ``report(family, seconds)`` as each family is ready (in the workers'
+        order of completion, or, with one process, as this process compiles it).
+    load : bool
+        Whether this process loads the families too (with worker processes, False only
+        fills the cache, e.g. one the workers' ``FASTTRACK_CACHE_DIR`` names).
 
     Returns
     -------
     float
         Seconds taken.
     """
+    from ._validate import count
+    processes = count(processes, "processes")
     names = list(FAMILIES) if families is None else list(families)
     unknown = sorted(set(names) - set(FAMILIES))
     if unknown:
         raise ValueError(f"unknown families {unknown}; valid: {', '.join(FAMILIES)}")
     start = time.perf_counter()
-    if processes > 1 and len(names) > 1:
+    if processes > 1 and (len(names) > 1 or not load):
         context = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(processes, mp_context=context) as pool:
-            list(pool.map(_run, names))
-    for name in names:
-        _run(name)
+        with concurrent.futures.ProcessPoolExecutor(min(processes, len(names)),
+                                                    mp_context=context) as pool:
+            for done in concurrent.futures.as_completed([pool.submit(_run, n) for n in names]):
+                if report is not None:
+                    report(*done.result())
+    elif not load:
+        raise ValueError("load=False needs processes > 1 (workers to compile in)")
+    if load:
+        for name in names:
+            name, seconds = _run(name)
+            if report is not None and processes == 1:
+                report(name, seconds)
     return time.perf_counter() - start

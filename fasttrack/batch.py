@@ -154,12 +154,19 @@ class BatchExtendedKalmanFilter:
         covars_out = np.empty((steps, k, d, d))
         if steps == 0 or k == 0:
             return means_out, covars_out
-        status = np.empty((k, 2), dtype=np.int64)
-        _kalman.batch_run(*self._spec(intervals), intervals, *self._measurement_spec(), means,
-                          covars, measurements, means_out, covars_out, status)
-        failed = np.flatnonzero(status[:, 1])
+        spec, measurement_spec = self._spec(intervals), self._measurement_spec()
+        status = np.empty(k, dtype=np.int64)
+        failed_at = np.full(k, steps)
+        codes = np.zeros(k, dtype=np.int64)
+        for t in range(steps):  # one compiled step kernel, a call per step
+            _kalman.batch_step(*spec, intervals[t], *measurement_spec, means, covars,
+                               measurements[t], means_out[t], covars_out[t], status)
+            new = (status != 0) & (failed_at == steps)
+            failed_at[new], codes[new] = t, status[new]
+            means, covars = means_out[t], covars_out[t]
+        failed = np.flatnonzero(codes)
         if failed.size:
             first = failed[0]
             raise ValueError(f"{failed.size} of {k} filters failed; filter {first} at step "
-                             f"{status[first, 0]}: {_errors.MESSAGES[status[first, 1]]}")
+                             f"{failed_at[first]}: {_errors.MESSAGES[codes[first]]}")
         return means_out, covars_out

@@ -4,6 +4,7 @@ import numbers
 
 import numpy as np
 
+from . import _buffers
 from . import _validate
 from . import random as _random
 from .resampling import ResidualMethod, draw
@@ -60,7 +61,9 @@ class _SchemeResampler(Resampler):
                             columns=state.state_vector, name="particles.log_weight",
                             compact=True)
         n = idx.size
-        return state._replace(state_vector=columns, log_weight=np.full(n, -np.log(n)),
+        log_weight = _buffers.empty(n)
+        log_weight.fill(-np.log(n))
+        return state._replace(state_vector=columns, log_weight=log_weight,
                               parent=None if parent is None else parent._indexed(idx))
 
 

@@ -12,6 +12,7 @@ import enum
 
 import numpy as np
 
+from . import _buffers
 from . import _validate
 from . import random as _random
 from ._jit import resample as _kernels
@@ -39,22 +40,22 @@ class ResidualMethod(str, enum.Enum):
 
 
 def _cdf(log_w, log_w_max):
-    cdf = np.empty_like(log_w)
+    cdf = _buffers.empty_like(log_w)
     _weights.relative_weights(log_w, log_w_max, cdf)
     _kernels.cumulate(cdf)
     return cdf
 
 
 def _multinomial_starts(cdf, n, key, starts):
-    points = np.empty(n + 1)
+    points = _buffers.empty(n + 1)
     _kernels.sorted_uniforms(key, n, points)
-    occupancy = np.empty(n + 1, dtype=starts.dtype)
+    occupancy = _buffers.empty(n + 1, starts.dtype)
     _kernels.stratum_occupancy(points, n, occupancy)
     _kernels.multinomial_starts(cdf, n, key, occupancy, starts)
 
 
 def _scheme_starts(method, cdf, n, key, dtype):
-    starts = np.empty(cdf.size, dtype=dtype)
+    starts = _buffers.empty(cdf.size, dtype)
     if method is ResidualMethod.SYSTEMATIC:
         _kernels.systematic_starts(cdf, n, key, starts)
     elif method is ResidualMethod.STRATIFIED:
@@ -65,8 +66,8 @@ def _scheme_starts(method, cdf, n, key, dtype):
 
 
 def _residual_starts(log_w, log_w_max, cdf, n, method, key, dtype):
-    floors = np.empty(cdf.size, dtype=dtype)
-    residuals = np.empty_like(cdf)
+    floors = _buffers.empty(cdf.size, dtype)
+    residuals = _buffers.empty_like(cdf)
     _kernels.residual_floors(cdf, log_w, log_w_max, n, floors, residuals)
     _kernels.cumulate(floors)
     n_rest = n - int(floors[-1])
@@ -117,11 +118,11 @@ def draw(log_weights, nparts=None, method=ResidualMethod.SYSTEMATIC, residual=Fa
         starts = _residual_starts(log_w, log_w_max, cdf, n, method, key, dtype)
     else:
         starts = _scheme_starts(method, cdf, n, key, dtype)
-    idx = np.empty(n, dtype=dtype)
+    idx = _buffers.empty(n, dtype)
     if columns is None:
         _kernels.expand(starts, idx, _NO_ROWS, _NO_ROWS)
         return idx
-    gathered = np.empty((columns.shape[0], n))
+    gathered = _buffers.empty((columns.shape[0], n))
     _kernels.expand(starts, idx, columns, gathered)
     return idx, gathered
 

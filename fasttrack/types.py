@@ -2,12 +2,14 @@
 with (N,) float64 log weights; linear weights are derived on request.
 
 Ownership of history: a state's links to the states it came from (``prior`` of a
-prediction, ``parent`` of a particle state) are weak when a filter makes them, so a
-filter loop keeps only what the program itself keeps. ``prediction.prior`` is the prior
-object while anything else (a variable, a :class:`Track`) still holds it, and None after;
-an update holds its ``hypothesis`` (and so its prediction) strongly, but nothing older.
-Links given to a constructor, and the indexed parent a resampler makes (which has no links
-of its own), are held strongly.
+prediction, ``parent`` of a particle state, the ``prediction`` of a hypothesis once an
+updater has used it) are weak when a filter makes them, so a filter loop keeps only what
+the program itself keeps. ``prediction.prior`` is the prior object while anything else (a
+variable, a :class:`Track`) still holds it, and None after; an update holds its
+``hypothesis`` (the detection and measurement prediction) strongly, and the prediction
+while the program holds it. A :class:`Track` of updates thus keeps the updates, not the
+particle clouds of the predictions between them. Links given to a constructor, and the
+indexed parent a resampler makes (which has no links of its own), are held strongly.
 """
 import copy
 import datetime
@@ -17,6 +19,7 @@ import weakref
 
 import numpy as np
 
+from . import _buffers
 from . import _validate
 from ._jit import akkf as _akkf
 from ._jit import gram as _gram
@@ -195,7 +198,7 @@ class ParticleState:
 
     def _gather(self):
         source, source_log_weight, idx = self._source
-        columns = np.empty((source.shape[0], idx.size))
+        columns = _buffers.empty((source.shape[0], idx.size))
         _take_columns(source, idx, columns)
         self._state_vector, self._log_weight = columns, source_log_weight[idx]
         self._source = None
@@ -252,28 +255,32 @@ class ParticleState:
             return self._source[0].shape[0]
         return self._state_vector.shape[0]
 
-    def _weighted_moments(self):
+    @property
+    def mean(self):
+        """(d, 1) weighted mean of the particles (computed once, in one pass)."""
         if self._moments is None:
+            d = self.ndim
+            mean = np.empty(d)
+            log_w = self.log_weight
+            _weights.weighted_mean(self.state_vector, log_w, log_w.max(), mean)
+            self._moments = mean.reshape(d, 1), None
+        return self._moments[0]
+
+    @property
+    def covar(self):
+        """(d, d) weighted covariance ``sum w (x - mean)(x - mean)^T / sum w``, or
+        ``fixed_covar`` when set (computed once, with the mean, in two passes)."""
+        if self.fixed_covar is not None:
+            return self.fixed_covar
+        if self._moments is None or self._moments[1] is None:
             d = self.ndim
             mean = np.empty(d)
             covar = np.empty((d, d))
             log_w = self.log_weight
             _weights.weighted_mean_covar(self.state_vector, log_w, log_w.max(), mean, covar)
-            self._moments = mean.reshape(d, 1), covar
-        return self._moments
-
-    @property
-    def mean(self):
-        """(d, 1) weighted mean of the particles."""
-        return self._weighted_moments()[0]
-
-    @property
-    def covar(self):
-        """(d, d) weighted covariance ``sum w (x - mean)(x - mean)^T / sum w``, or
-        ``fixed_covar`` when set."""
-        if self.fixed_covar is not None:
-            return self.fixed_covar
-        return self._weighted_moments()[1]
+            known = self._moments  # a mean already read stays what it was
+            self._moments = (mean.reshape(d, 1) if known is None else known[0]), covar
+        return self._moments[1]
 
     def __getitem__(self, item):
         """``state[i]`` for an int is a :class:`Particle`; an int array, boolean mask or
@@ -666,12 +673,25 @@ class GroundTruthPath(StateSequence):
 
 class SingleHypothesis:
     """A prediction paired with a measurement (a :class:`Detection`, or None for a missed
-    detection); updaters store their ``measurement_prediction`` on it."""
+    detection); updaters store their ``measurement_prediction`` on it.
+
+    The hypothesis holds its ``prediction`` until an updater has used it; from then on the
+    link is weak (see the module's notes): an update, kept in a :class:`Track`, does not
+    keep its prediction's particle cloud alive unless the program holds the prediction.
+    """
+
+    prediction = Link()
 
     def __init__(self, prediction, measurement, measurement_prediction=None):
         self.prediction = prediction
         self.measurement = measurement
         self.measurement_prediction = measurement_prediction
+
+    def _used(self):
+        """Turn the link to the prediction weak (an updater has used it)."""
+        value = self.__dict__.get("_prediction")
+        if value is not None and type(value) is not weakref.ref:
+            self.__dict__["_prediction"] = weakref.ref(value)
 
     def __bool__(self):
         return self.measurement is not None

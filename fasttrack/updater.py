@@ -1,6 +1,7 @@
 """Updaters: ``updater.update(hypothesis)``."""
 import numpy as np
 
+from . import _buffers
 from . import _errors
 from . import _validate
 from . import random as _random
@@ -94,7 +95,7 @@ class ParticleUpdater:
             raise ValueError(f"the measurement model expects {model.ndim_state} state "
                              f"dimensions, the prediction has {prediction.ndim}")
         z = model.measurement_vector(hypothesis.measurement, "hypothesis.measurement")
-        log_w = np.empty(len(prediction))
+        log_w = _buffers.empty(len(prediction))
         top = model.log_likelihood(z, prediction.state_vector, prediction.log_weight, log_w)
         if np.isnan(top):
             raise ValueError(f"{type(model).__name__} gave NaN log-likelihoods for this "
@@ -103,6 +104,7 @@ class ParticleUpdater:
             raise ValueError("every particle has zero likelihood for this measurement: "
                              "no weight survives")
         _weights.normalise_in_place(log_w, top)
+        hypothesis._used()
         return ParticleStateUpdate._trusted(
             prediction.state_vector, log_w, timestamp=prediction.timestamp,
             parent=weak(prediction.parent), hypothesis=hypothesis,
@@ -214,6 +216,7 @@ class KalmanUpdater:
         timestamp = hypothesis.measurement.timestamp
         hypothesis.measurement_prediction = GaussianMeasurementPrediction._trusted(
             z_hat, s, timestamp, {"cross_covar": cross})
+        hypothesis._used()
         return GaussianStateUpdate._trusted(x_out, covar_out, timestamp,
                                             {"hypothesis": hypothesis})
 
@@ -333,6 +336,7 @@ class AdaptiveKernelKalmanUpdater:
             kind, params, model._angles, y, z, prediction.weight, *prediction._factors,
             self.lambda_updater, x, _random.stream_key(self.rng), proposal)
         check_weights(w, "updated")
+        hypothesis._used()
         sigma = prediction._factors[1]
         return KernelParticleStateUpdate._trusted(
             x, w, (lt, sigma, v1t, v2t), hypothesis.measurement.timestamp,

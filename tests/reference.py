@@ -113,6 +113,11 @@ def ess(log_w, log_w_max):
     return w.sum() ** 2 / (w**2).sum()
 
 
+def weighted_mean(x, log_w, log_w_max, mean):
+    w = np.exp(log_w - log_w_max)
+    mean[:] = x @ w / w.sum()
+
+
 def weighted_mean_covar(x, log_w, log_w_max, mean, covar):
     w = np.exp(log_w - log_w_max)
     mean[:] = np.average(x, axis=1, weights=w)

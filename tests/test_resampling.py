@@ -131,6 +131,11 @@ def test_weight_kernels_match_mirrors(log_w):
     reference.weighted_mean_covar(x, log_w, top, *want)
     np.testing.assert_allclose(got[0], want[0], rtol=1e-12)
     np.testing.assert_allclose(got[1], want[1], rtol=1e-10, atol=1e-13)
+    mean_only, mirror = np.empty(4), np.empty(4)
+    weight_kernels.weighted_mean(x, log_w, top, mean_only)
+    reference.weighted_mean(x, log_w, top, mirror)
+    np.testing.assert_allclose(mean_only, mirror, rtol=1e-12)
+    np.testing.assert_allclose(mean_only, got[0], rtol=1e-15)  # the same sums
 
 
 def test_last_nonempty_matches_mirror():

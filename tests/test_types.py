@@ -194,13 +194,24 @@ def test_a_filter_loop_keeps_no_history_alive(make):
         pass
     gc.collect()
     assert [ref() for ref in early] == [None] * 5
-    assert last.hypothesis.prediction.prior is None  # its prior is gone: nothing held it
-    # holding states keeps them, and the links between them, alive
-    track = ft.Track()
+    assert last.hypothesis.prediction is None  # used, and nothing else held it
+    assert last.hypothesis.measurement is not None  # the detection stays
+    # a Track keeps the updates; holding the predictions too keeps them and their priors
+    track, predictions = ft.Track(), []
     scenario, predictor, updater = make()
     states = list(_loop(scenario, predictor, updater, 5, track))
-    assert [s.hypothesis.prediction.prior for s in states[1:]] == states[:-1]
     assert all(a is b for a, b in zip(track, states))
+    for update in track:
+        predictions.append(update.hypothesis.prediction)
+    assert predictions == [None] * 5
+    kept, state = [scenario.prior], scenario.prior
+    for detection in scenario.detections:
+        prediction = predictor.predict(state, detection.timestamp)
+        predictions.append(prediction)
+        state = updater.update(ft.SingleHypothesis(prediction, detection))
+        kept.append(state)
+    assert [s.hypothesis.prediction for s in kept[1:]] == predictions[-2:]
+    assert [p.prior for p in predictions[-2:]] == kept[:-1]
 
 
 def test_links_are_weak_when_filters_make_them_and_strong_when_given():

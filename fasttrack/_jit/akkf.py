@@ -40,8 +40,6 @@ from . import jit
 from .gram import MATRIX, factor
 from .numeric import fill_normals
 
-_NO_PARAMS = np.empty(0)
-_NO_ANGLES = np.zeros(0, dtype=np.bool_)
 
 
 @jit()
@@ -233,6 +231,14 @@ def _gram(a, b, sigma):
 
 
 @jit()
+def _factor_matrix(a):
+    """The low-rank factor of a positive semi-definite matrix (:func:`gram.factor`; its
+    empty parameter arrays made here: a global array would be a read-only constant, and a
+    second compilation of the factorisation)."""
+    return factor(MATRIX, np.empty(0), np.zeros(0, dtype=np.bool_), a)
+
+
+@jit()
 def sandwich(a, lt, sigma, v1t, v2t):
     """``a S a^T`` for a (n, M): a sum of two Gram matrices."""
     return _gram(_mul_t(a, lt), _deviation(a, v1t, v2t), sigma)
@@ -268,14 +274,14 @@ def predict_embedding(kind, params, angles, proposal, x, w, lt, sigma, v1t, v2t,
     if r <= m:  # W = (Phi_new Phi_new^T + lam I)^-1 in feature space
         v2t_pred = _ridge_map(phi_new, lam)
         w_pred = _vector_mul(_mul_vector(phi, w), v2t_pred)
-        root = factor(MATRIX, _NO_PARAMS, _NO_ANGLES, sandwich(phi, lt, sigma, v1t, v2t))
+        root = _factor_matrix(sandwich(phi, lt, sigma, v1t, v2t))
         return w_pred, _mul(root, v2t_pred), phi_new, v2t_pred
     # more features than particles: A = (K + lam I)^-1 in particle space, where
     # Gamma = A Phi_new^T Phi and Z = I - A K
     solve = _ridge_map(np.ascontiguousarray(phi_new.T), lam)  # A Phi_new^T
     gamma = _mul(solve, phi)
     a_k = _mul(solve, phi_new)
-    root = factor(MATRIX, _NO_PARAMS, _NO_ANGLES, sandwich(gamma, lt, sigma, v1t, v2t))
+    root = _factor_matrix(sandwich(gamma, lt, sigma, v1t, v2t))
     return _mul_vector(gamma, w), root, np.eye(m), a_k
 
 
@@ -347,7 +353,7 @@ def draw_proposal(x, w, lt, sigma, v1t, v2t, key, out):
     mean = _mul_vector(x, w)
     covar = sandwich(x, lt, sigma, v1t, v2t)
     normals = np.empty(d * m + (d * m) % 2)
-    fill_normals(key, 0, normals)
+    fill_normals(key, np.int64(0), normals)
     for i in range(d):
         scale = np.sqrt(covar[i, i])
         row = normals[i * m:(i + 1) * m]

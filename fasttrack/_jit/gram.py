@@ -21,7 +21,7 @@ from numba import prange
 from . import SERIAL_BELOW_HEAVY, jit
 from .numeric import fast_exp
 
-POLYNOMIAL, GAUSSIAN, MATRIX = 0, 1, 2
+POLYNOMIAL, GAUSSIAN, MATRIX = np.int64(0), np.int64(1), np.int64(2)
 
 
 #: Pairs of points sampled by the median heuristic when there are more than all pairs.
@@ -131,7 +131,7 @@ def gram(kind, params, angles, x1, x2, out):
     points, rows in parallel (parameters resolved on both sets of points together)."""
     resolved = resolve(kind, params, angles, x1, x2)
     for a in prange(x1.shape[1]):
-        _kernel_row(kind, resolved, angles, x1, a, x2, out[a])
+        _kernel_row(kind, resolved, angles, x1, np.int64(a), x2, out[a])
 
 
 @jit()

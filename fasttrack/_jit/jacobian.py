@@ -16,7 +16,7 @@ from .numeric import fill, wrap_angle
 from .status import OK
 from .user import output_status
 
-ANALYTIC, FORWARD, CENTRAL = 0, 1, 2
+ANALYTIC, FORWARD, CENTRAL = np.int64(0), np.int64(1), np.int64(2)
 
 
 @jit(strict=True)
@@ -107,7 +107,8 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
     _evaluation_points(x, central, steps, points)
     values = np.empty((out.shape[0], columns))
     if central:
-        _predict_block(kind, points, 0, columns, mapping, offset, rotation, values, 0)
+        _predict_block(kind, points, np.int64(0), columns, mapping, offset, rotation, values,
+                       np.int64(0))
     else:
         _polar_values(kind, points, mapping, offset, rotation, values)
     _differences(values, steps, angles, central, out)

@@ -33,7 +33,7 @@ from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINI
                      PRIOR_NOT_SYMMETRIC)
 from .user import output_status
 
-FIXED, CV = 0, 1
+FIXED, CV = np.int64(0), np.int64(1)
 BLOCK = 128
 
 
@@ -220,7 +220,8 @@ def _measure(kind, mapping, offset, rotation, method, x, z_hat, jacobian, status
         for r in range(d):
             column[r, 0] = x[r, b]
             point[r] = x[r, b]
-        _predict_block(kind, column, 0, 1, mapping, offset, rotation, values, 0)
+        _predict_block(kind, column, np.int64(0), np.int64(1), mapping, offset, rotation,
+                       values, np.int64(0))
         measurement_jacobian(kind, point, mapping, offset, rotation, angles, method, one)
         finite = True
         for r in range(m):
@@ -387,43 +388,6 @@ def batch_step(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, o
             status[lo + b] = block_status[b]
 
 
-@jit(parallel=True, size=15, serial_below=1024)
-def batch_run(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset, rotation,
-              noise, angles, method, joseph, mean0, covariance0, measurements, means_out,
-              covariances_out, status):
-    """K filters over T steps (measurements (T, K, m), intervals dts (T, K)): outputs
-    (T, K, d) and (T, K, d, d). A filter's first failing step and its code go to
-    ``status[k] = (step, code)``; ``(T, OK)`` if it finished (a failed filter's later
-    outputs are not meaningful)."""
-    steps, k_filters, m = measurements.shape
-    d = mean0.shape[1]
-    for block in prange((k_filters + BLOCK - 1) // BLOCK):
-        lo = block * BLOCK
-        hi = min(lo + BLOCK, k_filters)
-        nb = hi - lo
-        x, covariance, z = np.empty((d, nb)), np.empty((d, d, nb)), np.empty((m, nb))
-        x_out, covariance_out = np.empty((d, nb)), np.empty((d, d, nb))
-        _to_block(mean0, lo, hi, x)
-        _to_block(covariance0, lo, hi, covariance)
-        block_status = np.zeros(nb, dtype=np.int64)
-        first_failure = np.full(nb, steps, dtype=np.int64)
-        for t in range(steps):
-            _to_block(measurements[t], lo, hi, z)
-            _step_block(t_kind, rates, fixed_matrix, fixed_covar, dts[t, lo:hi], m_kind,
-                        mapping, offset, rotation, noise, angles, method, joseph, x, covariance,
-                        z, x_out, covariance_out, block_status)
-            for b in range(nb):
-                if block_status[b] != OK and first_failure[b] == steps:
-                    first_failure[b] = t
-            _from_block(x_out, lo, hi, means_out[t])
-            _from_block(covariance_out, lo, hi, covariances_out[t])
-            copy_into(x_out, x)
-            copy_into(covariance_out, covariance)
-        for b in range(nb):
-            status[lo + b, 0] = first_failure[b]
-            status[lo + b, 1] = block_status[b]
-
-
 # --- one filter: a state's (d, 1) column, its (d, d) covariance (a block of one) -----------
 
 
@@ -451,7 +415,7 @@ def predict_function(function, dt, covar, central, x, covariance, x_out, covaria
     if code != OK:
         return code
     values = function(x, dt)
-    code = output_status(values, d, 1)
+    code = output_status(values, d, np.int64(1))
     if code != OK:
         return code
     matrix = np.empty((d, d, 1))
@@ -491,7 +455,7 @@ def update_function(function, noise, angles, central, joseph, x, covariance, z, 
     d = x.shape[0]
     m = z.shape[0]
     values = function(x)
-    code = output_status(values, m, 1)
+    code = output_status(values, m, np.int64(1))
     if code != OK:
         return code
     one = np.empty((m, d))

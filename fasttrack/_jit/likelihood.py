@@ -19,7 +19,7 @@ from .numeric import fast_atan2, wrap_angle
 from .status import OK
 from .user import columns, first_failure, output_status, store
 
-SELECT, BEARING_RANGE, BEARING = 0, 1, 2
+SELECT, BEARING_RANGE, BEARING = np.int64(0), np.int64(1), np.int64(2)
 BLOCK = 1024
 
 
@@ -67,7 +67,7 @@ def _block_log_likelihoods(z, predicted, angles, whiten, log_norm, log_w, out):
         row = predicted[r, :count]
         for i in range(count):
             row[i] = z[r] - row[i]
-    _wrap_rows(predicted, 0, count, angles)
+    _wrap_rows(predicted, np.int64(0), count, angles)
     whitened = np.empty(count)
     for i in range(count):
         out[i] = 0.0
@@ -112,7 +112,7 @@ def log_likelihood(kind, z, x, mapping, offset, rotation, angles, whiten, log_no
         lo = b * BLOCK
         hi = min(lo + BLOCK, n)
         predicted = np.empty((z.size, BLOCK))
-        _predict_block(kind, x, lo, hi, mapping, offset, rotation, predicted, 0)
+        _predict_block(kind, x, lo, hi, mapping, offset, rotation, predicted, np.int64(0))
         tops[b] = _block_log_likelihoods(z, predicted, angles, whiten, log_norm, log_w[lo:hi],
                                          out[lo:hi])
     return _max(tops)
@@ -153,7 +153,7 @@ def log_likelihood_function(function, z, x, angles, whiten, log_norm, log_w, out
         codes[b] = output_status(values, z.size, hi - lo)
         tops[b] = np.nan
         if codes[b] == OK:
-            store(values, predicted, 0)
+            store(values, predicted, np.int64(0))
             tops[b] = _block_log_likelihoods(z, predicted, angles, whiten, log_norm,
                                              log_w[lo:hi], out[lo:hi])
     return _max(tops), first_failure(codes)

@@ -234,7 +234,7 @@ def cumulate(w):
     k = n_chunks(n)
     ends = np.empty(k, dtype=w.dtype)
     for c in prange(k):
-        lo, hi = chunk_bounds(c, k, n)
+        lo, hi = chunk_bounds(np.int64(c), k, n)
         part = w[lo:hi]
         total = w.dtype.type(0)
         for i in range(part.size):
@@ -245,7 +245,7 @@ def cumulate(w):
     for c in range(1, k):
         offsets[c] = offsets[c - 1] + ends[c - 1]
     for c in prange(1, k):
-        lo, hi = chunk_bounds(c, k, n)
+        lo, hi = chunk_bounds(np.int64(c), k, n)
         part = w[lo:hi]
         for i in range(part.size):
             part[i] += offsets[c]

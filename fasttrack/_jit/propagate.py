@@ -61,7 +61,7 @@ def propagate_linear(x, matrix, noise_root, key, out):
                     for i in range(row.size):
                         row[i] += f * xc[i]
         if noisy:
-            _add_noise(noise_root, key, b, lo, hi, out)
+            _add_noise(noise_root, key, np.int64(b), lo, hi, out)
 
 
 @jit(parallel=True, size=2, serial_below=SERIAL_BELOW_HEAVY)
@@ -81,5 +81,5 @@ def propagate_function(function, time_interval, x, noise_root, key, out):
         if codes[b] == OK:
             store(values, out, lo)
             if noisy:
-                _add_noise(noise_root, key, b, lo, hi, out)
+                _add_noise(noise_root, key, np.int64(b), lo, hi, out)
     return first_failure(codes)

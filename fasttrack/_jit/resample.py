@@ -71,7 +71,7 @@ def _first_in_stratum(bounds, scale, n, s, start):
 @jit(parallel=True, size=0)
 def systematic_starts(cdf, n, key, starts):
     """Starts for the points ``j + u``, j = 0..n-1, one uniform ``u`` for all."""
-    u = uniform(key, 0)
+    u = uniform(key, np.int64(0))
     last, scale = _prepare_starts(cdf, n, starts)
     bounds = cdf[:last]
     following = starts[1:last + 1]
@@ -99,7 +99,7 @@ def sorted_uniforms(key, n, out):
     """``out[:n]`` = n ascending iid uniforms on [0, n), as normalised partial sums of the
     n + 1 exponentials drawn from counters 0..n; ``out`` has n + 1 entries."""
     for j in prange(n + 1):
-        out[j] = -fast_log(1.0 - uniform(key, j))
+        out[j] = -fast_log(1.0 - uniform(key, np.int64(j)))
     cumulate(out)
     scale = n / out[n]
     for j in prange(n):
@@ -113,7 +113,7 @@ def stratum_occupancy(points, n, occupancy):
     its points and a running sum."""
     k = n_chunks(n)
     for c in prange(k):
-        lo, hi = chunk_bounds(c, k, n)
+        lo, hi = chunk_bounds(np.int64(c), k, n)
         first = np.searchsorted(points[:n], lo, side="left") if lo > 0 else 0
         stop = np.searchsorted(points[:n], hi, side="left") if hi < n else n
         hist = np.zeros(hi - lo, dtype=np.int64)
@@ -152,7 +152,7 @@ def multinomial_starts(cdf, n, key, occupancy, starts):
         for q in range(8):
             count += np.int64(q < inside) * np.int64(s + uniform(key, n + 1 + first + q) < y)
         following[i] = count
-    first = 0
+    first = np.int64(0)
     for s in range(n):
         inside = occupancy[s + 1] - occupancy[s]
         if inside > 8:
@@ -199,7 +199,7 @@ def expand(starts, idx, x, out):
     n = idx.size
     k = n_chunks(n)
     for c in prange(k):
-        lo, hi = chunk_bounds(c, k, n)
+        lo, hi = chunk_bounds(np.int64(c), k, n)
         first = np.searchsorted(starts, lo, side="left")
         stop = np.searchsorted(starts, hi, side="left")
         hist = np.zeros(hi - lo, dtype=np.int64)

@@ -1,22 +1,23 @@
 """Status codes that kernels return instead of raising (one table for every kernel; the
 messages live in ``fasttrack._errors``)."""
+import numpy as np
 
-OK = 0
+OK = np.int64(0)
 #: A prior covariance that is not positive semi-definite.
-PRIOR_NOT_PSD = 1
+PRIOR_NOT_PSD = np.int64(1)
 #: An innovation covariance ``H P H^T + R`` that is not positive definite.
-INNOVATION_NOT_PD = 2
+INNOVATION_NOT_PD = np.int64(2)
 #: A measurement Jacobian that is undefined (a bearing taken at the sensor).
-JACOBIAN_UNDEFINED = 3
+JACOBIAN_UNDEFINED = np.int64(3)
 #: A measurement with NaN or infinite components.
-MEASUREMENT_NOT_FINITE = 4
+MEASUREMENT_NOT_FINITE = np.int64(4)
 #: A predicted covariance that is not positive semi-definite.
-PREDICTION_NOT_PSD = 5
+PREDICTION_NOT_PSD = np.int64(5)
 #: A user's model function returned an array of the wrong shape.
-FUNCTION_SHAPE = 6
+FUNCTION_SHAPE = np.int64(6)
 #: A user's model function returned NaN or infinite values.
-FUNCTION_NOT_FINITE = 7
+FUNCTION_NOT_FINITE = np.int64(7)
 #: A prior covariance that is not symmetric.
-PRIOR_NOT_SYMMETRIC = 8
+PRIOR_NOT_SYMMETRIC = np.int64(8)
 #: A predicted covariance that is not symmetric.
-PREDICTION_NOT_SYMMETRIC = 9
+PREDICTION_NOT_SYMMETRIC = np.int64(9)

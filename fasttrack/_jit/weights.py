@@ -39,7 +39,7 @@ def _power_sums(log_w, log_w_max):
     k = n_chunks(n)
     partial = np.zeros((k, 2))
     for c in prange(k):
-        lo, hi = chunk_bounds(c, k, n)
+        lo, hi = chunk_bounds(np.int64(c), k, n)
         part = log_w[lo:hi]
         buf = np.empty(BLOCK)
         s1 = 0.0
@@ -68,18 +68,24 @@ def ess(log_w, log_w_max):
     return s1 * s1 / s2
 
 
-@jit(parallel=True, size=0)
-def weighted_mean_covar(x, log_w, log_w_max, mean, covar):
-    """Weighted mean (d,) and covariance (d, d) of the columns of a (d, N) array, with
-    weights ``exp(log_w - log_w_max)``: ``sum w (x - mean)(x - mean)^T / sum w``.
+@jit(size=0)
+def weighted_mean(x, log_w, log_w_max, mean):
+    """Weighted mean (d,) of the columns of a (d, N) array, with weights
+    ``exp(log_w - log_w_max)``: one pass, the first of :func:`weighted_mean_covar`."""
+    d, n = x.shape
+    total = _weighted_sums(x, log_w, log_w_max)
+    for r in range(d):
+        mean[r] = total[r] / total[d]
 
-    Two passes (mean, then centred products) for accuracy.
-    """
+
+@jit(parallel=True)
+def _weighted_sums(x, log_w, log_w_max):
+    """``(sum w x_r for each row r, sum w)`` (d + 1,), chunked in a fixed order."""
     d, n = x.shape
     k = n_chunks(n)
     partial = np.zeros((k, d + 1))
     for c in prange(k):
-        lo, hi = chunk_bounds(c, k, n)
+        lo, hi = chunk_bounds(np.int64(c), k, n)
         xs = x[:, lo:hi]
         part = log_w[lo:hi]
         buf = np.empty(BLOCK)
@@ -90,13 +96,25 @@ def weighted_mean_covar(x, log_w, log_w_max, mean, covar):
                 acc[d] += w[i]
                 for r in range(d):
                     acc[r] += w[i] * xs[r, start + i]
-    sums = _sum_rows(partial)
+    return _sum_rows(partial)
+
+
+@jit(parallel=True, size=0)
+def weighted_mean_covar(x, log_w, log_w_max, mean, covar):
+    """Weighted mean (d,) and covariance (d, d) of the columns of a (d, N) array, with
+    weights ``exp(log_w - log_w_max)``: ``sum w (x - mean)(x - mean)^T / sum w``.
+
+    Two passes (mean, then centred products) for accuracy.
+    """
+    d, n = x.shape
+    k = n_chunks(n)
+    sums = _weighted_sums(x, log_w, log_w_max)
     total = sums[d]
     for r in range(d):
         mean[r] = sums[r] / total
     products = np.zeros((k, d * d))
     for c in prange(k):
-        lo, hi = chunk_bounds(c, k, n)
+        lo, hi = chunk_bounds(np.int64(c), k, n)
         xs = x[:, lo:hi]
         part = log_w[lo:hi]
         buf = np.empty(BLOCK)

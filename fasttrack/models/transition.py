@@ -12,6 +12,7 @@ import itertools
 
 import numpy as np
 
+from .. import _buffers
 from .. import _errors
 from .. import _validate
 from ..types import seconds
@@ -141,7 +142,7 @@ class _LinearGaussian(TransitionModel):
         return np.ascontiguousarray(self.covar(dt), dtype=np.float64)
 
     def _propagate(self, x, dt, key):
-        out = np.empty_like(x)
+        out = _buffers.empty_like(x)
         _kernels.propagate_linear(x, self._matrix(dt), self._noise(dt).root, key, out)
         return out
 
@@ -364,7 +365,7 @@ class NonlinearGaussianTransitionModel(TransitionModel):
         return self._function(x, dt)
 
     def _propagate(self, x, dt, key):
-        out = np.empty_like(x)
+        out = _buffers.empty_like(x)
         code = _kernels.propagate_function(self.transition_function, dt, x,
                                            self._noise(dt).root, key, out)
         _errors.check(code, self._function, x, dt)
