@@ -187,6 +187,26 @@ def check_load(steps):
     return failures
 
 
+def cold_table(path):
+    """The cold-start measurements of ``bench/cold_start.py --json``, with targets."""
+    with open(path) as f:
+        cold = json.load(f)
+    import statistics
+    sys.path.insert(0, __file__.rsplit("/", 1)[0])
+    from cold_start import TARGETS
+    lines = ["| first call, new process, import included | empty cache | cache filled "
+             "| target |", "|---|---|---|---|"]
+    for family, times in cold["cold"].items():
+        target = TARGETS.get(family)
+        lines.append(f"| {family} | {statistics.median(times):.1f} s "
+                     f"| {statistics.median(cold['warm'][family]):.2f} s "
+                     f"| {f'{target:.0f} s' if target else ''} |")
+    lines.append(f"| `import fasttrack` | | {statistics.median(cold['import']):.2f} s | 0.5 s |")
+    lines.append(f"| first PF step, warm cache | | {statistics.median(cold['first_step']):.2f} s "
+                 f"| 1.5 s |")
+    return "\n".join(lines)
+
+
 def check(rows):
     """Messages for the targets that are missed or not measured."""
     found = {(w, n): r for w, n, _, r in rows}
@@ -244,12 +264,15 @@ def main(argv=None):
     parser.add_argument("json", nargs="?", default="bench/results/latest.json")
     parser.add_argument("--check", action="store_true", help="exit 1 if a target is missed")
     parser.add_argument("--plot", metavar="PNG", help="write a plot of time against N")
+    parser.add_argument("--cold", metavar="JSON", help="bench/cold_start.py --json output to "
+                                                       "show too")
     args = parser.parse_args(argv)
     medians, floors, machine = load(args.json)
     rows = ratios(medians, floors)
     print(table(rows))
     steps = load_steps(args.json)
-    for extra in (dropin_table(rows), montecarlo_table(args.json), load_table(steps)):
+    for extra in (dropin_table(rows), montecarlo_table(args.json), load_table(steps),
+                  cold_table(args.cold) if args.cold else ""):
         if extra:
             print("\n" + extra)
     cpu = machine.get("cpu", {}).get("brand_raw", "")

@@ -4,6 +4,7 @@ import numpy as np
 
 from . import _errors
 from . import _validate
+from . import threads as _threads
 from ._jit import kalman as _kalman
 from .models.measurement import NonlinearGaussianMeasurement, MeasurementModel
 from .models.transition import LinearGaussianTransitionModel, TransitionModel
@@ -87,6 +88,18 @@ class BatchExtendedKalmanFilter:
         return (model.kind, model._mapping, model._offset, model._rotation, model._noise_covar,
                 model._angles, self._method, self.use_joseph_cov)
 
+    def _step(self, spec, intervals, means, covars, measurements, means_out, covars_out,
+              status):
+        """One step of every filter, on chunks of the batch in parallel threads."""
+        measurement_spec = self._measurement_spec()
+
+        def run(lo, hi):
+            _kalman.batch_step(*spec, intervals[lo:hi], *measurement_spec, means[lo:hi],
+                               covars[lo:hi], measurements[lo:hi], means_out[lo:hi],
+                               covars_out[lo:hi], status[lo:hi])
+
+        _threads.in_chunks(run, means.shape[0], serial_below=1024, align=_kalman.BLOCK)
+
     def step(self, means, covars, measurements, time_intervals):
         """One predict + update of every filter.
 
@@ -117,8 +130,8 @@ class BatchExtendedKalmanFilter:
         if k == 0:
             return means_out, covars_out
         status = np.empty(k, dtype=np.int64)
-        _kalman.batch_step(*self._spec(intervals), intervals, *self._measurement_spec(), means,
-                           covars, measurements, means_out, covars_out, status)
+        self._step(self._spec(intervals), intervals, means, covars, measurements, means_out,
+                   covars_out, status)
         failed = np.flatnonzero(status)
         if failed.size:
             raise ValueError(f"{failed.size} of {k} filters failed; filter {failed[0]}: "
@@ -154,13 +167,13 @@ class BatchExtendedKalmanFilter:
         covars_out = np.empty((steps, k, d, d))
         if steps == 0 or k == 0:
             return means_out, covars_out
-        spec, measurement_spec = self._spec(intervals), self._measurement_spec()
+        spec = self._spec(intervals)
         status = np.empty(k, dtype=np.int64)
         failed_at = np.full(k, steps)
         codes = np.zeros(k, dtype=np.int64)
         for t in range(steps):  # one compiled step kernel, a call per step
-            _kalman.batch_step(*spec, intervals[t], *measurement_spec, means, covars,
-                               measurements[t], means_out[t], covars_out[t], status)
+            self._step(spec, intervals[t], means, covars, measurements[t], means_out[t],
+                       covars_out[t], status)
             new = (status != 0) & (failed_at == steps)
             failed_at[new], codes[new] = t, status[new]
             means, covars = means_out[t], covars_out[t]

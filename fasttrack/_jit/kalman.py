@@ -20,7 +20,6 @@ stays symmetric positive semi-definite when the standard form loses it to cancel
 (e.g. P = 1e12 I, R = 1e-12 I).
 """
 import numpy as np
-from numba import prange
 
 from . import jit
 from .._validate import PSD_TOLERANCE
@@ -360,16 +359,19 @@ def _from_block(block, lo, hi, rows):
             row[i] = flat[i, b]
 
 
-@jit(parallel=True, size=13, serial_below=1024)
+@jit()
 def batch_step(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
                rotation, noise, angles, method, joseph, means, covariances, measurements,
                means_out, covariances_out, status):
     """Predict and update K independent filters (means (K, d), covariances (K, d, d),
-    measurements (K, m), intervals dts (K,)) in blocks, in parallel; ``status[k]`` says how
-    each went."""
+    measurements (K, m), intervals dts (K,)) in blocks; ``status[k]`` says how each went.
+
+    One thread: the loops over a block's filters vectorise, 10^4 filters take about 2 ms a
+    step, and a parallel version compiled for 18 s more (its block body is optimised again
+    inside Numba's parallel region)."""
     k_filters, d = means.shape
     m = measurements.shape[1]
-    for block in prange((k_filters + BLOCK - 1) // BLOCK):
+    for block in range((k_filters + BLOCK - 1) // BLOCK):
         lo = block * BLOCK
         hi = min(lo + BLOCK, k_filters)
         nb = hi - lo
