@@ -575,7 +575,7 @@ def gram(kind, params, angles, x1, x2, out):
     if kind == POLYNOMIAL:
         out[:] = (x1.T @ x2 / params[2] + params[1]) ** int(params[0])
         return
-    variance, norm = resolve(kind, params, angles, x1, x2)[:2]
+    variance, norm = params[:2]
     diff = x1[:, :, None] - x2[:, None, :]
     diff[angles] = 2 * np.sin(diff[angles] / 2)
     out[:] = norm * np.exp(-np.sum(diff ** 2, axis=0) / (2 * variance))
@@ -614,8 +614,7 @@ def factor(kind, params, angles, points):
         k = points.copy()
     else:
         k = np.empty((points.shape[1], points.shape[1]))
-        gram(kind, resolve(kind, params, angles, points, points[:, :0]), angles, points,
-             points, k)
+        gram(kind, params, angles, points, points, k)
     n = k.shape[0]
     tol = n * np.finfo(float).eps * max(np.diag(k).max(), 0.0)
     rows = []

@@ -251,7 +251,7 @@ def predict_embedding(kind, params, angles, proposal, x, w, lt, sigma, v1t, v2t,
     Parameters
     ----------
     kind, params, angles
-        The kernel (see :mod:`gram`).
+        The kernel (see :mod:`gram`; params resolved for the proposal and prior together).
     proposal, x : (d, M)
         Proposal particles and the prior's particles.
     w : (M,)
@@ -293,7 +293,7 @@ def update_embedding(kind, params, angles, y, z, w, lt, sigma, v1t, v2t, lam, x,
     Parameters
     ----------
     kind, params, angles
-        The measurement kernel (see :mod:`gram`).
+        The measurement kernel (see :mod:`gram`; params resolved for y and z together).
     y : (m, M)
         Predicted measurements of the particles.
     z : (m, 1)

@@ -11,7 +11,8 @@ A kernel is a kind code plus a float parameter array:
   circle). A variance of 0 means *from the data*: ``width**2`` times the median of the
   squared distances between the points of the Gram matrix (over all pairs of up to 23
   points, else over 256 fixed quasi-random pairs), with norm 1, so that the kernel does
-  not depend on the units of the points (see :func:`resolve`);
+  not depend on the units of the points; callers settle it with :func:`resolve` before
+  calling :func:`gram` or :func:`factor`;
 - ``MATRIX`` (internal): the "points" are a symmetric matrix and ``k(i, j)`` its entry, so
   that :func:`factor` also factors explicit matrices.
 """
@@ -128,10 +129,9 @@ def _kernel_row(kind, params, angles, x1, a, x2, out):
 @jit(parallel=True, size=5, serial_below=SERIAL_BELOW_HEAVY)
 def gram(kind, params, angles, x1, x2, out):
     """The (A, B) Gram matrix ``out[a, b] = k(x1[:, a], x2[:, b])`` of (d, A) and (d, B)
-    points, rows in parallel (parameters resolved on both sets of points together)."""
-    resolved = resolve(kind, params, angles, x1, x2)
+    points, rows in parallel (``params`` resolved: see :func:`resolve`)."""
     for a in prange(x1.shape[1]):
-        _kernel_row(kind, resolved, angles, x1, np.int64(a), x2, out[a])
+        _kernel_row(kind, params, angles, x1, np.int64(a), x2, out[a])
 
 
 @jit()
@@ -157,10 +157,11 @@ def factor(kind, params, angles, points):
 
     Only the r pivot rows of K are evaluated, so the cost is O(n r (d + r)). K must be
     positive semi-definite (kernel Gram matrices are); callers check other matrices.
+    ``params`` are resolved (:func:`resolve`: a data-chosen length scale is the caller's to
+    settle, so that kernels with fixed parameters never compile the median).
     Raises ValueError if its diagonal is not finite.
     """
     n = points.shape[1] if kind != MATRIX else points.shape[0]
-    params = resolve(kind, params, angles, points, np.empty((points.shape[0], 0)))
     residual = np.empty(n)
     _diagonal(kind, params, points, residual)
     tol = n * 2.220446049250313e-16 * max(residual.max(), 0.0) if n > 0 else 0.0
