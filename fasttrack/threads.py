@@ -13,7 +13,8 @@ The policy, measured on 2 cores (a particle-filter step at N = 1e5; ``bench/test
   already.
 - **Small work runs on one thread.** Each kernel with parallel regions declares the size of
   its work; below a threshold (where starting threads costs more than it saves) a call from
-  Python runs on the calling thread only.
+  Python runs a serial build of the kernel, which also compiles in about half the time, so a
+  first step at small N waits less.
 - **A limit.** :func:`set_threads` caps the threads of fasttrack's calls (default: Numba's
   ``NUMBA_NUM_THREADS``, the cores). Results never depend on the thread count.
 - **Batches of filters** run their compiled (single-threaded, GIL-free) step on chunks of

@@ -121,6 +121,12 @@ import json, sys
 import numpy as np
 import pytest
 import fasttrack as ft
+if sys.argv[1:] == ["serial"]:  # every kernel runs its serial build
+    import importlib, pkgutil, fasttrack._jit as jit_pkg
+    for info in pkgutil.walk_packages(jit_pkg.__path__, "fasttrack._jit."):
+        for obj in vars(importlib.import_module(info.name)).values():
+            if isinstance(obj, jit_pkg.ThreadedKernel):
+                obj.serial_below = 2**62
 rng = np.random.default_rng(7)
 n = 300_000
 log_w = np.log(rng.random(n))
@@ -149,18 +155,18 @@ json.dump(out, sys.stdout)
 """
 
 
-def _run_with_threads(threads):
+def _run_with_threads(threads, *args):
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
-    done = subprocess.run([sys.executable, "-c", _THREAD_SCRIPT], env=env,
+    done = subprocess.run([sys.executable, "-c", _THREAD_SCRIPT, *args], env=env,
                           capture_output=True, text=True, check=True)
     return json.loads(done.stdout)
 
 
-def test_results_do_not_depend_on_the_thread_count():
-    one, two = _run_with_threads(1), _run_with_threads(2)
-    assert one.keys() == two.keys()
+def test_results_do_not_depend_on_the_thread_count_or_the_serial_builds():
+    one, two, serial = _run_with_threads(1), _run_with_threads(2), _run_with_threads(2, "serial")
+    assert one.keys() == two.keys() == serial.keys()
     for name in one:
-        assert one[name] == two[name], name
+        assert one[name] == two[name] == serial[name], name
 
 
 def test_every_kernel_has_a_mirror_with_the_same_arguments():
@@ -351,11 +357,14 @@ def test_kernels_that_reach_parallel_regions_choose_their_threads():
             assert dispatcher.size < len(inspect.signature(dispatcher.py_func).parameters), name
 
 
-def test_small_work_runs_on_one_thread_and_the_limit_holds():
+def test_small_work_runs_a_serial_build_and_the_limit_holds():
     import numba
+    from fasttrack._jit import weights
+    twin = jit_pkg.serial_twin(weights.ess)
+    assert twin is not weights.ess and not twin.targetoptions["parallel"]
     log_w = np.zeros(jit_pkg.SERIAL_BELOW_LIGHT - 1)
     fasttrack.ess(log_w)
-    assert numba.get_num_threads() == 1
+    assert twin.signatures
     fasttrack.ess(np.zeros(jit_pkg.SERIAL_BELOW_LIGHT))
     assert numba.get_num_threads() == fasttrack.get_threads() == numba.config.NUMBA_NUM_THREADS
     try:

@@ -24,7 +24,9 @@ Two properties of the dispatchers made here go beyond Numba's defaults:
   parallel regions at once, their calls from Python are serialised by one process-wide
   lock, so kernels may be called from several threads on every layer.
 """
+import functools
 import threading
+import types
 
 from numba.core import config
 from numba.core.registry import CPUDispatcher
@@ -51,14 +53,52 @@ class Kernel(CPUDispatcher):
             self._cache = cache.KernelCache(self.py_func)
 
 
+def _reaches_parallel(dispatcher, seen=()):
+    """Whether a kernel has parallel regions or calls a kernel that has (transitively)."""
+    if dispatcher.targetoptions.get("parallel"):
+        return True
+    callees = (dispatcher.py_func.__globals__.get(name)
+               for name in dispatcher.py_func.__code__.co_names)
+    return any(_reaches_parallel(callee, seen + (dispatcher,)) for callee in callees
+               if isinstance(callee, CPUDispatcher) and callee not in seen)
+
+
+@functools.lru_cache(maxsize=None)
+def serial_twin(dispatcher):
+    """The same kernel compiled without parallel regions: a copy of its function whose
+    globals name the serial twins of the kernels it calls that reach parallel regions
+    (made on first use, when every kernel module is loaded; cached on disk under its own
+    name)."""
+    if not _reaches_parallel(dispatcher):
+        return dispatcher
+    func = dispatcher.py_func
+    names = dict(func.__globals__)
+    for name in func.__code__.co_names:
+        callee = names.get(name)
+        if isinstance(callee, CPUDispatcher):
+            names[name] = serial_twin(callee)
+    twin = types.FunctionType(func.__code__, names, func.__name__, func.__defaults__,
+                              func.__closure__)
+    twin.__qualname__ = f"{func.__qualname__}_serial"
+    options = dict(dispatcher.targetoptions, parallel=False)
+    serial = Kernel(py_func=twin, locals={}, targetoptions=options)
+    if OPTIONS["cache"]:
+        serial.enable_caching()
+    serial.strict = dispatcher.strict
+    return serial
+
+
 class ThreadedKernel(Kernel):
-    """A :class:`Kernel` that reaches parallel regions. A call from Python runs on one
-    thread when its work (the size of argument ``size``) is below ``serial_below``, else
-    on :func:`fasttrack.threads.get_threads` threads; where the threading layer cannot run
-    two parallel regions at once (Numba's workqueue), calls hold :data:`CALL_LOCK`."""
+    """A :class:`Kernel` that reaches parallel regions. A call from Python with work (the
+    size of argument ``size``) below ``serial_below`` runs its :func:`serial_twin`, compiled
+    only if such a call comes (faster to compile, and no threads to start); larger work
+    runs on :func:`fasttrack.threads.get_threads` threads, holding :data:`CALL_LOCK` where
+    the threading layer cannot run two parallel regions at once (Numba's workqueue)."""
 
     def __call__(self, *args, **kwargs):
-        threads.use(args[self.size].size < self.serial_below)
+        if args[self.size].size < self.serial_below:
+            return serial_twin(self)(*args, **kwargs)
+        threads.use(False)
         if SERIALISE:
             with CALL_LOCK:
                 return super().__call__(*args, **kwargs)

@@ -96,6 +96,7 @@ class _Locator(_CacheLocator):
 
     def __init__(self, py_func):
         self._lineno = py_func.__code__.co_firstlineno
+        self._py_file = py_func.__code__.co_filename  # named by Numba's uncachable warning
         self._path = str(directory())
 
     def get_cache_path(self):
