@@ -316,6 +316,43 @@ def test_the_cache_is_per_user_and_never_in_the_package(tmp_path):
     assert _package_cache_files() == before
 
 
+_USER_MODEL_STEP = """
+import numpy as np
+from numba import njit
+import fasttrack as ft
+
+@njit
+def shift(states, dt):
+    return states + dt
+
+@njit
+def first_two(states):
+    return states[:2].copy()
+
+transition = ft.NonlinearGaussianTransitionModel(shift, np.eye(2), ndim_state=2)
+sensor = ft.NonlinearGaussianMeasurement(first_two, ndim_state=2, noise_covar=np.eye(2))
+prior = ft.ParticleState(np.zeros((2, 100)), timestamp=0.0)
+prediction = ft.ParticlePredictor(transition, rng=0).predict(prior, 1.0)
+update = ft.ParticleUpdater(sensor).update(
+    ft.SingleHypothesis(prediction, ft.Detection([1.0, 1.0], timestamp=1.0)))
+print(update.mean.ravel()[0])
+"""
+
+
+def test_kernels_compiled_for_user_functions_do_not_pile_up_in_the_cache(tmp_path):
+    script = tmp_path / "model.py"
+    script.write_text(_USER_MODEL_STEP)
+    env = dict(os.environ, FASTTRACK_CACHE_DIR=str(tmp_path / "cache"))
+    listings = []
+    for _ in range(2):
+        done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                              env=env, timeout=600)
+        assert done.returncode == 0, done.stderr
+        listings.append(sorted(p.name for p in (tmp_path / "cache").rglob("*.nb[ic]")))
+    assert listings[0] and listings[0] == listings[1]
+    assert not [name for name in listings[0] if "_function" in name]
+
+
 def test_with_nothing_writable_fasttrack_still_runs_and_warns_once(tmp_path):
     blocked = tmp_path / "a-file"
     blocked.write_text("")  # a directory below a file can never be created, even by root

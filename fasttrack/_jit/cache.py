@@ -14,7 +14,9 @@ compiled code contains the helpers it calls), so an edited helper invalidates it
 With no writable directory, fasttrack compiles in memory and warns once.
 
 A damaged entry (a truncated, empty or garbage index or data file) is compiled again and
-replaced, with a warning, instead of failing every call.
+replaced, with a warning, instead of failing every call. A kernel compiled for a user's
+function (an argument of a function type) is kept in memory only: the function is part of
+its type, and no later process could find the entry again.
 """
 import functools
 import hashlib
@@ -24,6 +26,7 @@ import sys
 import tempfile
 import warnings
 
+from numba.core import sigutils, types
 from numba.core.caching import CompileResultCacheImpl, FunctionCache, _CacheLocator
 
 #: The environment variable that names the cache directory.
@@ -117,13 +120,21 @@ class _Impl(CompileResultCacheImpl):
     _locator_classes = [_Locator]
 
 
+def _takes_functions(sig):
+    args, _ = sigutils.normalize_signature(sig)
+    return any(isinstance(arg, (types.Dispatcher, types.Function)) for arg in args)
+
+
 class KernelCache(FunctionCache):
     """Numba's on-disk cache in :func:`directory`, except that an entry that cannot be
-    read is compiled again and replaced, with a warning."""
+    read is compiled again and replaced, with a warning, and signatures with function
+    arguments are not kept."""
 
     _impl_class = _Impl
 
     def load_overload(self, sig, target_context):
+        if _takes_functions(sig):
+            return None
         try:
             return super().load_overload(sig, target_context)
         except Exception as error:  # any unreadable entry: compile instead
@@ -133,6 +144,8 @@ class KernelCache(FunctionCache):
             return None
 
     def save_overload(self, sig, data):
+        if _takes_functions(sig):
+            return
         try:
             super().save_overload(sig, data)
         except Exception:  # a damaged index: start a new one
