@@ -51,7 +51,7 @@ def _warmup(args):
         print(f"  {name:<16} ready after {time.perf_counter() - start:6.1f} s "
               f"({seconds:.1f} s in its worker)", flush=True)
 
-    warmup(families, processes=max(2, args.processes or os.cpu_count() or 1), report=report,
+    warmup(families, processes=args.processes or os.cpu_count() or 1, report=report,
            load=False)
     print(f"done in {time.perf_counter() - start:.1f} s", flush=True)
     return 0

@@ -90,8 +90,8 @@ def warmup(families=None, processes=1, report=None, load=True):
         Called as ``report(family, seconds)`` as each family is ready (in the workers'
         order of completion, or, with one process, as this process compiles it).
     load : bool
-        Whether this process loads the families too (with worker processes, False only
-        fills the cache, e.g. one the workers' ``FASTTRACK_CACHE_DIR`` names).
+        Whether this process loads the families too. False only fills the cache, in at
+        least one worker process (e.g. the cache their ``FASTTRACK_CACHE_DIR`` names).
 
     Returns
     -------
@@ -105,15 +105,13 @@ def warmup(families=None, processes=1, report=None, load=True):
     if unknown:
         raise ValueError(f"unknown families {unknown}; valid: {', '.join(FAMILIES)}")
     start = time.perf_counter()
-    if processes > 1 and (len(names) > 1 or not load):
+    if names and (not load or (processes > 1 and len(names) > 1)):
         context = multiprocessing.get_context("spawn")
         with concurrent.futures.ProcessPoolExecutor(min(processes, len(names)),
                                                     mp_context=context) as pool:
             for done in concurrent.futures.as_completed([pool.submit(_run, n) for n in names]):
                 if report is not None:
                     report(*done.result())
-    elif not load:
-        raise ValueError("load=False needs processes > 1 (workers to compile in)")
     if load:
         for name in names:
             name, seconds = _run(name)

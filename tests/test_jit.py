@@ -414,3 +414,25 @@ def test_small_work_runs_a_serial_build_and_the_limit_holds():
         fasttrack.set_threads(numba.config.NUMBA_NUM_THREADS + 1)
     with pytest.raises(TypeError, match="n must be an int"):
         fasttrack.set_threads(1.5)
+
+
+def test_the_warmup_command_fills_the_named_cache_with_a_line_per_family(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "fasttrack", "warmup", "--cache-dir",
+                           str(tmp_path), "--families", "resamplers", "--processes", "1"],
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith("compiling 1 kernel families into " + str(tmp_path))
+    assert lines[1].split()[:3] == ["resamplers", "ready", "after"] and lines[-1].startswith("done")
+    assert list((tmp_path / fasttrack.__version__).glob("resample.*.nbc"))
+    wrong = subprocess.run([sys.executable, "-m", "fasttrack", "warmup", "--families", "pf"],
+                           capture_output=True, text=True, timeout=600)
+    assert wrong.returncode == 2 and "unknown families ['pf']" in wrong.stderr
+
+
+def test_warmup_checks_its_arguments():
+    with pytest.raises(ValueError, match="unknown families"):
+        fasttrack.warmup(["pf"])
+    with pytest.raises(ValueError, match="processes"):
+        fasttrack.warmup(processes=0)
+    assert fasttrack.warmup([]) >= 0

@@ -36,14 +36,25 @@ def _predict_block(kind, x, lo, hi, mapping, offset, rotation, out, at):
     xs = x[mapping[0], lo:hi]
     ys = x[mapping[1], lo:hi]
     bearings = out[0, at:at + hi - lo]
-    for i in range(bearings.size):
-        dx = xs[i] - offset[0]
-        dy = ys[i] - offset[1]
-        px = rotation[0, 0] * dx + rotation[0, 1] * dy
-        py = rotation[1, 0] * dx + rotation[1, 1] * dy
-        bearings[i] = wrap_angle(fast_atan2(py, px))
-        if kind == BEARING_RANGE:
-            out[1, at + i] = np.sqrt(px * px + py * py)
+    # one loop per kind: a test of the kind inside the loop would stop its vectorisation
+    if kind == BEARING_RANGE:
+        ranges = out[1, at:at + hi - lo]
+        for i in range(bearings.size):
+            px, py = _sensor_frame(xs[i], ys[i], offset, rotation)
+            bearings[i] = wrap_angle(fast_atan2(py, px))
+            ranges[i] = np.sqrt(px * px + py * py)
+    else:
+        for i in range(bearings.size):
+            px, py = _sensor_frame(xs[i], ys[i], offset, rotation)
+            bearings[i] = wrap_angle(fast_atan2(py, px))
+
+
+@jit()
+def _sensor_frame(x, y, offset, rotation):
+    """A position in the sensor's frame: ``R (p - offset)``."""
+    dx = x - offset[0]
+    dy = y - offset[1]
+    return rotation[0, 0] * dx + rotation[0, 1] * dy, rotation[1, 0] * dx + rotation[1, 1] * dy
 
 
 @jit()
