@@ -17,6 +17,7 @@ from .models import (Cartesian2DToBearing, CartesianToBearingRange,
                      NonlinearGaussianMeasurement, NonlinearGaussianTransitionModel,
                      TransitionModel)
 from .batch import BatchExtendedKalmanFilter
+from .filtering import run_filter
 from .memory import tune_allocator
 from .metrics import position_rmse
 from .montecarlo import (MetricSummary, RunFailure, TrialResults, local_cluster, run_seeds,
@@ -53,7 +54,7 @@ __all__ = [
     "ParticleUpdater", "PolynomialKernel", "QuadraticKernel", "QuarticKernel", "Resampler",
     "ResidualMethod", "ResidualResampler", "RunFailure", "SingleHypothesis", "State",
     "StratifiedResampler", "SystematicResampler", "Track", "TransitionModel", "TrialResults",
-    "detections", "ess", "ground_truth", "local_cluster", "multinomial", "normalise",
-    "position_rmse", "residual", "run_seeds", "run_trial", "run_trials", "seed", "stratified",
-    "systematic", "tune_allocator", "warmup",
+    "detections", "ess", "get_threads", "ground_truth", "local_cluster", "multinomial", "normalise",
+    "position_rmse", "residual", "run_filter", "run_seeds", "run_trial", "run_trials", "seed",
+    "set_threads", "stratified", "systematic", "tune_allocator", "warmup",
 ]

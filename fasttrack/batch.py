@@ -8,7 +8,7 @@ from . import threads as _threads
 from ._jit import kalman as _kalman
 from .models.measurement import NonlinearGaussianMeasurement, MeasurementModel
 from .models.transition import LinearGaussianTransitionModel, TransitionModel
-from .predictor import jacobian_method
+from .core import kalman as _kalman_core
 
 
 class BatchExtendedKalmanFilter:
@@ -46,7 +46,7 @@ class BatchExtendedKalmanFilter:
         self.transition_model = transition_model
         self.measurement_model = measurement_model
         self.use_joseph_cov = bool(use_joseph_cov)
-        self._method = jacobian_method(jacobian)
+        self._method = _kalman_core.JACOBIANS[_kalman_core.check_jacobian(jacobian)]
 
     def _arrays(self, means, covars, measurements, leading):
         """Validated float64 arrays: means (*leading, K, d) etc."""
@@ -98,7 +98,7 @@ class BatchExtendedKalmanFilter:
                                covars[lo:hi], measurements[lo:hi], means_out[lo:hi],
                                covars_out[lo:hi], status[lo:hi])
 
-        _threads.in_chunks(run, means.shape[0], serial_below=1024, align=_kalman.BLOCK)
+        _threads.in_chunks(run, means.shape[0], serial_below=1024, align=_kalman.FILTERS_PER_BLOCK)
 
     def step(self, means, covars, measurements, time_intervals):
         """One predict + update of every filter.

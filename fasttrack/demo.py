@@ -75,15 +75,6 @@ def _stonesoup():
     return _demo_stonesoup
 
 
-def _run_filter(predictor, updater, prior, detections, hypothesis=ft.SingleHypothesis):
-    track = ft.Track()
-    for detection in detections:
-        prior = updater.update(hypothesis(predictor.predict(prior, timestamp=detection.timestamp),
-                                          detection))
-        track.append(prior)
-    return track
-
-
 def _timed_track(make_run, repeats, steps):
     """The track of one run and the median time per step over ``repeats`` runs."""
     track = make_run()
@@ -128,7 +119,7 @@ def particle_filter(table, plots, sizes, repeats):
         scenario = particle_filter_tutorial(n_particles=n)
         predictor = ft.ParticlePredictor(scenario.transition_model, rng=1)
         updater = ft.ParticleUpdater(scenario.measurement_model, ft.SystematicResampler(rng=2))
-        track, ours = _timed_track(lambda: _run_filter(predictor, updater, scenario.prior,
+        track, ours = _timed_track(lambda: ft.run_filter(predictor, updater, scenario.prior,
                                                        scenario.detections),
                                    repeats, len(scenario.detections))
         theirs = None
@@ -149,7 +140,7 @@ def extended_kalman_filter(table, plots, repeats, batch=True):
     scenario = extended_kalman_tutorial()
     predictor = ft.ExtendedKalmanPredictor(scenario.transition_model)
     updater = ft.ExtendedKalmanUpdater(scenario.measurement_model)
-    track, ours = _timed_track(lambda: _run_filter(predictor, updater, scenario.prior,
+    track, ours = _timed_track(lambda: ft.run_filter(predictor, updater, scenario.prior,
                                                    scenario.detections),
                                repeats, len(scenario.detections))
     stonesoup = _stonesoup()
@@ -181,7 +172,7 @@ def adaptive_kernel_filter(table, plots, sizes, stonesoup_sizes, repeats):
             _progress(f"AKKF, {name} kernel, {m} particles")
             predictor = ft.AdaptiveKernelKalmanPredictor(scenario.transition_model, make())
             updater = ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, make(), rng=1)
-            track, ours = _timed_track(lambda: _run_filter(predictor, updater, scenario.prior,
+            track, ours = _timed_track(lambda: ft.run_filter(predictor, updater, scenario.prior,
                                                            scenario.detections),
                                        repeats, len(scenario.detections))
             theirs = None

@@ -23,7 +23,6 @@ import warnings
 import numpy as np
 
 from ._validate import count
-from .resampling import ess
 from .types import (GaussianMeasurementPrediction, GaussianState, SingleHypothesis,
                     time_interval)
 
@@ -151,7 +150,6 @@ def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping
     truth = {state.timestamp: state for state in world.truth}
     rows = np.zeros(len(world.detections), _row_dtype(metrics))
     rows["run"] = -1
-    weigh = getattr(updater, "weigh", None) if "ess" in metrics else None
     state, start = world.prior, None
     for step, detection in enumerate(world.detections):
         if detection.timestamp not in truth:
@@ -161,13 +159,9 @@ def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping
         tic = time.perf_counter()
         hypothesis = SingleHypothesis(predictor.predict(state, timestamp=detection.timestamp),
                                       detection)
-        if weigh is not None:  # a particle filter: the ESS before resampling
-            state = weigh(hypothesis)
-            effective = ess(state.log_weight)
-            if updater.resampler is not None:
-                state = updater.resampler.resample(state)
-        else:
-            effective, state = np.nan, updater.update(hypothesis)
+        state = updater.update(hypothesis)
+        effective = getattr(state, "ess", None)  # a particle filter's, before resampling
+        effective = np.nan if effective is None else effective
         seconds = time.perf_counter() - tic
         elapsed = time_interval(detection.timestamp, start, "detection.timestamp")
         model = detection.measurement_model or getattr(updater, "measurement_model", None)

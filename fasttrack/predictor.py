@@ -1,13 +1,11 @@
 """Predictors: ``predictor.predict(prior, timestamp)``."""
-import numpy as np
 
-from . import _errors
 from . import _validate
 from . import random as _random
-from ._jit import akkf as _akkf
-from ._jit import jacobian as _jacobian
-from ._jit import kalman as _kalman
-from .kernel import Kernel, as_kernel
+from .core import akkf as _akkf
+from .core import kalman as _kalman
+from .core import particle as _particle
+from .kernel import as_kernel
 from .models.transition import TransitionModel
 from .types import (GaussianState, GaussianStatePrediction, KernelParticleState,
                     KernelParticleStatePrediction, ParticleState, ParticleStatePrediction,
@@ -63,23 +61,11 @@ class ParticlePredictor:
             raise ValueError(f"prior has {prior.ndim} state dimensions, the transition model "
                              f"{self.transition_model.ndim_state}")
         dt = _interval(prior, timestamp)
-        particles = self.transition_model._propagate(prior.state_vector, dt,
-                                                     _random.stream_key(self.rng))
+        particles = _particle.predict(self.transition_model, prior.state_vector, dt, self.rng)
         link = weak(prior)
         return ParticleStatePrediction._trusted(
             particles, prior.log_weight, timestamp=timestamp, parent=link, _prior=link,
             transition_model=self.transition_model, fixed_covar=prior.fixed_covar)
-
-
-JACOBIAN_METHODS = {"analytic": _jacobian.ANALYTIC, "forward": _jacobian.FORWARD,
-                    "central": _jacobian.CENTRAL}
-
-
-def jacobian_method(name, allowed=("analytic", "forward", "central")):
-    """The kernel code of a Jacobian method name."""
-    if name not in allowed:
-        raise ValueError(f"jacobian must be one of {', '.join(map(repr, allowed))}, got {name!r}")
-    return JACOBIAN_METHODS[name]
 
 
 def _gaussian_prior(prior, ndim):
@@ -105,6 +91,8 @@ class KalmanPredictor:
         self._check_model(transition_model)
         self.transition_model = transition_model
 
+    jacobian = "forward"
+
     def _check_model(self, model):
         if not hasattr(model, "matrix"):
             raise TypeError(f"{type(self).__name__} needs a linear transition model (with "
@@ -129,18 +117,10 @@ class KalmanPredictor:
         model = self.transition_model
         _gaussian_prior(prior, model.ndim_state)
         dt = _interval(prior, timestamp)
-        d = prior.state_vector.shape[0]
-        x_out = np.empty((d, 1))
-        covar_out = np.empty((d, d))
-        status = self._predict(dt, prior.state_vector, prior.covar, x_out, covar_out)
-        if status:
-            _errors.check(status, model._function, prior.state_vector, dt)
+        x_out, covar_out = _kalman.predict(model, dt, prior.state_vector, prior.covar,
+                                           self.jacobian)
         return GaussianStatePrediction._trusted(
             x_out, covar_out, timestamp, {"transition_model": model, "_prior": weak(prior)})
-
-    def _predict(self, dt, x, covar, x_out, covar_out):
-        kind, rates, matrix, noise = self.transition_model._kalman_spec(dt)
-        return _kalman.predict_one(kind, rates, matrix, noise, dt, x, covar, x_out, covar_out)
 
 
 class ExtendedKalmanPredictor(KalmanPredictor):
@@ -157,32 +137,10 @@ class ExtendedKalmanPredictor(KalmanPredictor):
 
     def __init__(self, transition_model, jacobian="forward"):
         super().__init__(transition_model)
-        self._central = jacobian_method(jacobian, ("forward", "central")) == _jacobian.CENTRAL
-        self.jacobian = jacobian
-        if not hasattr(transition_model, "matrix"):
-            self._predict = self._predict_function
+        self.jacobian = _kalman.check_jacobian(jacobian, ("forward", "central"))
 
     def _check_model(self, model):
         pass
-
-    def _predict_function(self, dt, x, covar, x_out, covar_out):
-        model = self.transition_model
-        return _kalman.predict_function(model.transition_function, dt,
-                                        np.ascontiguousarray(model.covar(dt)), self._central,
-                                        x, covar, x_out, covar_out)
-
-
-def check_weights(weight, which):
-    """Raise if kernel filter weights are not finite (the kernel values overflowed) or all
-    zero (nothing carried over)."""
-    largest = _akkf.largest_magnitude(weight)
-    if not largest <= 1.7976931348623157e308:
-        raise ValueError(f"the {which} kernel weights are not finite: the kernel values "
-                         f"overflow (rescale the states or use a lower-degree kernel)")
-    if largest == 0.0:
-        raise ValueError(f"the {which} kernel weights are all zero: the kernel carries no "
-                         f"information between the particle sets (its length scale is far "
-                         f"from their spread)")
 
 
 class AdaptiveKernelKalmanPredictor:
@@ -240,12 +198,7 @@ class AdaptiveKernelKalmanPredictor:
             if proposal.shape != x.shape:
                 raise ValueError(f"proposal must have the prior's shape {x.shape}, "
                                  f"got {proposal.shape}")
-        angles = Kernel.angle_mask(x.shape[0])
-        kind, params = self.kernel._spec(angles, proposal, x)
-        w, lt, v1t, v2t = _akkf.predict_embedding(
-            kind, params, angles, proposal, x, prior.weight, *prior._factors,
-            self.lambda_predictor)
-        check_weights(w, "predicted")
-        return KernelParticleStatePrediction._trusted(
-            model._mean(proposal, dt), w, (lt, 1.0 / w.size, v1t, v2t), timestamp,
-            transition_model=model)
+        states, w, factors = _akkf.predict(model, self.kernel, dt, proposal, x, prior.weight,
+                                           prior._factors, self.lambda_predictor)
+        return KernelParticleStatePrediction._trusted(states, w, factors, timestamp,
+                                                      transition_model=model)

@@ -5,11 +5,10 @@ import numbers
 import numpy as np
 
 from . import _buffers
-from . import _validate
 from . import random as _random
+from .core import particle as _particle
 from .resampling import ResidualMethod, draw
 from .types import as_particle_state
-from ._jit import weights as _weights
 
 
 class Resampler:
@@ -144,8 +143,6 @@ class ESSResampler(Resampler):
         otherwise the input state itself (the same object; a list of Particle is returned as
         the ParticleState built from it) and ``nparts`` is ignored."""
         state = as_particle_state(particles)
-        log_w, log_w_max = _validate.log_weights(state.log_weight, "particles.log_weight")
-        threshold = len(state) / 2 if self.threshold is None else self.threshold
-        if _weights.ess(log_w, log_w_max) < threshold:
+        if _particle.resampling_decision(state.log_weight, self.threshold)[1]:
             return self.resampler.resample(state, nparts)
         return state

@@ -350,7 +350,18 @@ class ParticleStatePrediction(ParticleState):
 
 class ParticleStateUpdate(ParticleState):
     """An updated particle state: a :class:`ParticleState` with the ``hypothesis`` (prediction
-    and measurement) it was updated from."""
+    and measurement) it was updated from.
+
+    A :class:`~fasttrack.ParticleUpdater` also records ``ess``, the effective sample size of
+    the weights after the update and before any resampling (what an
+    :class:`~fasttrack.ESSResampler` decided on), and ``resampled``, whether its resampler
+    drew new particles.
+    """
+
+    #: Effective sample size before resampling (None if not made by a ParticleUpdater).
+    ess = None
+    #: Whether the updater's resampler drew new particles.
+    resampled = False
 
     def __init__(self, state_vector=None, timestamp=None, weight=None, log_weight=None,
                  parent=None, particle_list=None, fixed_covar=None, hypothesis=None):

@@ -1,17 +1,13 @@
 """Updaters: ``updater.update(hypothesis)``."""
 import numpy as np
 
-from . import _buffers
-from . import _errors
 from . import _validate
 from . import random as _random
-from ._jit import akkf as _akkf
-from ._jit import jacobian as _jacobian
-from ._jit import kalman as _kalman
-from ._jit import weights as _weights
-from .models.measurement import LinearGaussian, MeasurementModel, NonlinearGaussianMeasurement
+from .core import akkf as _akkf
+from .core import kalman as _kalman
+from .core import particle as _particle
+from .models.measurement import LinearGaussian, MeasurementModel
 from .kernel import as_kernel
-from .predictor import check_weights, jacobian_method
 from .resampler import Resampler
 from .types import (GaussianMeasurementPrediction, GaussianState, GaussianStateUpdate,
                     KernelParticleState, KernelParticleStateMeasurementPrediction,
@@ -72,9 +68,11 @@ class ParticleUpdater:
             prediction's timestamp.
         """
         update = self.weigh(hypothesis)
-        if self.resampler is not None:
-            update = self.resampler.resample(update)
-        return update
+        if self.resampler is None:
+            return update
+        resampled = self.resampler.resample(update)
+        resampled.ess, resampled.resampled = update.ess, resampled is not update
+        return resampled
 
     def weigh(self, hypothesis):
         """The posterior before resampling: ``log_weight += log p(z | particle)``,
@@ -95,20 +93,12 @@ class ParticleUpdater:
             raise ValueError(f"the measurement model expects {model.ndim_state} state "
                              f"dimensions, the prediction has {prediction.ndim}")
         z = model.measurement_vector(hypothesis.measurement, "hypothesis.measurement")
-        log_w = _buffers.empty(len(prediction))
-        top = model.log_likelihood(z, prediction.state_vector, prediction.log_weight, log_w)
-        if np.isnan(top):
-            raise ValueError(f"{type(model).__name__} gave NaN log-likelihoods for this "
-                             f"measurement")
-        if top == -np.inf:
-            raise ValueError("every particle has zero likelihood for this measurement: "
-                             "no weight survives")
-        _weights.normalise_in_place(log_w, top)
+        log_w, ess = _particle.weigh(model, z, prediction.state_vector, prediction.log_weight)
         hypothesis._used()
         return ParticleStateUpdate._trusted(
             prediction.state_vector, log_w, timestamp=prediction.timestamp,
             parent=weak(prediction.parent), hypothesis=hypothesis,
-            fixed_covar=prediction.fixed_covar)
+            fixed_covar=prediction.fixed_covar, ess=ess)
 
 
 class KalmanUpdater:
@@ -127,7 +117,7 @@ class KalmanUpdater:
         can lose it to cancellation (a zero or negative variance when P >> R).
     """
 
-    _method = _jacobian.ANALYTIC
+    jacobian = "analytic"
 
     def __init__(self, measurement_model=None, force_symmetric_covariance=False,
                  use_joseph_cov=True):
@@ -174,21 +164,9 @@ class KalmanUpdater:
                                                       {"cross_covar": cross})
 
     def _update(self, model, prediction, z):
-        """``(x, P, z_hat, S, cross)`` of one update (shapes (d, 1), (d, d), (m, 1), (m, m),
-        (d, m)); raises ValueError when the step is undefined."""
-        m, d = model._ndim_meas, model._ndim_state
-        x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
-        z_hat, s, cross = np.empty((m, 1)), np.empty((m, m)), np.empty((d, m))
-        arguments = (prediction.state_vector, prediction.covar, z, x_out, covar_out, z_hat, s,
-                     cross)
-        if isinstance(model, NonlinearGaussianMeasurement):
-            status = self._function_update(model, arguments)
-        else:
-            status = _kalman.update_one(*model._kalman_args, self._method, self.use_joseph_cov,
-                                        *arguments)
-        if status:
-            _errors.check(status, model._function, prediction.state_vector)
-        return x_out, covar_out, z_hat, s, cross
+        """``(x, P, z_hat, S, cross)`` of one update (see :func:`fasttrack.core.kalman.update`)."""
+        return _kalman.update(model, prediction.state_vector, prediction.covar, z,
+                              self.jacobian, self.use_joseph_cov)
 
     def update(self, hypothesis):
         """The posterior of ``hypothesis.prediction`` given ``hypothesis.measurement``.
@@ -220,9 +198,6 @@ class KalmanUpdater:
         return GaussianStateUpdate._trusted(x_out, covar_out, timestamp,
                                             {"hypothesis": hypothesis})
 
-    def _function_update(self, model, arguments):
-        raise TypeError("a function-built measurement model needs ExtendedKalmanUpdater")
-
 
 class ExtendedKalmanUpdater(KalmanUpdater):
     """Extended Kalman update: the measurement model linearised at the prediction.
@@ -240,18 +215,12 @@ class ExtendedKalmanUpdater(KalmanUpdater):
     def __init__(self, measurement_model=None, force_symmetric_covariance=False,
                  use_joseph_cov=True, jacobian="analytic"):
         super().__init__(measurement_model, force_symmetric_covariance, use_joseph_cov)
-        self._method = jacobian_method(jacobian)
-        self.jacobian = jacobian
+        self.jacobian = _kalman.check_jacobian(jacobian)
 
     def _check_model(self, model):
         if not isinstance(model, MeasurementModel):
             raise TypeError(f"measurement model must be a MeasurementModel, "
                             f"got {type(model).__name__}")
-
-    def _function_update(self, model, arguments):
-        return _kalman.update_function(model.measurement_function, model._noise_covar,
-                                       model._angles, self._method == _jacobian.CENTRAL,
-                                       self.use_joseph_cov, *arguments)
 
 
 class AdaptiveKernelKalmanUpdater:
@@ -329,15 +298,9 @@ class AdaptiveKernelKalmanUpdater:
         if y.shape != (model.ndim_meas, x.shape[1]):
             raise ValueError(f"hypothesis.measurement_prediction must have shape "
                              f"{(model.ndim_meas, x.shape[1])}, got {y.shape}")
-        z = z.reshape(-1, 1)
-        kind, params = self.kernel._spec(model._angles, y, z)
-        proposal = np.empty_like(x)
-        w, lt, v1t, v2t = _akkf.update_embedding(
-            kind, params, model._angles, y, z, prediction.weight, *prediction._factors,
-            self.lambda_updater, x, _random.stream_key(self.rng), proposal)
-        check_weights(w, "updated")
+        w, factors, proposal = _akkf.update(model, self.kernel, y, z, x, prediction.weight,
+                                            prediction._factors, self.lambda_updater, self.rng)
         hypothesis._used()
-        sigma = prediction._factors[1]
         return KernelParticleStateUpdate._trusted(
-            x, w, (lt, sigma, v1t, v2t), hypothesis.measurement.timestamp,
-            hypothesis=hypothesis, proposal=proposal)
+            x, w, factors, hypothesis.measurement.timestamp, hypothesis=hypothesis,
+            proposal=proposal)

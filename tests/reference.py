@@ -125,9 +125,9 @@ def weighted_mean_covar(x, log_w, log_w_max, mean, covar):
 
 
 def normalise_in_place(log_w, log_w_max):
-    log_total = np.log(np.sum(np.exp(log_w - log_w_max)))
-    log_w[:] = (log_w - log_w_max) - log_total
-    return log_w_max + log_total
+    w = np.exp(log_w - log_w_max)
+    log_w[:] = (log_w - log_w_max) - np.log(w.sum())
+    return w.sum() ** 2 / (w**2).sum()
 
 
 # --- propagate -----------------------------------------------------------------------------

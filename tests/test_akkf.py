@@ -235,13 +235,7 @@ def _tutorial_filter(kernel, scenario, rng=0):
             ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, kernel, rng=rng))
 
 
-def _track(predictor, updater, prior, detections):
-    track = ft.Track()
-    for detection in detections:
-        prediction = predictor.predict(prior, detection.timestamp)
-        prior = updater.update(ft.SingleHypothesis(prediction, detection))
-        track.append(prior)
-    return track
+_track = ft.run_filter
 
 
 def test_filter_types_links_and_measurement_prediction():
@@ -406,7 +400,7 @@ def test_ridge_map_is_accurate_where_the_normal_equations_break_down():
 
 
 def test_weights_that_carry_nothing_are_an_error():
-    from fasttrack.predictor import check_weights
+    from fasttrack.core.akkf import check_weights
     with pytest.raises(ValueError, match="predicted kernel weights are all zero"):
         check_weights(np.zeros(5), "predicted")
     with pytest.raises(ValueError, match="updated kernel weights are not finite"):

@@ -46,11 +46,7 @@ def test_plots_of_tracks_detections_particles_and_ellipses(tmp_path):
     scenario = extended_kalman_tutorial(steps=5)
     predictor = ft.ExtendedKalmanPredictor(scenario.transition_model)
     updater = ft.ExtendedKalmanUpdater(scenario.measurement_model)
-    prior, track = scenario.prior, ft.Track()
-    for detection in scenario.detections:
-        prior = updater.update(ft.SingleHypothesis(predictor.predict(prior, detection.timestamp),
-                                                   detection))
-        track.append(prior)
+    track = ft.run_filter(predictor, updater, scenario.prior, scenario.detections)
     ax = plotting.plot_ground_truth(scenario.truth)
     assert plotting.plot_detections(scenario.detections, ax=ax) is ax
     plotting.plot_track(track, ax=ax, uncertainty=True)

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from fasttrack._jit import likelihood, numeric, propagate, weights
+from fasttrack._jit import likelihood, numeric, propagate, sensor, weights
 
 import reference
 from user_models import bearing_range_from_50_0, coordinated_turn
@@ -52,7 +52,7 @@ def test_process_noise_has_the_covariance():
     assert abs(out.mean()) < 0.01
 
 
-KINDS = [(likelihood.SELECT, [0, 2]), (likelihood.BEARING_RANGE, [0, 2]), (likelihood.BEARING, [0, 2])]
+KINDS = [(sensor.SELECT, [0, 2]), (sensor.BEARING_RANGE, [0, 2]), (sensor.BEARING, [0, 2])]
 
 
 @pytest.mark.parametrize("kind,mapping", KINDS)
@@ -60,12 +60,12 @@ KINDS = [(likelihood.SELECT, [0, 2]), (likelihood.BEARING_RANGE, [0, 2]), (likel
 def test_measure_and_log_likelihood_match_mirrors(kind, mapping, n):
     rng = np.random.default_rng(3)
     x = rng.normal(0, 20, size=(4, n))
-    m = 1 if kind == likelihood.BEARING else 2
+    m = 1 if kind == sensor.BEARING else 2
     mapping = np.array(mapping)
     offset = np.array([5.0, -3.0])
     c, s = np.cos(0.4), np.sin(0.4)
     rotation = np.array([[c, s], [-s, c]])
-    angles = np.array([kind != likelihood.SELECT] + [False] * (m - 1))
+    angles = np.array([kind != sensor.SELECT] + [False] * (m - 1))
     got, want = np.empty((m, n)), np.empty((m, n))
     likelihood.measure(kind, x, mapping, offset, rotation, got)
     reference.measure(kind, x, mapping, offset, rotation, want)

@@ -184,8 +184,9 @@ def test_every_kernel_has_a_mirror_with_the_same_arguments():
 def test_public_names_are_importable_from_the_package_and_their_module():
     import importlib
     domains = [importlib.import_module(f"fasttrack.{name}") for name in (
-        "batch", "kernel", "memory", "metrics", "models", "montecarlo", "predictor", "random",
-        "resampler", "resampling", "simulate", "types", "updater")]
+        "batch", "filtering", "kernel", "memory", "metrics", "models", "montecarlo",
+        "predictor", "random", "resampler", "resampling", "simulate", "threads", "types",
+        "updater")]
     for name in fasttrack.__all__:
         obj = getattr(fasttrack, name)
         if name == "warmup":
@@ -436,3 +437,92 @@ def test_warmup_checks_its_arguments():
     with pytest.raises(ValueError, match="processes"):
         fasttrack.warmup(processes=0)
     assert fasttrack.warmup([]) >= 0
+
+
+_EVERY_KERNEL = r"""
+import json, sys
+import numpy as np
+from numba import njit
+import fasttrack as ft
+from fasttrack.scenarios import (adaptive_kernel_tutorial, extended_kalman_tutorial,
+                                 particle_filter_tutorial)
+out = {}
+rng = np.random.default_rng(3)
+log_w = np.log(rng.random(500))
+log_w[::7] = -np.inf
+for name in ("systematic", "stratified", "multinomial"):
+    out[name] = getattr(ft, name)(log_w, rng=5)
+for method in ("systematic", "multinomial"):
+    out["residual-" + method] = ft.residual(log_w, nparts=300, rng=5, method=method)
+out["ess"] = ft.ess(log_w)
+out["normalise"] = ft.normalise(log_w)
+state = ft.ParticleState(rng.standard_normal((3, 500)), log_weight=log_w)
+out["mean"], out["covar"] = state.mean, state.covar
+pf = particle_filter_tutorial(200, steps=3)
+track = ft.run_filter(ft.ParticlePredictor(pf.transition_model, rng=1),
+                      ft.ParticleUpdater(pf.measurement_model, ft.SystematicResampler(rng=2)),
+                      pf.prior, pf.detections)
+out["pf"] = track[-1].state_vector
+ekf = extended_kalman_tutorial(steps=4)
+for jacobian in ("analytic", "forward", "central"):
+    track = ft.run_filter(ft.ExtendedKalmanPredictor(ekf.transition_model),
+                          ft.ExtendedKalmanUpdater(ekf.measurement_model, jacobian=jacobian),
+                          ekf.prior, ekf.detections)
+    out["ekf-" + jacobian] = np.hstack([track[-1].state_vector, track[-1].covar])
+batch = ft.BatchExtendedKalmanFilter(ekf.transition_model, ekf.measurement_model)
+x, p = batch.step(np.zeros((5, 4)) + [0, 1, 0, 1], np.broadcast_to(np.eye(4), (5, 4, 4)).copy(),
+                  np.array([[0.5, 49.0]] * 5), 1.0)
+out["batch"] = np.hstack([x, p.reshape(5, -1)])
+akkf = adaptive_kernel_tutorial(20, steps=3)
+for kernel in (ft.QuadraticKernel(c=1, ialpha=1), ft.GaussianKernel()):
+    track = ft.run_filter(ft.AdaptiveKernelKalmanPredictor(akkf.transition_model, kernel),
+                          ft.AdaptiveKernelKalmanUpdater(akkf.measurement_model, kernel, rng=4),
+                          akkf.prior, akkf.detections)
+    out["akkf-" + type(kernel).__name__] = np.vstack([track[-1].state_vector,
+                                                      track[-1].weight[None]])
+
+@njit
+def shift(states, dt):
+    return states + 0.1 * dt
+
+@njit
+def first_two(states):
+    return states[:2].copy()
+
+model = ft.NonlinearGaussianTransitionModel(shift, np.eye(2) * 0.01, ndim_state=2)
+sensor = ft.NonlinearGaussianMeasurement(first_two, ndim_state=2, noise_covar=np.eye(2))
+detections = [ft.Detection([0.1 * k, 0.2 * k], timestamp=float(k)) for k in range(1, 4)]
+track = ft.run_filter(ft.ParticlePredictor(model, rng=6),
+                      ft.ParticleUpdater(sensor, ft.SystematicResampler(rng=7)),
+                      ft.ParticleState(rng.standard_normal((2, 300)), timestamp=0.0), detections)
+out["user-pf"] = track[-1].state_vector
+track = ft.run_filter(ft.ExtendedKalmanPredictor(model), ft.ExtendedKalmanUpdater(sensor),
+                      ft.GaussianState([0, 0], np.eye(2), timestamp=0.0), detections)
+out["user-ekf"] = np.hstack([track[-1].state_vector, track[-1].covar])
+out["gram"] = ft.GaussianKernel()(rng.standard_normal((2, 30)), angle_components=(0,))
+json.dump({k: [np.asarray(v).dtype.kind, np.asarray(v).tolist()] for k, v in out.items()},
+          sys.stdout)
+"""
+
+
+def test_every_kernel_runs_uncompiled_with_the_compiled_results():
+    runs = {}
+    for jit_off in ("0", "1"):
+        done = subprocess.run([sys.executable, "-W", "error::RuntimeWarning", "-c",
+                               _EVERY_KERNEL], env=dict(os.environ, NUMBA_DISABLE_JIT=jit_off),
+                              capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0, done.stderr[-3000:]
+        runs[jit_off] = json.loads(done.stdout)
+    compiled, uncompiled = runs["0"], runs["1"]
+    assert compiled.keys() == uncompiled.keys()
+    for name, (kind, values) in compiled.items():
+        other_kind, others = uncompiled[name]
+        assert kind == other_kind, name
+        if kind in "iub":
+            assert values == others, name
+        else:
+            # finite-difference Jacobians divide differences of nearby values by small steps,
+            # amplifying the last bit of atan2 (libm's compiled, NumPy's in Python) and of
+            # fused multiply-adds: 1e-9 to 1e-6 relative in the state after 4 steps
+            rtol = 1e-5 if name in ("ekf-forward", "ekf-central", "user-ekf") else 1e-12
+            np.testing.assert_allclose(others, values, rtol=rtol, atol=1e-12, err_msg=name)

@@ -235,3 +235,22 @@ def test_an_outlying_measurement_leaves_weights_that_sum_to_one():
     with pytest.raises(ValueError, match="every particle has zero likelihood"):
         ft.ParticleUpdater(sensor).update(ft.SingleHypothesis(  # the squares overflow
             prediction, ft.Detection([0.3, 1e200], timestamp=prediction.timestamp)))
+
+
+def test_the_update_records_the_ess_that_decided_resampling():
+    rng = np.random.default_rng(8)
+    sensor = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.01, 1.0]), translation_offset=[50, 0])
+    prediction = ft.ParticleStatePrediction(rng.standard_normal((4, 4000)) + [[0], [1], [0], [1]],
+                                            timestamp=1.0)
+    hypothesis = ft.SingleHypothesis(prediction, ft.Detection([0.3, 49.5], timestamp=1.0))
+    weighed = ft.ParticleUpdater(sensor).update(hypothesis)
+    assert weighed.ess == pytest.approx(ft.ess(weighed.log_weight), rel=1e-12)
+    assert not weighed.resampled and weighed.ess < 4000
+    always = ft.ParticleUpdater(sensor, ft.SystematicResampler(rng=1)).update(hypothesis)
+    assert always.resampled and always.ess == pytest.approx(weighed.ess, rel=1e-12)
+    assert ft.ess(always.log_weight) == pytest.approx(4000)
+    never = ft.ParticleUpdater(sensor, ft.ESSResampler(threshold=0.5)).update(hypothesis)
+    assert not never.resampled and never.ess == pytest.approx(weighed.ess, rel=1e-12)
+    below = ft.ParticleUpdater(sensor, ft.ESSResampler(threshold=weighed.ess * 1.01)).update(
+        hypothesis)
+    assert below.resampled

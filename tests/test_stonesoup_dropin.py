@@ -1,4 +1,4 @@
-"""fasttrack.stonesoup: the seed tutorials with switched imports, Stone Soup's documented
+"""fasttrack.stonesoup: Stone Soup's tutorials with switched imports, Stone Soup's documented
 behaviours, equivalence with Stone Soup, and Stone Soup's own tracker driving the drop-ins."""
 import datetime
 import pathlib
@@ -40,13 +40,13 @@ from stonesoup.updater import particle as ss_particle_updater  # noqa: E402
 import fasttrack.stonesoup as fss  # noqa: E402
 from fasttrack.metrics import position_rmse  # noqa: E402
 
-SEEDS = pathlib.Path(__file__).resolve().parents[2] / "shared" / "seeds"
+TUTORIALS = pathlib.Path(__file__).resolve().parent / "data" / "stonesoup_tutorials"
 START = datetime.datetime(2026, 1, 1)
 STEP = datetime.timedelta(seconds=1)
 SWITCHED = (r"stonesoup\.(?:resampler\.particle|predictor\.(?:particle|kalman|kernel)"
             r"|updater\.(?:particle|kalman|kernel)|kernel)")
 #: The 1.9 way to build the particle-filter tutorial's prior (its ``Particles`` type is gone
-#: from Stone Soup 1.x, see the seeds' README).
+#: from Stone Soup 1.x, see the tutorials' README).
 PARTICLES_FIX = [
     ("from stonesoup.types.particle import Particles\n", ""),
     ("particles = Particles(state_vector=StateVectors(samples.T),\n"
@@ -60,9 +60,9 @@ PARTICLES_FIX = [
 
 
 def switched_tutorial(prefix):
-    """A seed tutorial's source with its imports of the replaced classes switched to
+    """A Stone Soup tutorial's source with its imports of the replaced classes switched to
     fasttrack.stonesoup, and the number of import lines switched."""
-    path = next(SEEDS.glob(f"{prefix}_*.txt"))
+    path = next(TUTORIALS.glob(f"{prefix}_*.txt"))
     text = path.read_text()
     if prefix == "002":
         for old, new in PARTICLES_FIX:
@@ -72,15 +72,14 @@ def switched_tutorial(prefix):
                    text, flags=re.M)
 
 
-@pytest.mark.skipif(not SEEDS.is_dir(), reason="the seed tutorials are not beside the checkout")
 @pytest.mark.parametrize("prefix, switched, uses", [
     ("000", 2, "resampler"), ("002", 3, "predictor"), ("003", 3, "predictor"),
     ("004", 2, "predictor")])
-def test_seed_tutorials_run_on_the_drop_ins(prefix, switched, uses):
+def test_stonesoup_tutorials_run_on_the_drop_ins(prefix, switched, uses):
     text, count = switched_tutorial(prefix)
     assert count == switched
     namespace = {"__name__": "__main__"}
-    exec(compile(text, f"seed {prefix}", "exec"), namespace)
+    exec(compile(text, f"tutorial {prefix}", "exec"), namespace)
     assert type(namespace[uses]).__module__.startswith("fasttrack.stonesoup")
     if "track" in namespace:
         assert len(namespace["track"]) == len(namespace["measurements"])

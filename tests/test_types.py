@@ -249,3 +249,24 @@ def test_long_loops_run_in_flat_memory(make, steps):
     for _ in loop:
         pass
     assert _rss_mb() - before < 50  # a particle filter at 1e5 used to grow 7 MB a step
+
+
+def test_run_filter_is_the_loop_a_user_writes():
+    from fasttrack.scenarios import extended_kalman_tutorial
+    scenario = extended_kalman_tutorial(steps=6)
+    predictor = ft.ExtendedKalmanPredictor(scenario.transition_model)
+    updater = ft.ExtendedKalmanUpdater(scenario.measurement_model)
+    track = ft.run_filter(predictor, updater, scenario.prior, scenario.detections)
+    state, by_hand = scenario.prior, []
+    for detection in scenario.detections:
+        state = updater.update(ft.SingleHypothesis(predictor.predict(state, detection.timestamp),
+                                                   detection))
+        by_hand.append(state)
+    assert isinstance(track, ft.Track) and len(track) == len(by_hand)
+    for ours, theirs in zip(track, by_hand):
+        assert np.array_equal(ours.state_vector, theirs.state_vector)
+        assert np.array_equal(ours.covar, theirs.covar)
+    assert [update.hypothesis.measurement for update in track] == scenario.detections
+    with pytest.raises(TypeError, match=r"detections\[1\] must be a Detection, got ndarray"):
+        ft.run_filter(predictor, updater, scenario.prior,
+                      [scenario.detections[0], np.zeros(2)])

@@ -36,11 +36,7 @@ tracks = {}
 for name, kernel in kernels.items():
     predictor = ft.AdaptiveKernelKalmanPredictor(transition_model, kernel)
     updater = ft.AdaptiveKernelKalmanUpdater(measurement_model, kernel, rng=rng)
-    state, track = prior, ft.Track()
-    for measurement in measurements:
-        prediction = predictor.predict(state, timestamp=measurement.timestamp)
-        state = updater.update(ft.SingleHypothesis(prediction, measurement))
-        track.append(state)
+    track = ft.run_filter(predictor, updater, prior, measurements)
     tracks[name] = track
     print(f"AKKF, {name} kernel: position RMSE {position_rmse(track, truth):.3f}")
 

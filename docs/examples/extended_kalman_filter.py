@@ -32,12 +32,7 @@ tracks = {}
 for jacobian in ("forward", "analytic"):
     updater = ft.ExtendedKalmanUpdater(measurement_model, jacobian=jacobian)
     prior = ft.GaussianState([0, 1, 0, 1], np.diag([1.5, 0.5, 1.5, 0.5]), timestamp=start_time)
-    track = ft.Track()
-    for measurement in measurements:
-        prediction = predictor.predict(prior, timestamp=measurement.timestamp)
-        post = updater.update(ft.SingleHypothesis(prediction, measurement))
-        track.append(post)
-        prior = track[-1]
+    track = ft.run_filter(predictor, updater, prior, measurements)
     tracks[jacobian] = track
     print(f"{jacobian} Jacobian: position RMSE {position_rmse(track, truth):.2f} m")
 

@@ -35,6 +35,7 @@ samples = rng.multivariate_normal([0, 1, 0, 1], np.diag([1.5, 0.5, 1.5, 0.5]),
                                   size=number_particles)
 prior = ft.ParticleState(samples.T, timestamp=start_time)
 
+# The tutorial's loop; ft.run_filter(predictor, updater, prior, measurements) does the same.
 track = ft.Track()
 for measurement in measurements:
     prediction = predictor.predict(prior, timestamp=measurement.timestamp)

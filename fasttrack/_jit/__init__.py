@@ -28,6 +28,8 @@ import functools
 import threading
 import types
 
+import numpy as np
+
 from numba.core import config
 from numba.core.registry import CPUDispatcher
 
@@ -152,6 +154,17 @@ SERIAL_BELOW_HEAVY = 16_384
 SERIAL_BELOW_LIGHT = 32_768
 
 
+def _uncompiled(func, strict):
+    """``func`` run by Python (``NUMBA_DISABLE_JIT=1``), its integer arithmetic wrapping
+    silently as compiled code's does (the random stream multiplies modulo 2**64)."""
+    @functools.wraps(func)
+    def run(*args, **kwargs):
+        with np.errstate(over="ignore"):
+            return func(*args, **kwargs)
+    run.py_func, run.strict = func, strict
+    return run
+
+
 def jit(parallel=False, strict=False, size=None, serial_below=SERIAL_BELOW_LIGHT):
     """Return the decorator that compiles a fasttrack kernel.
 
@@ -173,8 +186,7 @@ def jit(parallel=False, strict=False, size=None, serial_below=SERIAL_BELOW_LIGHT
         options = {"nopython": True, "parallel": parallel, "fastmath": fastmath,
                    "nogil": OPTIONS["nogil"], "error_model": OPTIONS["error_model"]}
         if config.DISABLE_JIT:
-            func.strict = strict
-            return func
+            return _uncompiled(func, strict)
         kind = Kernel if size is None else ThreadedKernel
         dispatcher = kind(py_func=func, locals={}, targetoptions=options)
         if OPTIONS["cache"]:

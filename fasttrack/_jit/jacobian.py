@@ -11,7 +11,7 @@ Differences of angles are wrapped either way, so derivatives are right across th
 import numpy as np
 
 from . import jit
-from .likelihood import BEARING_RANGE, SELECT, _predict_block
+from .sensor import BEARING_RANGE, SELECT, _polar_jacobian, _predict_block, _sensor_frame
 from .numeric import fill, wrap_angle
 from .status import OK
 from .user import output_status
@@ -63,10 +63,7 @@ def _differences(values, steps, angles, central, out):
 def _polar_values(kind, points, mapping, offset, rotation, values):
     """Bearing (and range) at each column, computed as Stone Soup computes them."""
     for c in range(points.shape[1]):
-        dx = points[mapping[0], c] - offset[0]
-        dy = points[mapping[1], c] - offset[1]
-        px = rotation[0, 0] * dx + rotation[0, 1] * dy
-        py = rotation[1, 0] * dx + rotation[1, 1] * dy
+        px, py = _sensor_frame(points[mapping[0], c], points[mapping[1], c], offset, rotation)
         values[0, c] = _mod_bearing(np.arctan2(py, px))
         if kind == BEARING_RANGE:
             values[1, c] = np.sqrt(px ** 2 + py ** 2)
@@ -86,19 +83,9 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
             out[r, mapping[r]] = 1.0
         return
     if method == ANALYTIC:
-        dx = x[mapping[0]] - offset[0]
-        dy = x[mapping[1]] - offset[1]
-        px = rotation[0, 0] * dx + rotation[0, 1] * dy
-        py = rotation[1, 0] * dx + rotation[1, 1] * dy
-        rho2 = px * px + py * py
-        if rho2 == 0.0:
+        px, py = _sensor_frame(x[mapping[0]], x[mapping[1]], offset, rotation)
+        if not _polar_jacobian(kind, px, py, rotation, mapping, out):
             fill(out, np.nan)
-            return
-        for c in range(2):  # d p / d x[mapping[c]] is column c of the rotation
-            column = mapping[c]
-            out[0, column] = (-py * rotation[0, c] + px * rotation[1, c]) / rho2
-            if kind == BEARING_RANGE:
-                out[1, column] = (px * rotation[0, c] + py * rotation[1, c]) / np.sqrt(rho2)
         return
     central = method == CENTRAL
     columns = 2 * d if central else d + 1

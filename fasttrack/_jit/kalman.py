@@ -3,7 +3,7 @@
 Filters are laid out component-major, the filter index last: means (d, B), covariances
 (d, d, B), measurements (m, B), so every loop below runs innermost over the B filters of a
 block and vectorises. One filter (B = 1) is a state's own (d, 1) column; a batch of K filters
-goes in blocks of BLOCK, in parallel.
+goes in blocks of FILTERS_PER_BLOCK, in parallel.
 
 A transition is FIXED (F, Q given) or CV (nearly constant velocity blocks (position,
 velocity) with rates q: ``F = [[1, dt], [0, 1]]``, ``Q = q [[t^3/3, t^2/2], [t^2/2, t]]``,
@@ -25,15 +25,15 @@ from . import jit
 from .._validate import PSD_TOLERANCE
 from .jacobian import (ANALYTIC, measurement_jacobian, measurement_jacobian_function,
                        transition_jacobian_function)
-from .likelihood import BEARING_RANGE, SELECT, _predict_block
-from .numeric import copy_into, fast_atan2, fill, wrap_angle
+from .sensor import SELECT, _polar_jacobian, _predict_block, _sensor_frame
+from .numeric import copy_into, fill, wrap_angle
 from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
                      PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
                      PRIOR_NOT_SYMMETRIC)
 from .user import output_status
 
 FIXED, CV = np.int64(0), np.int64(1)
-BLOCK = 128
+FILTERS_PER_BLOCK = 128
 
 
 @jit()
@@ -191,23 +191,12 @@ def _measure(kind, mapping, offset, rotation, method, x, z_hat, jacobian, status
                     z_hat[r, b] = x[mapping[r], b]
                     jacobian[r, mapping[r], b] = 1.0
             return
+        _predict_block(kind, x, np.int64(0), nb, mapping, offset, rotation, z_hat, np.int64(0))
         for b in range(nb):
-            dx = x[mapping[0], b] - offset[0]
-            dy = x[mapping[1], b] - offset[1]
-            px = rotation[0, 0] * dx + rotation[0, 1] * dy
-            py = rotation[1, 0] * dx + rotation[1, 1] * dy
-            rho2 = px * px + py * py
-            if rho2 == 0.0 and status[b] == OK:
+            px, py = _sensor_frame(x[mapping[0], b], x[mapping[1], b], offset, rotation)
+            defined = _polar_jacobian(kind, px, py, rotation, mapping, jacobian[:, :, b])
+            if not defined and status[b] == OK:
                 status[b] = JACOBIAN_UNDEFINED
-            rho2 = rho2 if rho2 > 0.0 else 1.0
-            rho = np.sqrt(rho2)
-            z_hat[0, b] = wrap_angle(fast_atan2(py, px))
-            for c in range(2):  # d p / d x[mapping[c]] is column c of the rotation
-                jacobian[0, mapping[c], b] = (-py * rotation[0, c] + px * rotation[1, c]) / rho2
-            if kind == BEARING_RANGE:
-                z_hat[1, b] = rho
-                for c in range(2):
-                    jacobian[1, mapping[c], b] = (px * rotation[0, c] + py * rotation[1, c]) / rho
         return
     column = np.empty((d, 1))
     values = np.empty((m, 1))
@@ -371,9 +360,9 @@ def batch_step(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, o
     inside Numba's parallel region)."""
     k_filters, d = means.shape
     m = measurements.shape[1]
-    for block in range((k_filters + BLOCK - 1) // BLOCK):
-        lo = block * BLOCK
-        hi = min(lo + BLOCK, k_filters)
+    for block in range((k_filters + FILTERS_PER_BLOCK - 1) // FILTERS_PER_BLOCK):
+        lo = block * FILTERS_PER_BLOCK
+        hi = min(lo + FILTERS_PER_BLOCK, k_filters)
         nb = hi - lo
         x, covariance, z = np.empty((d, nb)), np.empty((d, d, nb)), np.empty((m, nb))
         _to_block(means, lo, hi, x)

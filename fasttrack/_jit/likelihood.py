@@ -1,11 +1,7 @@
 """Measurement kernels: predicted measurements and log-likelihoods of particle clouds.
 
-Built-in models are described by a kind and three arrays, so no kernel takes a function:
-
-- SELECT: ``h(x) = x[mapping]`` (linear-Gaussian measurement of some state components);
-- BEARING_RANGE: ``(atan2(p_y, p_x), |p|)`` of ``p = R (x[mapping[:2]] - offset)``, with R the
-  top-left 2x2 block of the sensor rotation;
-- BEARING: the bearing alone.
+Built-in models are described by a kind and three arrays (see :mod:`sensor`), so no kernel
+takes a function.
 
 Angle rows are wrapped to [-pi, pi) in predictions and innovations. The log-likelihood of a
 measurement z is ``log_norm - |W (z - h(x))|^2 / 2`` with W the inverse of the Cholesky factor
@@ -15,46 +11,10 @@ import numpy as np
 from numba import prange
 
 from . import SERIAL_BELOW_HEAVY, jit
-from .numeric import fast_atan2, wrap_angle
+from .numeric import BLOCK, wrap_angle
+from .sensor import _predict_block
 from .status import OK
 from .user import columns, first_failure, output_status, store
-
-SELECT, BEARING_RANGE, BEARING = np.int64(0), np.int64(1), np.int64(2)
-BLOCK = 1024
-
-
-@jit()
-def _predict_block(kind, x, lo, hi, mapping, offset, rotation, out, at):
-    """Predicted measurements of particles ``lo:hi`` into ``out[:, at:at + hi - lo]``."""
-    if kind == SELECT:
-        for r in range(mapping.size):
-            row = out[r, at:at + hi - lo]
-            xr = x[mapping[r], lo:hi]
-            for i in range(row.size):
-                row[i] = xr[i]
-        return
-    xs = x[mapping[0], lo:hi]
-    ys = x[mapping[1], lo:hi]
-    bearings = out[0, at:at + hi - lo]
-    # one loop per kind: a test of the kind inside the loop would stop its vectorisation
-    if kind == BEARING_RANGE:
-        ranges = out[1, at:at + hi - lo]
-        for i in range(bearings.size):
-            px, py = _sensor_frame(xs[i], ys[i], offset, rotation)
-            bearings[i] = wrap_angle(fast_atan2(py, px))
-            ranges[i] = np.sqrt(px * px + py * py)
-    else:
-        for i in range(bearings.size):
-            px, py = _sensor_frame(xs[i], ys[i], offset, rotation)
-            bearings[i] = wrap_angle(fast_atan2(py, px))
-
-
-@jit()
-def _sensor_frame(x, y, offset, rotation):
-    """A position in the sensor's frame: ``R (p - offset)``."""
-    dx = x - offset[0]
-    dy = y - offset[1]
-    return rotation[0, 0] * dx + rotation[0, 1] * dy, rotation[1, 0] * dx + rotation[1, 1] * dy
 
 
 @jit()

@@ -4,31 +4,42 @@ reductions."""
 import numpy as np
 from llvmlite import ir
 from numba import prange, types
+from numba.core import config
 from numba.extending import intrinsic
 
 from . import jit
 
+#: Particles per block in the kernels over particle clouds (propagation, likelihoods, weight
+#: sums): a block of a few rows fits a core's L1 cache, and the random stream's layout
+#: depends on it.
+BLOCK = 1024
 
-@intrinsic
-def _int64_bits_as_float64(typingctx, bits):
-    """Reinterpret the 64 bits of an int64 as a float64 (a bit cast, not a conversion)."""
-    if bits != types.int64:
-        return None
+if config.DISABLE_JIT:  # the same bit casts in Python, so that every kernel runs uncompiled
+    def _int64_bits_as_float64(bits):
+        return np.int64(bits).view(np.float64)
 
-    def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], ir.DoubleType())
-    return types.float64(types.int64), codegen
+    def _float64_bits_as_int64(value):
+        return np.float64(value).view(np.int64)
+else:
+    @intrinsic
+    def _int64_bits_as_float64(typingctx, bits):
+        """Reinterpret the 64 bits of an int64 as a float64 (a bit cast, not a conversion)."""
+        if bits != types.int64:
+            return None
 
+        def codegen(context, builder, signature, args):
+            return builder.bitcast(args[0], ir.DoubleType())
+        return types.float64(types.int64), codegen
 
-@intrinsic
-def _float64_bits_as_int64(typingctx, value):
-    """Reinterpret the 64 bits of a float64 as an int64 (a bit cast, not a conversion)."""
-    if value != types.float64:
-        return None
+    @intrinsic
+    def _float64_bits_as_int64(typingctx, value):
+        """Reinterpret the 64 bits of a float64 as an int64 (a bit cast, not a conversion)."""
+        if value != types.float64:
+            return None
 
-    def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], ir.IntType(64))
-    return types.int64(types.float64), codegen
+        def codegen(context, builder, signature, args):
+            return builder.bitcast(args[0], ir.IntType(64))
+        return types.int64(types.float64), codegen
 
 
 @jit()

@@ -9,11 +9,10 @@ import numpy as np
 from numba import prange
 
 from . import SERIAL_BELOW_HEAVY, jit
-from .numeric import fill_normals
+from .numeric import BLOCK, fill_normals
 from .status import OK
 from .user import columns, first_failure, output_status, store
 
-BLOCK = 1024
 
 
 @jit()

@@ -9,9 +9,7 @@ import numpy as np
 from numba import prange
 
 from . import jit
-from .numeric import chunk_bounds, fast_exp, n_chunks
-
-BLOCK = 1024
+from .numeric import BLOCK, chunk_bounds, fast_exp, n_chunks
 
 
 @jit(parallel=True, size=0)
@@ -147,14 +145,16 @@ def _sum_rows(partial):
 
 @jit(parallel=True, size=0)
 def normalise_in_place(log_w, log_w_max):
-    """Shift log weights so that their exponentials sum to 1; returns the shift (logsumexp).
+    """Shift log weights so that their exponentials sum to 1; returns their effective sample
+    size (see :func:`ess`), from the same pass.
 
     Each weight becomes ``(log_w - log_w_max) - log(sum exp(log_w - log_w_max))``: the
     large common offset is removed first, exactly, so the sum of the normalised weights is
     1 to rounding whatever the magnitude of the log weights (subtracting the logsumexp
     itself would lose up to its last bit, half a unit at 1e15).
     """
-    log_total = np.log(_power_sums(log_w, log_w_max)[0])
+    s1, s2 = _power_sums(log_w, log_w_max)
+    log_total = np.log(s1)
     for i in prange(log_w.size):
         log_w[i] = (log_w[i] - log_w_max) - log_total
-    return log_w_max + log_total
+    return s1 * s1 / s2

@@ -4,6 +4,7 @@ import functools
 
 import numpy as np
 from numba import types as _types
+from numba.core import config as _config
 
 from .. import _errors
 from .. import _validate
@@ -128,12 +129,16 @@ class UserFunction:
 
     def __init__(self, function, role, ndim_state, rows, interval):
         signature = "f(states, dt)" if interval else "h(states)"
+        self.function, self.role, self.rows = function, role, rows
+        self.ndim_state, self.interval = ndim_state, interval
+        if _config.DISABLE_JIT and callable(function):  # run by Python: only the probe
+            self.name = getattr(function, "__name__", repr(function))
+            self._probe()
+            return
         if not (hasattr(function, "py_func") and hasattr(function, "compile")):
             raise TypeError(f"the {role} must be a numba.njit function {signature}, "
                             f"got {type(function).__name__}")
-        self.function, self.role, self.rows = function, role, rows
         self.name = getattr(function.py_func, "__name__", repr(function))
-        self.ndim_state, self.interval = ndim_state, interval
         arguments = (_STATES, _types.float64) if interval else (_STATES,)
         try:
             function.compile(arguments)
@@ -147,13 +152,17 @@ class UserFunction:
                 and returned.dtype == _types.float64):
             raise TypeError(f"{self._label} must return a 2-D float64 array of shape "
                             f"({rows}, n), one column per state; it returns {returned}")
-        probe = 1.0 + 0.25 * np.arange(ndim_state)[:, None] + 0.125 * np.arange(3)
+        self._probe()
+
+    def _probe(self):
+        """A call on 3 states must return ``(rows, 3)``."""
+        probe = 1.0 + 0.25 * np.arange(self.ndim_state)[:, None] + 0.125 * np.arange(3)
         try:
             values = self._raw(probe, 1.0)
         except Exception:  # the probe may lie outside its domain: calls still check
             return
-        if values.shape != (rows, 3):
-            raise ValueError(self._shape_message(values.shape, probe.shape))
+        if np.shape(values) != (self.rows, 3):
+            raise ValueError(self._shape_message(np.shape(values), probe.shape))
 
     @property
     def _label(self):

@@ -12,6 +12,7 @@ import numpy as np
 from .. import _errors
 from .. import _validate
 from .._jit import likelihood as _kernels
+from .._jit import sensor as _sensor
 from .base import (UserFunction, check_rows, gaussian_noise, read_only, scalar_or_array,
                    state_columns, wrap_angle)
 
@@ -206,7 +207,7 @@ class LinearGaussian(_KernelModel):
     noise_covar : (m, m) array_like
     """
 
-    kind = _kernels.SELECT
+    kind = _sensor.SELECT
 
     def __init__(self, ndim_state, mapping, noise_covar):
         ndim_state = _validate.count(ndim_state, "ndim_state")
@@ -325,7 +326,7 @@ class CartesianToBearingRange(_PolarSensor):
         position into the sensor's plane; :meth:`inverse_function` needs them zero.
     """
 
-    kind = _kernels.BEARING_RANGE
+    kind = _sensor.BEARING_RANGE
     _NDIM_MEAS = 2
 
     def inverse_function(self, detection):
@@ -353,7 +354,7 @@ class Cartesian2DToBearing(_PolarSensor):
     """z = bearing (rad, an angle) of the position ``x[mapping]``; parameters as
     :class:`CartesianToBearingRange` with a (1, 1) ``noise_covar``."""
 
-    kind = _kernels.BEARING
+    kind = _sensor.BEARING
     _NDIM_MEAS = 1
 
 

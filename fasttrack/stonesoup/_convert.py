@@ -11,10 +11,10 @@ from stonesoup.models.measurement import nonlinear as ss_nonlinear
 from stonesoup.models.transition import linear as ss_transition_linear
 from stonesoup.types.angle import Angle, Bearing
 from stonesoup.types.array import StateVector
+from stonesoup.types.state import ParticleState
 
+from .. import kernel as ft_kernel
 from .. import models as ft_models
-from .. import random as _random
-from .._jit import gram as _gram
 
 
 def _polar(cls):
@@ -87,9 +87,10 @@ def global_rng():
     return np.random.mtrand._rand
 
 
-def stream_key(rng):
-    """A key for the kernels' random stream, drawn from ``rng``."""
-    return _random.stream_key(rng)
+def plain_particles(state):
+    """Whether ``state[index]`` is Stone Soup's ``ParticleState`` indexing (no per-particle
+    extras)."""
+    return type(state).__getitem__ is ParticleState.__getitem__
 
 
 def floats(array):
@@ -124,20 +125,18 @@ def zero_control(control_model):
             and not np.any(control_model.control_matrix))
 
 
-def kernel_spec(kernel):
-    """``(kind, params)`` of a Stone Soup polynomial or Gaussian kernel for the compiled
-    filters, or None (another kernel, or parameters outside the positive semi-definite
+def fast_kernel(kernel):
+    """The fasttrack kernel computing what a Stone Soup polynomial or Gaussian kernel
+    computes, or None (another kernel, or parameters outside the positive semi-definite
     range)."""
     if isinstance(kernel, GaussianKernel) and type(kernel).__call__ in _CALLS:
         if kernel.variance > 0:
-            variance = float(kernel.variance)
-            return _gram.GAUSSIAN, np.array([variance, 1.0 / np.sqrt(2.0 * np.pi * variance),
-                                             0.0])
+            return ft_kernel.GaussianKernel(variance=float(kernel.variance))
         return None
     if isinstance(kernel, PolynomialKernel) and type(kernel).__call__ in _CALLS:
         power, c, ialpha = kernel.power, kernel.c, kernel.ialpha
         if int(power) == power >= 1 and c >= 0 and ialpha > 0:
-            return _gram.POLYNOMIAL, np.array([power, c, ialpha], dtype=np.float64)
+            return ft_kernel.PolynomialKernel(int(power), float(c), float(ialpha))
     return None
 
 

@@ -9,23 +9,18 @@ import numpy as np
 from stonesoup import kernel as ss
 from stonesoup.types.array import StateVectors
 
-from .._jit import gram as _gram
-from ._convert import _CALLS, angle_rows, floats, kernel_spec
+from ._convert import _CALLS, angle_rows, fast_kernel, floats
 
 
 class _Gram:
     def __call__(self, state1, state2=None, **kwargs):
         self.update_parameters(kwargs)
         x1, x2 = self._get_state_vectors(state1, state2)
-        spec = kernel_spec(self)
-        if spec is None:
+        kernel = fast_kernel(self)
+        if kernel is None:
             raise ValueError(f"{type(self).__name__} parameters out of range: {self}")
-        angles = np.zeros(x1.shape[0], dtype=np.bool_)
-        angles[list(angle_rows(np.asarray(x1)))] = True
-        x1, x2 = floats(x1), floats(x2)
-        out = np.empty((x1.shape[1], x2.shape[1]))
-        _gram.gram(*spec, angles, x1, x2, out)
-        return StateVectors(out)
+        angles = angle_rows(np.asarray(x1))
+        return StateVectors(kernel(floats(x1), floats(x2), angle_components=angles))
 
 
 class PolynomialKernel(_Gram, ss.PolynomialKernel):

@@ -4,7 +4,6 @@ Each ``predict`` is memoised as Stone Soup's is (the same prior and timestamp gi
 prediction object, and draw no new random numbers). A model, kernel, control input or
 keyword the fast path does not know goes through Stone Soup's own code instead.
 """
-import numpy as np
 from stonesoup.predictor import kalman as ss_kalman
 from stonesoup.predictor import kernel as ss_kernel
 from stonesoup.predictor import particle as ss_particle
@@ -15,13 +14,12 @@ from stonesoup.types.prediction import GaussianStatePrediction, Prediction
 from stonesoup.types.state import GaussianState
 from stonesoup.types.update import GaussianStateUpdate, KernelParticleStateUpdate
 
-from .. import _errors
-from .. import predictor as ft_predictor
-from .._jit import akkf as _akkf
-from ._convert import (fast_model, floats, kernel_spec, model_rng, stream_key, uncached,
-                       zero_control)
-from .resampler import _plain
+from ..core import akkf as ft_akkf
+from ..core import kalman as ft_kalman
+from ..core import particle as ft_particle
 from ..types import dense_kernel_covar
+from ._convert import (fast_kernel, fast_model, floats, model_rng, plain_particles, uncached,
+                       zero_control)
 from .state import kernel_factors, remember_factors
 
 #: Gaussian state types whose predictions the Kalman kernel builds (not the square-root or
@@ -43,12 +41,13 @@ class ParticlePredictor(ss_particle.ParticlePredictor):
             if type(proposal) is DynamicsProposal and proposal.control_model is None else None
         if measurement is not None:
             timestamp = measurement.timestamp
-        if (model is None or kwargs or not _plain(prior) or timestamp is None
+        if (model is None or kwargs or not plain_particles(prior) or timestamp is None
                 or prior.timestamp is None):
             return uncached(ss_particle.ParticlePredictor.predict)(
                 self, prior, timestamp, measurement, **kwargs)
-        state = model._propagate(floats(prior.state_vector), _seconds(timestamp, prior.timestamp),
-                                 stream_key(model_rng(proposal.transition_model)))
+        state = ft_particle.predict(model, floats(prior.state_vector),
+                                    _seconds(timestamp, prior.timestamp),
+                                    model_rng(proposal.transition_model))
         return Prediction.from_state(prior, parent=prior, state_vector=StateVectors(state),
                                      timestamp=timestamp,
                                      transition_model=proposal.transition_model, prior=prior)
@@ -67,12 +66,8 @@ class _Kalman:
                 or timestamp is None or prior.timestamp is None):
             return uncached(self._stonesoup.predict)(self, prior, timestamp, control_input,
                                                      **kwargs)
-        d = prior.state_vector.shape[0]
-        x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
-        status = ft_predictor.KalmanPredictor(model)._predict(_seconds(timestamp, prior.timestamp),
-                                              floats(prior.state_vector), floats(prior.covar),
-                                              x_out, covar_out)
-        _errors.check(status)
+        x_out, covar_out = ft_kalman.predict(model, _seconds(timestamp, prior.timestamp),
+                                             floats(prior.state_vector), floats(prior.covar))
         return Prediction.from_state(prior, x_out, covar_out, timestamp=timestamp,
                                      transition_model=self.transition_model, prior=prior)
 
@@ -95,8 +90,8 @@ class AdaptiveKernelKalmanPredictor(ss_kernel.AdaptiveKernelKalmanPredictor):
     @predict_lru_cache()
     def predict(self, prior, timestamp=None, proposal=None, **kwargs):
         model = fast_model(self.transition_model)
-        spec = kernel_spec(self.kernel)
-        if (model is None or spec is None or kwargs or timestamp is None
+        kernel = fast_kernel(self.kernel)
+        if (model is None or kernel is None or kwargs or timestamp is None
                 or prior.timestamp is None):
             return uncached(ss_kernel.AdaptiveKernelKalmanPredictor.predict)(
                 self, prior, timestamp, proposal, **kwargs)
@@ -104,15 +99,11 @@ class AdaptiveKernelKalmanPredictor(ss_kernel.AdaptiveKernelKalmanPredictor):
             proposal = prior.proposal if isinstance(prior, KernelParticleStateUpdate) \
                 else prior.state_vector
         proposal = floats(getattr(proposal, "state_vector", proposal))
-        x = floats(prior.state_vector)
-        w, lt, v1t, v2t = _akkf.predict_embedding(
-            *spec, np.zeros(x.shape[0], dtype=np.bool_), proposal, x, floats(prior.weight),
-            *kernel_factors(prior), self.lambda_predictor)
-        ft_predictor.check_weights(w, "predicted")
-        factors = (lt, 1.0 / w.size, v1t, v2t)
+        states, w, factors = ft_akkf.predict(
+            model, kernel, _seconds(timestamp, prior.timestamp), proposal,
+            floats(prior.state_vector), floats(prior.weight), kernel_factors(prior),
+            self.lambda_predictor)
         prediction = Prediction.from_state(
-            prior, state_vector=StateVectors(model._mean(proposal, _seconds(timestamp,
-                                                                              prior.timestamp))),
-            weight=w, kernel_covar=dense_kernel_covar(factors), timestamp=timestamp,
+            prior, state_vector=StateVectors(states), weight=w, kernel_covar=dense_kernel_covar(factors), timestamp=timestamp,
             transition_model=self.transition_model)
         return remember_factors(prediction, factors)

@@ -9,28 +9,16 @@ from stonesoup.types.array import StateVectors
 from stonesoup.types.state import ParticleState
 
 from .. import resampling as _resampling
-from .._jit.resample import take_columns as _take_columns
-from ._convert import floats, global_rng
+from ..core import particle as ft_particle
+from ._convert import floats, global_rng, plain_particles
 
 ResidualMethod = ss.ResidualMethod
-
-
-def _plain(state):
-    """Whether ``state[index]`` is ParticleState's own indexing (no per-particle extras)."""
-    return type(state).__getitem__ is ParticleState.__getitem__
-
-
-def _gather(state_vector, index):
-    x = floats(state_vector)
-    out = np.empty((x.shape[0], index.size))
-    _take_columns(x, index, out)
-    return StateVectors(out)
 
 
 def _indexed(state, index, log_weight):
     """``state[index]`` as Stone Soup builds it (parent indexed too, its own parent dropped),
     with the columns gathered by a parallel kernel, and ``log_weight`` set."""
-    if not _plain(state) or state.state_vector.dtype != np.float64:
+    if not plain_particles(state) or state.state_vector.dtype != np.float64:
         result = state[index]
         result.log_weight = log_weight
         return result
@@ -40,7 +28,8 @@ def _indexed(state, index, log_weight):
         parent.parent = None
         parent_weight = None if parent.log_weight is None else parent.log_weight[index]
         parent = _indexed(parent, index, parent_weight)
-    return type(state).from_state(state, state_vector=_gather(state.state_vector, index),
+    return type(state).from_state(state, state_vector=StateVectors(
+                                      ft_particle.gather(floats(state.state_vector), index)),
                                   log_weight=log_weight, parent=parent)
 
 
@@ -102,7 +91,6 @@ class ESSResampler(_Scheme, ss.ESSResampler):
     def resample(self, particles, nparts=None):
         if isinstance(particles, list):
             particles = ParticleState(None, particle_list=particles)
-        threshold = len(particles) / 2 if self.threshold is None else self.threshold
-        if _resampling.ess(particles.log_weight) < threshold:
+        if ft_particle.resampling_decision(particles.log_weight, self.threshold)[1]:
             return self.resampler.resample(particles, nparts)
         return particles

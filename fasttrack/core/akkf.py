@@ -1,0 +1,53 @@
+"""The adaptive kernel Kalman filter's steps on kernel particle sets.
+
+A set is its (d, M) particles, (M,) weights and the factors ``(L, sigma, V1, V2)`` of its
+kernel covariance ``L L^T + sigma (I - V1 V2^T)(I - V1 V2^T)^T`` (see
+:mod:`fasttrack.types`).
+"""
+import numpy as np
+
+from .. import random as _random
+from .._jit import akkf as _akkf
+from ..kernel import Kernel
+
+
+def check_weights(weight, which):
+    """Raise if kernel filter weights are not finite (the kernel values overflowed) or all
+    zero (nothing carried over)."""
+    largest = _akkf.largest_magnitude(weight)
+    if not largest <= 1.7976931348623157e308:
+        raise ValueError(f"the {which} kernel weights are not finite: the kernel values "
+                         f"overflow (rescale the states or use a lower-degree kernel)")
+    if largest == 0.0:
+        raise ValueError(f"the {which} kernel weights are all zero: the kernel carries no "
+                         f"information between the particle sets (its length scale is far "
+                         f"from their spread)")
+
+
+def predict(model, kernel, dt, proposal, x, weight, factors, lambda_predictor):
+    """``(states, weight, factors)`` predicted ``dt`` seconds ahead: the ``proposal``
+    particles moved through the transition ``model`` (noise-free), and the weights and
+    kernel covariance carried over from the prior set ``(x, weight, factors)`` by the
+    embedding of ``kernel`` (a fasttrack :class:`~fasttrack.kernel.Kernel` on states)."""
+    angles = Kernel.angle_mask(x.shape[0])
+    kind, params = kernel._spec(angles, proposal, x)
+    w, lt, v1t, v2t = _akkf.predict_embedding(kind, params, angles, proposal, x, weight,
+                                              *factors, lambda_predictor)
+    check_weights(w, "predicted")
+    return model._mean(proposal, dt), w, (lt, 1.0 / w.size, v1t, v2t)
+
+
+def update(model, kernel, y, z, x, weight, factors, lambda_updater, rng):
+    """``(weight, factors, proposal)`` of the posterior given the measurement ``z`` (m,)
+    for predicted particles ``x`` (d, M) with measurements ``y`` (m, M): the weights and
+    kernel covariance from the embedding of ``kernel`` (on measurements, the ``model``'s
+    angle components wrapped), and new proposal particles (d, M) drawn from ``rng``."""
+    angles = model._angles
+    z = z.reshape(-1, 1)
+    kind, params = kernel._spec(angles, y, z)
+    proposal = np.empty_like(x)
+    w, lt, v1t, v2t = _akkf.update_embedding(kind, params, angles, y, z, weight, *factors,
+                                             lambda_updater, x, _random.stream_key(rng),
+                                             proposal)
+    check_weights(w, "updated")
+    return w, (lt, factors[1], v1t, v2t), proposal
