@@ -60,8 +60,8 @@ def test_startup(benchmark, setup):
         pytest.importorskip("distributed")
 
     def local():
-        montecarlo._local_pool(2).shutdown()
-        montecarlo._pool.clear()
+        montecarlo.workers._local_pool(2).shutdown()
+        montecarlo.workers._pool.clear()
         ft.run_trials(SCENARIO, make_filter, 2, seed=0, processes=2, progress=False)
 
     def dask():

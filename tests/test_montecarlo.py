@@ -170,7 +170,7 @@ def test_nis_wraps_the_bearing():
     predicted = ft.GaussianMeasurementPrediction([[np.pi - 0.05]], [[0.01]])
     hypothesis = ft.SingleHypothesis(None, ft.Detection([[-np.pi + 0.05]]))
     hypothesis.measurement_prediction = predicted
-    (nis,) = mc._score(("nis",), None, None, hypothesis, sensor, [0, 2], np.nan, 0.0)
+    (nis,) = mc.metrics._score(("nis",), None, None, hypothesis, sensor, [0, 2], np.nan, 0.0)
     assert nis == pytest.approx(0.1 ** 2 / 0.01)
 
 
@@ -183,7 +183,7 @@ def test_adaptive_kernel_filter_runs():
 
 
 def test_summary_is_a_t_interval():
-    table = np.zeros(6, mc._row_dtype(("position_error", "nees")))
+    table = np.zeros(6, mc.metrics._row_dtype(("position_error", "nees")))
     table["run"] = [0, 0, 1, 1, 2, 2]
     table["step"] = [0, 1] * 3
     table["position_error"] = [3.0, 4.0, 1.0, 1.0, 0.0, 2.0]
@@ -316,7 +316,7 @@ def test_bad_arguments():
         with mc.local_cluster(0):
             pass
     with pytest.raises(ValueError, match="confidence"):
-        mc.TrialResults(np.zeros(0, mc._row_dtype(mc.METRICS)), [], None, 0).summary(1.0)
+        mc.TrialResults(np.zeros(0, mc.metrics._row_dtype(mc.METRICS)), [], None, 0).summary(1.0)
 
 
 def test_asking_for_dask_without_it_says_how_to_install(monkeypatch):
@@ -335,14 +335,14 @@ def test_local_runs_work_without_dask(monkeypatch):
 
 
 def test_progress_bar(capsys, monkeypatch):
-    bar = mc._Progress(10, enabled=True)
+    bar = mc.runner._Progress(10, enabled=True)
     bar.start -= 5.0
     monkeypatch.setattr(bar, "tty", False)
     for _ in range(10):
         bar.advance(1)
     lines = capsys.readouterr().err.splitlines()
     assert len(lines) == 10 and lines[-1].startswith("[" + "#" * 30 + "] 10/10 runs")
-    quiet = mc._Progress(10, enabled=False)
+    quiet = mc.runner._Progress(10, enabled=False)
     quiet.start -= 5.0
     quiet.advance(10)
     assert capsys.readouterr().err == ""

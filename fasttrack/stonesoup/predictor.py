@@ -104,6 +104,7 @@ class AdaptiveKernelKalmanPredictor(ss_kernel.AdaptiveKernelKalmanPredictor):
             floats(prior.state_vector), floats(prior.weight), kernel_factors(prior),
             self.lambda_predictor)
         prediction = Prediction.from_state(
-            prior, state_vector=StateVectors(states), weight=w, kernel_covar=dense_kernel_covar(factors), timestamp=timestamp,
+            prior, state_vector=StateVectors(states), weight=w,
+            kernel_covar=dense_kernel_covar(factors), timestamp=timestamp,
             transition_model=self.transition_model)
         return remember_factors(prediction, factors)

@@ -1,0 +1,131 @@
+"""The results of many runs: a tidy table, failures, and summaries with confidence
+intervals."""
+import dataclasses
+import math
+import warnings
+
+import numpy as np
+
+from .metrics import _SUMMARIES
+
+
+@dataclasses.dataclass(frozen=True)
+class RunFailure:
+    """A run that raised: its index, ``seed`` (a SeedSequence: ``run_trial(..., seed)``
+    reproduces it), the error as ``'Type: message'``, and the traceback text."""
+
+    run: int
+    seed: np.random.SeedSequence
+    error: str
+    traceback: str
+
+
+@dataclasses.dataclass(frozen=True)
+class MetricSummary:
+    """A per-run statistic over the completed runs: ``mean`` and its confidence interval
+    [``low``, ``high``] (Student t), from ``runs`` runs where it is defined."""
+
+    metric: str
+    mean: float
+    low: float
+    high: float
+    runs: int
+
+
+class TrialResults:
+    """The results of :func:`run_trials`.
+
+    Attributes
+    ----------
+    table : numpy.ndarray
+        Tidy structured array, one row per (run, step), sorted: ``run``, ``step``, ``time``
+        (seconds since the run's first detection), then one float64 column per metric:
+        ``position_error`` (Euclidean distance of the posterior mean's position from the
+        truth, in state units), ``nees`` and ``nis`` (normalised estimation error and
+        innovation squared, Gaussian filters), ``ess`` (effective sample size of the weights
+        before resampling, particle filters), ``step_seconds`` (wall time of predict +
+        update). NaN where a metric does not apply. Failed runs have no rows.
+    failures : list of RunFailure
+    seed : numpy.random.SeedSequence
+        The root seed; ``seed.entropy`` reproduces the whole evaluation.
+    n_runs : int
+    """
+
+    def __init__(self, table, failures, seed, n_runs):
+        self.table = table
+        self.failures = failures
+        self.seed = seed
+        self.n_runs = n_runs
+
+    @property
+    def metrics(self):
+        """The metric columns of :attr:`table`."""
+        return self.table.dtype.names[3:]
+
+    def per_run(self):
+        """One row per completed run: ``run`` and each metric's per-run statistic (``rmse``
+        over steps of the position error, ``anees``, ``anis``, ``mean_ess`` and
+        ``step_seconds`` as means over steps)."""
+        runs, starts = np.unique(self.table["run"], return_index=True)
+        out = np.zeros(len(runs), [("run", np.int64)]
+                       + [(_SUMMARIES[m], np.float64) for m in self.metrics])
+        out["run"] = runs
+        for metric in self.metrics:
+            values = self.table[metric]
+            if metric == "position_error":
+                values = values ** 2
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                column = np.array([np.nanmean(chunk) if np.isfinite(chunk).any() else np.nan
+                                   for chunk in np.split(values, starts[1:])])
+            out[_SUMMARIES[metric]] = np.sqrt(column) if metric == "position_error" else column
+        return out
+
+    def summary(self, confidence=0.95):
+        """The mean over runs of each per-run statistic (see :meth:`per_run`), with a
+        ``confidence`` interval.
+
+        Returns
+        -------
+        list of MetricSummary
+            One per statistic defined for at least one run.
+        """
+        from scipy import stats
+        if not 0 < confidence < 1:
+            raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+        per_run = self.per_run()
+        out = []
+        for name in per_run.dtype.names[1:]:
+            values = per_run[name][np.isfinite(per_run[name])]
+            n = len(values)
+            if n == 0:
+                continue
+            mean = float(np.mean(values))
+            half = (stats.t.ppf(0.5 + confidence / 2, n - 1) * np.std(values, ddof=1)
+                    / math.sqrt(n)) if n > 1 else np.nan
+            out.append(MetricSummary(name, mean, mean - half, mean + half, n))
+        return out
+
+    def rmse_over_time(self):
+        """Position RMSE over the completed runs at each step, (steps,)."""
+        steps = self.table["step"]
+        squared = np.bincount(steps, self.table["position_error"] ** 2)
+        return np.sqrt(squared / np.bincount(steps))
+
+    def to_dataframe(self):
+        """:attr:`table` as a pandas DataFrame (needs pandas)."""
+        try:
+            import pandas
+        except ImportError:
+            raise ImportError("to_dataframe needs pandas: pip install pandas") from None
+        return pandas.DataFrame(self.table)
+
+    def __str__(self):
+        lines = [f"{self.n_runs - len(self.failures)} of {self.n_runs} runs completed "
+                 f"(seed entropy {self.seed.entropy})",
+                 f"{'metric':<14}{'mean':>12}{'95% interval':>28}{'runs':>7}"]
+        for s in self.summary():
+            lines.append(f"{s.metric:<14}{s.mean:>12.5g}   [{s.low:>11.5g}, {s.high:>11.5g}]"
+                         f"{s.runs:>7}")
+        lines += [f"run {f.run} failed: {f.error}" for f in self.failures]
+        return "\n".join(lines)

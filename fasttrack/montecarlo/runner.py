@@ -1,0 +1,149 @@
+"""``run_trials``: batches of runs spread over the local cores or a Dask cluster, collected
+as they finish, with a progress bar."""
+import math
+import sys
+import time
+import warnings
+
+import numpy as np
+
+from .._validate import count
+from .metrics import METRICS, _check_mapping, _check_mapping_fits, _check_metrics, _row_dtype
+from .workers import _client, _local_cores, _run_dask, _run_local, _serialise
+from .trial import _children, _root_seed
+from .results import TrialResults
+
+
+class _Progress:
+    """A progress bar on stderr, shown once the work has taken a second; on a terminal it
+    redraws in place, elsewhere it prints a line every tenth of the work."""
+
+    def __init__(self, total, enabled):
+        self.total, self.enabled = total, enabled
+        self.done, self.start, self.shown = 0, time.perf_counter(), False
+        self.tty = sys.stderr.isatty()
+        self.next_line = 0.1
+
+    def advance(self, n):
+        self.done += n
+        elapsed = time.perf_counter() - self.start
+        if not self.enabled or elapsed < 1.0:
+            return
+        fraction = self.done / self.total
+        if not self.tty and fraction < self.next_line and self.done < self.total:
+            return
+        self.next_line = math.floor(fraction * 10 + 1) / 10
+        rate = self.done / elapsed
+        eta = (self.total - self.done) / rate if rate else math.inf
+        bar = "#" * int(30 * fraction)
+        line = (f"[{bar:<30}] {self.done}/{self.total} runs, {rate:.1f} runs/s, "
+                f"{eta:.0f} s left")
+        print(f"\r{line}" if self.tty else line, end="" if self.tty else "\n",
+              file=sys.stderr, flush=True)
+        self.shown = True
+
+    def close(self):
+        if self.shown and self.tty:
+            print(file=sys.stderr, flush=True)
+
+
+def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client=None,
+               batch_size=None, processes=None, position_mapping=(0, 2), progress=True,
+               max_retries=2):
+    """Track ``n_runs`` independent runs of a scenario and score them.
+
+    Parameters
+    ----------
+    scenario : callable
+        ``scenario(seed=seed_sequence)`` returns a run's
+        :class:`~fasttrack.scenarios.Scenario` (``truth``, time-ordered ``detections``, one
+        per step at times of the truth, and the filter's ``prior``), drawing everything from
+        the seed, e.g. ``functools.partial(particle_filter_tutorial, n_particles=1000)``.
+    make_filter : callable
+        ``make_filter(scenario, rng)`` returns ``(predictor, updater)`` for one run (any of
+        fasttrack's particle, Kalman, extended Kalman or adaptive kernel filters), drawing
+        its randomness from the Generator ``rng``.
+    n_runs : int
+        Number of runs, >= 1.
+    seed : None, int or numpy.random.SeedSequence
+        Root seed (None: fresh entropy, kept in ``results.seed``).
+    metrics : sequence of str
+        Among ``METRICS``: 'position_error', 'nees', 'nis', 'ess', 'step_seconds'.
+    client : distributed.Client or str, optional
+        Run on this Dask cluster (or the scheduler at this address) instead of locally.
+    batch_size : int, optional
+        Runs per task (default: about four tasks per worker, at most 100 runs each). Larger
+        batches cost less scheduling; each worker process keeps its compiled kernels across
+        batches.
+    processes : int, optional
+        Local worker processes (default: the usable cores). With 1, runs in this process at
+        its Numba thread count; otherwise each worker runs one run at a time on one thread,
+        and the workers are kept for the next call (their kernels stay compiled).
+        Not with a client (Dask workers also run each task on one Numba thread).
+    position_mapping : sequence of int
+        State components of the position.
+    progress : bool
+        Show a progress bar on stderr when the work takes over a second.
+    max_retries : int
+        Times a batch whose local worker process died is rerun (Dask retries tasks of lost
+        workers by its own ``allowed-failures`` setting).
+
+    Returns
+    -------
+    TrialResults
+        Failed runs are in ``results.failures`` with their seed and error (and a warning
+        says how many); the other runs complete.
+    """
+    n_runs = count(n_runs, "n_runs")
+    metrics = _check_metrics(metrics)
+    max_retries = count(max_retries, "max_retries", minimum=0)
+    if client is not None and processes is not None:
+        raise ValueError("processes is for local runs; with a client, the cluster's "
+                         "workers run the tasks")
+    root = _root_seed(seed)
+    mapping = _check_mapping(position_mapping)
+    if client is None:
+        _check_mapping_fits(scenario(seed=_children(_children(root, 1)[0], 2)[0]), mapping)
+        processes = _local_cores() if processes is None else count(processes, "processes")
+        batches = _batches(root, n_runs, batch_size, processes)
+        payload = _serialise(scenario, make_filter, metrics, mapping,
+                             None if processes == 1 else 1)
+        return _collect(_run_local(payload, batches, processes, max_retries), root, n_runs,
+                        metrics, progress)
+    with _client(client) as connected:
+        batches = _batches(root, n_runs, batch_size, sum(connected.nthreads().values()))
+        payload = _serialise(scenario, make_filter, metrics, mapping, 1)
+        return _collect(_run_dask(connected, payload, batches), root, n_runs, metrics,
+                        progress)
+
+
+def _batches(root, n_runs, batch_size, workers):
+    """The (index, seed) pairs of the runs in batches of ``batch_size`` (default: about
+    four batches per worker, at most 100 runs each)."""
+    if batch_size is None:
+        batch_size = max(1, min(100, math.ceil(n_runs / (4 * max(1, workers)))))
+    batch_size = count(batch_size, "batch_size")
+    runs = list(enumerate(_children(root, n_runs)))
+    return [runs[i:i + batch_size] for i in range(0, n_runs, batch_size)]
+
+
+def _collect(results, root, n_runs, metrics, progress):
+    """The :class:`TrialResults` of the batches' ``results``, as they come in, with the
+    progress bar; warns if runs failed."""
+    bar = _Progress(n_runs, progress)
+    tables, failures = [], []
+    try:
+        for batch, (batch_tables, batch_failures) in results:
+            tables += batch_tables
+            failures += batch_failures
+            bar.advance(len(batch))
+    finally:
+        bar.close()
+    table = np.concatenate(tables) if tables else np.zeros(0, _row_dtype(metrics))
+    table = table[np.lexsort((table["step"], table["run"]))]
+    failures.sort(key=lambda f: f.run)
+    if failures:
+        warnings.warn(f"{len(failures)} of {n_runs} runs failed (first: run {failures[0].run}, "
+                      f"{failures[0].error}); see results.failures", RuntimeWarning,
+                      stacklevel=3)
+    return TrialResults(table, failures, root, n_runs)

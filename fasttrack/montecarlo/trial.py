@@ -1,0 +1,113 @@
+"""One run: its seeds, its scenario and filter, and its scored steps; and a batch of runs,
+the task of a worker."""
+import numbers
+import pickle
+import time
+import traceback
+
+import numpy as np
+
+from .._validate import count
+from ..types import SingleHypothesis, time_interval
+from .metrics import (METRICS, _check_mapping, _check_mapping_fits, _check_metrics, _row_dtype,
+                      _score)
+from .results import RunFailure
+
+
+def run_seeds(seed, n_runs):
+    """The per-run seeds of ``run_trials(..., n_runs, seed=seed)``:
+    ``numpy.random.SeedSequence(seed).spawn(n_runs)``."""
+    return _children(_root_seed(seed), count(n_runs, "n_runs"))
+
+
+def _root_seed(seed):
+    if seed is None or isinstance(seed, np.random.SeedSequence):
+        return np.random.SeedSequence(seed) if seed is None else seed
+    if not isinstance(seed, numbers.Integral) or isinstance(seed, bool):
+        raise TypeError(f"seed must be None, an int or a numpy.random.SeedSequence, "
+                        f"got {type(seed).__name__}")
+    if seed < 0:
+        raise ValueError(f"seed must be >= 0, got {seed}")
+    return np.random.SeedSequence(int(seed))
+
+
+def _children(seed, n):
+    """What ``seed.spawn(n)`` gives on a fresh ``seed``, whatever it has spawned already."""
+    return [np.random.SeedSequence(seed.entropy, spawn_key=seed.spawn_key + (k,),
+                                   pool_size=seed.pool_size) for k in range(n)]
+
+
+def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping=(0, 2)):
+    """Track one run and score every step: what :func:`run_trials` does for each run.
+
+    Parameters
+    ----------
+    scenario, make_filter, metrics, position_mapping
+        As for :func:`run_trials`.
+    run_seed : numpy.random.SeedSequence
+        The run's seed, e.g. ``run_seeds(seed, n_runs)[i]`` or a failure's ``seed``.
+
+    Returns
+    -------
+    numpy.ndarray
+        The run's rows of the table of :class:`TrialResults` (``run`` = -1).
+
+    Raises
+    ------
+    Exception
+        Whatever the scenario, the filter or the scoring raises.
+    """
+    metrics = _check_metrics(metrics)
+    mapping = _check_mapping(position_mapping)
+    if not isinstance(run_seed, np.random.SeedSequence):
+        raise TypeError(f"run_seed must be a numpy.random.SeedSequence (see run_seeds), "
+                        f"got {type(run_seed).__name__}")
+    scenario_seed, filter_seed = _children(run_seed, 2)
+    world = scenario(seed=scenario_seed)
+    _check_mapping_fits(world, mapping)
+    predictor, updater = make_filter(world, np.random.default_rng(filter_seed))
+    truth = {state.timestamp: state for state in world.truth}
+    rows = np.zeros(len(world.detections), _row_dtype(metrics))
+    rows["run"] = -1
+    state, start = world.prior, None
+    for step, detection in enumerate(world.detections):
+        if detection.timestamp not in truth:
+            raise ValueError(f"the scenario has no true state at detection {step}'s time "
+                             f"{detection.timestamp}")
+        start = detection.timestamp if start is None else start
+        tic = time.perf_counter()
+        hypothesis = SingleHypothesis(predictor.predict(state, timestamp=detection.timestamp),
+                                      detection)
+        state = updater.update(hypothesis)
+        effective = getattr(state, "ess", None)  # a particle filter's, before resampling
+        effective = np.nan if effective is None else effective
+        seconds = time.perf_counter() - tic
+        elapsed = time_interval(detection.timestamp, start, "detection.timestamp")
+        model = detection.measurement_model or getattr(updater, "measurement_model", None)
+        rows[step] = (-1, step, elapsed,
+                      *_score(metrics, state, truth[detection.timestamp], hypothesis, model,
+                              mapping, effective, seconds))
+    return rows
+
+
+def _run_batch(payload, runs):
+    """Run ``runs`` (index, seed) pairs in this process: the task of a worker.
+
+    ``payload`` is the pickled (scenario, make_filter, metrics, position_mapping, threads).
+    Returns the rows of the completed runs and the failures."""
+    scenario, make_filter, metrics, mapping, threads = pickle.loads(payload)
+    if threads is not None:
+        import numba
+        from ..threads import set_threads
+        set_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    tables, failures = [], []
+    for run, run_seed in runs:
+        try:
+            rows = run_trial(scenario, make_filter, run_seed, metrics, mapping)
+        except Exception as error:  # a failing run is reported, the others go on
+            failures.append(RunFailure(run, run_seed, f"{type(error).__name__}: {error}",
+                                       traceback.format_exc()))
+            continue
+        rows["run"] = run
+        tables.append(rows)
+    return tables, failures

@@ -1,0 +1,63 @@
+"""Timestamps, time intervals and the links between states (see :mod:`fasttrack.types`)."""
+import datetime
+import numbers
+import weakref
+
+import numpy as np
+
+
+def check_timestamp(value, name="timestamp"):
+    """A timestamp: ``None``, a ``datetime.datetime`` or a real number of seconds."""
+    if value is None or isinstance(value, datetime.datetime):
+        return value
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        if not np.isfinite(value):
+            raise ValueError(f"{name} must be finite, got {value}")
+        return value
+    raise TypeError(f"{name} must be None, a datetime or a number of seconds, "
+                    f"got {type(value).__name__}")
+
+
+class Link:
+    """An attribute linking to an earlier state: held strongly when assigned the state,
+    weakly when assigned a ``weakref.ref`` to it (then None once the state is gone)."""
+
+    def __set_name__(self, owner, name):
+        self.slot = "_" + name
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:
+            return self
+        value = obj.__dict__.get(self.slot)
+        return value() if type(value) is weakref.ref else value
+
+    def __set__(self, obj, value):
+        obj.__dict__[self.slot] = value
+
+
+def weak(state):
+    """A weak link to ``state`` (None stays None)."""
+    return None if state is None else weakref.ref(state)
+
+
+def time_interval(later, earlier, name="timestamp"):
+    """Seconds from ``earlier`` to ``later`` (two datetimes or two numbers of seconds)."""
+    if isinstance(later, datetime.datetime) and isinstance(earlier, datetime.datetime):
+        return (later - earlier).total_seconds()
+    if isinstance(later, numbers.Real) and isinstance(earlier, numbers.Real) \
+            and not isinstance(later, bool) and not isinstance(earlier, bool):
+        return float(later) - float(earlier)
+    raise TypeError(f"{name} {later!r} and the prior's timestamp {earlier!r} must both be "
+                    f"datetimes or both numbers of seconds")
+
+
+def seconds(interval, name="time_interval"):
+    """A time interval in seconds from a ``datetime.timedelta`` or a real number."""
+    if isinstance(interval, datetime.timedelta):
+        return interval.total_seconds()
+    if isinstance(interval, numbers.Real) and not isinstance(interval, bool):
+        if not np.isfinite(interval):
+            raise ValueError(f"{name} must be finite, got {interval}")
+        return float(interval)
+    raise TypeError(f"{name} must be a datetime.timedelta or a number of seconds, "
+                    f"got {type(interval).__name__}")

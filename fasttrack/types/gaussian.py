@@ -1,0 +1,104 @@
+"""Gaussian states, their predictions and updates, ground truth states and detections."""
+from .. import _validate
+from .base import Link, check_timestamp
+
+
+def column_vector(value, name="state_vector"):
+    """A finite (d, 1) float64 column from a (d,) or (d, 1) array_like (d >= 1)."""
+    v = _validate.finite_array(value, name)
+    if v.ndim == 0 or v.ndim > 2 or (v.ndim == 2 and v.shape[1] != 1) or v.size == 0:
+        raise ValueError(f"{name} must have shape (d,) or (d, 1), got {v.shape}")
+    return v.reshape(-1, 1)
+
+
+class State:
+    """A point state: a (d, 1) ``state_vector`` at a ``timestamp``."""
+
+    def __init__(self, state_vector, timestamp=None):
+        self.state_vector = column_vector(state_vector)
+        self.timestamp = check_timestamp(timestamp)
+
+    @property
+    def ndim(self):
+        """Number of state dimensions d."""
+        return self.state_vector.shape[0]
+
+    def __repr__(self):
+        return (f"{type(self).__name__}(state_vector={self.state_vector.ravel()}, "
+                f"timestamp={self.timestamp!r})")
+
+
+class GaussianState(State):
+    """A Gaussian state: mean ``state_vector`` (d, 1) and covariance ``covar`` (d, d).
+
+    The covariance must be finite and symmetric (to 1e-9 relative); positive definiteness is
+    checked where a filter needs it.
+    """
+
+    def __init__(self, state_vector, covar, timestamp=None):
+        super().__init__(state_vector, timestamp)
+        self.covar = _validate.covariance(covar, "covar", self.ndim)
+
+    @property
+    def mean(self):
+        """The mean, ``state_vector``."""
+        return self.state_vector
+
+    @classmethod
+    def _trusted(cls, state_vector, covar, timestamp, extra=None):
+        """Build from arrays that a kernel produced (no validation, no copies), with the
+        ``extra`` attributes (a dict) if given; a :class:`Link` goes under its slot name
+        (``_prior``)."""
+        state = object.__new__(cls)
+        state.__dict__ = {"state_vector": state_vector, "covar": covar, "timestamp": timestamp}
+        if extra:
+            state.__dict__.update(extra)
+        return state
+
+
+class GaussianStatePrediction(GaussianState):
+    """A predicted Gaussian state, with the ``transition_model`` that produced it and the
+    ``prior`` it came from (a weak link when a predictor made it, see the module's
+    notes)."""
+
+    prior = Link()
+
+    def __init__(self, state_vector, covar, timestamp=None, transition_model=None, prior=None):
+        super().__init__(state_vector, covar, timestamp)
+        self.transition_model = transition_model
+        self.prior = prior
+
+
+class GaussianMeasurementPrediction(GaussianState):
+    """A predicted measurement: mean ``state_vector`` (m, 1), innovation covariance
+    ``covar`` (m, m) and ``cross_covar`` (d, m) between state and measurement."""
+
+    def __init__(self, state_vector, covar, timestamp=None, cross_covar=None):
+        super().__init__(state_vector, covar, timestamp)
+        self.cross_covar = cross_covar
+
+
+class GaussianStateUpdate(GaussianState):
+    """An updated Gaussian state, with the ``hypothesis`` it was updated from."""
+
+    def __init__(self, state_vector, covar, hypothesis=None, timestamp=None):
+        super().__init__(state_vector, covar, timestamp)
+        self.hypothesis = hypothesis
+
+
+class GroundTruthState(State):
+    """A true state, with optional ``metadata``."""
+
+    def __init__(self, state_vector, timestamp=None, metadata=None):
+        super().__init__(state_vector, timestamp)
+        self.metadata = {} if metadata is None else dict(metadata)
+
+
+class Detection(State):
+    """A measurement ``state_vector`` (m, 1) at a ``timestamp``; its ``measurement_model``, if
+    set, is used by updaters instead of their own."""
+
+    def __init__(self, state_vector, timestamp=None, measurement_model=None, metadata=None):
+        super().__init__(state_vector, timestamp)
+        self.measurement_model = measurement_model
+        self.metadata = {} if metadata is None else dict(metadata)

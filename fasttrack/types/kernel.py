@@ -1,0 +1,143 @@
+"""Kernel particle states of the adaptive kernel Kalman filter, with their kernel covariance
+in factored form."""
+import numpy as np
+
+from .. import _validate
+from .._jit import akkf as _akkf
+from .._jit import gram as _gram
+from .base import check_timestamp
+
+
+class KernelParticleState:
+    """Particles with kernel weights and a kernel covariance (the adaptive kernel Kalman
+    filter's state).
+
+    Parameters
+    ----------
+    state_vector : (d, M) array_like
+        Particles, one column each; finite.
+    timestamp : datetime.datetime or float, optional
+    weight : (M,) array_like, optional
+        Kernel weights, finite (any sign; they need not sum to 1). Default 1/M each.
+    kernel_covar : (M, M) array_like, optional
+        Kernel covariance S, symmetric positive semi-definite. Default I/M.
+
+    Notes
+    -----
+    S is held in factored form (see ``fasttrack._jit.akkf``); ``kernel_covar`` builds the
+    (M, M) matrix on first access.
+    """
+
+    def __init__(self, state_vector, timestamp=None, weight=None, kernel_covar=None):
+        self.state_vector = _validate.state_array(state_vector, "state_vector")
+        m = self.state_vector.shape[1]
+        if weight is None:
+            self.weight = np.full(m, 1.0 / m)
+        else:
+            self.weight = _validate.finite_array(weight, "weight", 1).copy()
+            if self.weight.size != m:
+                raise ValueError(f"weight must have length {m}, got {self.weight.size}")
+        self.timestamp = check_timestamp(timestamp)
+        self._factors = isotropic_factors(m, 1.0 / m) if kernel_covar is None else \
+            factor_kernel_covar(kernel_covar, m)
+        self._kernel_covar = None
+
+    @classmethod
+    def _trusted(cls, state_vector, weight, factors, timestamp, **attributes):
+        """Build from arrays that a kernel produced (no validation, no copies)."""
+        state = object.__new__(cls)
+        state.__dict__.update(state_vector=state_vector, weight=weight, _factors=factors,
+                              timestamp=timestamp, _kernel_covar=None, **attributes)
+        return state
+
+    @property
+    def kernel_covar(self):
+        """The kernel covariance S (M, M)."""
+        if self._kernel_covar is None:
+            self._kernel_covar = dense_kernel_covar(self._factors)
+        return self._kernel_covar
+
+    @property
+    def mean(self):
+        """``X w`` (d, 1)."""
+        return (self.state_vector @ self.weight).reshape(-1, 1)
+
+    @property
+    def covar(self):
+        """``X S X^T`` (d, d)."""
+        return _akkf.sandwich(self.state_vector, *self._factors)
+
+    def __len__(self):
+        return self.state_vector.shape[1]
+
+    @property
+    def ndim(self):
+        """Number of state dimensions d."""
+        return self.state_vector.shape[0]
+
+    def __repr__(self):
+        return (f"{type(self).__name__}(ndim={self.ndim}, M={len(self)}, "
+                f"timestamp={self.timestamp!r})")
+
+
+def dense_kernel_covar(factors):
+    """The (M, M) kernel covariance ``S = Lt^T Lt + sigma Z Z^T``, ``Z = I - V1 V2^T``, of
+    factors ``(Lt, sigma, V1t, V2t)``, as ``sigma I + U B U^T`` with ``U = [Lt^T, V1, V2]``
+    (M, p): one NumPy matrix product, O(M^2 p)."""
+    lt, sigma, v1t, v2t = factors
+    k, r, m = lt.shape[0], v1t.shape[0], lt.shape[1]
+    u = np.vstack((lt, v1t, v2t))
+    middle = np.zeros((k + 2 * r, k + 2 * r))
+    middle[:k, :k] = np.eye(k)
+    middle[k:k + r, k:k + r] = sigma * (v2t @ v2t.T)
+    middle[k:k + r, k + r:] = middle[k + r:, k:k + r] = -sigma * np.eye(r)
+    covar = u.T @ (middle @ u)
+    covar[np.diag_indices(m)] += sigma
+    return covar
+
+
+def isotropic_factors(m, sigma):
+    """Factors of S = sigma I (M, M)."""
+    empty = np.empty((0, m))
+    return empty, sigma, empty, empty
+
+
+def factor_kernel_covar(kernel_covar, m):
+    """Factors of a user's S: its pivoted Cholesky factor, checked to reproduce it."""
+    s = _validate.covariance(kernel_covar, "kernel_covar", m)
+    lt = _gram.factor(_gram.MATRIX, np.empty(0), np.zeros(0, dtype=np.bool_), s)
+    scale = max(np.abs(s).max(), np.finfo(float).tiny)
+    if np.abs(lt.T @ lt - s).max() > 1e-8 * scale:
+        raise ValueError("kernel_covar must be positive semi-definite")
+    empty = np.empty((0, m))
+    return np.ascontiguousarray(lt), 0.0, empty, empty
+
+
+class KernelParticleStatePrediction(KernelParticleState):
+    """A predicted :class:`KernelParticleState`, with the ``transition_model`` that produced
+    it."""
+
+    def __init__(self, state_vector, timestamp=None, weight=None, kernel_covar=None,
+                 transition_model=None):
+        super().__init__(state_vector, timestamp, weight, kernel_covar)
+        self.transition_model = transition_model
+
+
+class KernelParticleStateMeasurementPrediction(KernelParticleState):
+    """Predicted measurements (m, M) of a :class:`KernelParticleState`'s particles, with its
+    weights and kernel covariance."""
+
+
+class KernelParticleStateUpdate(KernelParticleState):
+    """An updated :class:`KernelParticleState`, with the ``hypothesis`` it came from and the
+    ``proposal`` (d, M) particles that the next prediction propagates."""
+
+    def __init__(self, state_vector, timestamp=None, weight=None, kernel_covar=None,
+                 hypothesis=None, proposal=None):
+        super().__init__(state_vector, timestamp, weight, kernel_covar)
+        self.hypothesis = hypothesis
+        self.proposal = None if proposal is None else _validate.state_array(proposal,
+                                                                              "proposal")
+        if self.proposal is not None and self.proposal.shape != self.state_vector.shape:
+            raise ValueError(f"proposal must have shape {self.state_vector.shape}, "
+                             f"got {self.proposal.shape}")
