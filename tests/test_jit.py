@@ -1,4 +1,5 @@
-"""The kernel layer: compilation options, numeric helpers, thread-count independence."""
+"""The kernel layer: the decorator factory and its options, mirrors, the compile cache, threads,
+serial builds, warmup and kernels run with the JIT off."""
 import importlib
 import json
 import os
@@ -14,7 +15,6 @@ from numba.core.registry import CPUDispatcher
 
 import fasttrack
 import fasttrack._jit as jit_pkg
-from fasttrack._jit import numeric
 
 import reference
 
@@ -47,73 +47,6 @@ def test_no_numba_dispatchers_outside_jit():
     outside = [name for name, _ in _dispatchers(fasttrack)
                if not name.startswith("fasttrack._jit.")]
     assert outside == []
-
-
-def test_fast_exp_within_one_ulp_over_the_whole_range():
-    rng = np.random.default_rng(0)
-    x = np.concatenate([np.linspace(-760, 720, 200_001), rng.normal(0, 30, 100_000),
-                        [0.0, -0.0, 709.78, -708.4, -745.13, -745.14, np.inf, -np.inf, np.nan]])
-    got = np.array([numeric.fast_exp(v) for v in x[:2000]] +
-                   list(_vector_exp(x[2000:])))
-    with np.errstate(over="ignore"):
-        want = reference.fast_exp(x)
-    assert np.array_equal(np.isnan(got), np.isnan(want))
-    assert np.array_equal(got[np.isinf(want)], want[np.isinf(want)])
-    assert np.all(got[want == 0] == 0)
-    finite = np.isfinite(want) & (want > 0)
-    ulps = np.abs(got[finite] - want[finite]) / np.spacing(want[finite])
-    assert ulps.max() <= 1.0
-
-
-def _vector_exp(x):
-    out = np.empty_like(x)
-    fasttrack._jit.weights.relative_weights(x, 0.0, out)
-    return out
-
-
-def test_fast_log_within_three_ulp_on_positive_normals():
-    rng = np.random.default_rng(1)
-    x = np.concatenate([rng.random(50_000), np.exp(rng.uniform(-700, 700, 50_000)),
-                        [1.0, 2.0, 0.5, 2.2250738585072014e-308, 1.7976931348623157e308,
-                         1 - 2**-53, 1 + 2**-52]])
-    got = np.array([numeric.fast_log(v) for v in x])
-    want = reference.fast_log(x)
-    assert got[-7] == 0.0
-    nonzero = want != 0
-    ulps = np.abs(got - want)[nonzero] / np.spacing(np.abs(want[nonzero]))
-    assert ulps.max() <= 3.0
-
-
-def test_uniform_stream_matches_its_mirror_and_is_uniform():
-    key = 0x1234_5678_9ABC_DEF
-    counters = np.arange(100_000)
-    got = np.array([numeric.uniform(key, int(c)) for c in counters[:1000]])
-    want = reference.uniform(key, counters)
-    assert np.array_equal(got, want[:1000])
-    assert want.min() >= 0.0 and want.max() < 1.0
-    # chi-square over 100 equal bins: 99 dof, reject far above the 99.99th percentile (~150)
-    counts = np.bincount((want * 100).astype(int), minlength=100)
-    chi2 = ((counts - 1000) ** 2 / 1000).sum()
-    assert chi2 < 160
-    # neighbouring counters are uncorrelated
-    assert abs(np.corrcoef(want[:-1], want[1:])[0, 1]) < 0.02
-
-
-def test_cumulate_integer_is_exact_and_float_close():
-    rng = np.random.default_rng(3)
-    ints = rng.integers(0, 5, 100_003)
-    got = ints.copy()
-    numeric.cumulate(got)
-    want = ints.copy()
-    reference.cumulate(want)
-    assert np.array_equal(got, want)
-    floats = rng.random(100_003)
-    got = floats.copy()
-    numeric.cumulate(got)
-    want = floats.copy()
-    reference.cumulate(want)
-    np.testing.assert_allclose(got, want, rtol=1e-12)
-    assert np.all(np.diff(got) >= 0)
 
 
 _THREAD_SCRIPT = r"""
@@ -192,16 +125,6 @@ def test_public_names_are_importable_from_the_package_and_their_module():
         if name == "warmup":
             continue
         assert any(getattr(module, name, None) is obj for module in domains), name
-
-
-def test_chunking_mirrors():
-    for n in (0, 1, 8191, 8192, 10**6, 10**9):
-        k = numeric.n_chunks(n)
-        assert k == reference.n_chunks(n) and 1 <= k <= 4096
-        bounds = [numeric.chunk_bounds(c, k, n) for c in range(k)]
-        assert bounds == [reference.chunk_bounds(c, k, n) for c in range(k)]
-        assert bounds[0][0] == 0 and bounds[-1][1] == n
-        assert all(a[1] == b[0] for a, b in zip(bounds, bounds[1:]))
 
 
 _SMALL_KERNEL = "import fasttrack._jit.numeric as n; print(n.wrap_angle(7.0))"
