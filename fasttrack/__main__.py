@@ -1,16 +1,58 @@
-"""Command line: ``python -m fasttrack demo [--out DIR] [--quick]``."""
+"""Command line: ``python -m fasttrack {demo,warmup} ...`` (``--help`` for each)."""
 import argparse
+import difflib
 import sys
 
 
+#: Options users reach for that go by another name here.
+_SYNONYMS = {"--fast": "--quick", "--short": "--quick", "--small": "--quick",
+             "--output": "--out", "--dir": "--out", "--noplots": "--no-plots"}
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser that suggests the nearest option for a mistyped one."""
+
+    def error(self, message):
+        if message.startswith("unrecognized arguments:"):
+            known = _options(self)
+            for word in message.split(":", 1)[1].split():
+                word = word.split("=")[0]
+                close = [_SYNONYMS[word]] if word in _SYNONYMS else \
+                    difflib.get_close_matches(word, known, n=1, cutoff=0.6)
+                if close:
+                    message += f" (did you mean {close[0]}?)"
+        super().error(message)
+
+
+def _options(parser):
+    """Every option string of ``parser`` and of its sub-commands."""
+    found = []
+    for action in parser._actions:
+        found += action.option_strings
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                found += _options(sub)
+    return found
+
+
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m fasttrack")
-    commands = parser.add_subparsers(dest="command", required=True)
-    demo = commands.add_parser("demo", help="run the tutorial scenarios and time them")
+    from ._version import __version__
+    parser = _Parser(prog="python -m fasttrack",
+                     description="fasttrack: fast, trustworthy tracking and state estimation "
+                                 "(Stone Soup's classes, compiled kernels).")
+    parser.add_argument("--version", action="version", version=f"fasttrack {__version__}")
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    demo = commands.add_parser(
+        "demo", help="run the tutorial scenarios and time them",
+        description="Track the four tutorial scenarios (resamplers, particle filter, EKF, "
+                    "AKKF), print position RMSE and time per step against Stone Soup, and "
+                    "write PNG plots. On 2 cores: --quick about 50 s the first time "
+                    "(30 s of it compiling), 6 s once compiled; the full demo a few minutes.")
     demo.add_argument("--quick", action="store_true",
                       help="smaller sizes and fewer repeats (under a minute)")
     demo.add_argument("--out", default="fasttrack-demo",
                       help="folder for the PNG plots (default: ./fasttrack-demo)")
+    demo.add_argument("--no-plots", action="store_true", help="write no plots")
     warm = commands.add_parser(
         "warmup", help="compile every kernel family into the cache now (for a container "
                        "image or a CI cache)",
@@ -22,10 +64,12 @@ def main(argv=None):
                       help="some of: resamplers particle_filter kalman batch adaptive_kernel")
     warm.add_argument("--processes", type=int, default=None,
                       help="worker processes compiling at once (default: the cores)")
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        commands.choices[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
     if args.command == "demo":
         from .demo import run
-        run(quick=args.quick, out=args.out)
+        run(quick=args.quick, out=None if args.no_plots else args.out)
     elif args.command == "warmup":
         return _warmup(args)
     return 0

@@ -215,12 +215,16 @@ def run(quick=False, out="fasttrack-demo"):
     cores, compilation included); ``out`` is the folder of the PNG plots (None: no plots,
     as without matplotlib)."""
     start = time.perf_counter()
-    ft.tune_allocator()
-    print(f"fasttrack {ft.__version__}: compiling kernels (cached after the first run)...")
+    print(f"fasttrack {ft.__version__}: compiling kernels (cached after the first run)...",
+          flush=True)
     families = ["kalman", "adaptive_kernel", "resamplers", "particle_filter"]
     if not quick:
         families.append("batch")
-    print(f"  ready in {ft.warmup(families, processes=2):.1f} s\n")
+
+    def ready(family, seconds):
+        print(f"  {family:<16} ready after {time.perf_counter() - start:5.1f} s", flush=True)
+
+    print(f"  all ready in {ft.warmup(families, processes=2, report=ready):.1f} s\n")
     plots = None
     if out is not None:
         try:

@@ -6,13 +6,18 @@ nothing is shown. Positions are the state components ``mapping`` (default x = 0,
 """
 import numpy as np
 
+try:
+    import matplotlib.figure
+except ImportError as error:
+    raise ImportError("fasttrack.plotting needs matplotlib: pip install 'fasttrack[plot]'") \
+        from error
+
 from .models.measurement import CartesianToBearingRange
 
 
 def _axes(ax):
     if ax is not None:
         return ax
-    import matplotlib.figure
     figure = matplotlib.figure.Figure(figsize=(7, 5.5))
     return figure.add_subplot()
 
@@ -110,7 +115,10 @@ def plot_resampling(weights, points=None, ax=None):
 
 
 def save(ax, path, legend=True, title=None):
-    """Write the axes' figure to ``path`` (PNG by extension); returns the path."""
+    """Write the axes' figure to ``path`` (PNG by extension; its folder is created if
+    needed); returns the path."""
+    import pathlib
+    pathlib.Path(path).parent.mkdir(parents=True, exist_ok=True)
     if title:
         ax.set_title(title)
     if legend and ax.get_legend_handles_labels()[0]:

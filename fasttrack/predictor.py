@@ -6,6 +6,7 @@ from .core import akkf as _akkf
 from .core import kalman as _kalman
 from .core import particle as _particle
 from .kernel import as_kernel
+from .models.base import check_model
 from .models.transition import TransitionModel
 from .types import (GaussianState, GaussianStatePrediction, KernelParticleState,
                     KernelParticleStatePrediction, ParticleState, ParticleStatePrediction,
@@ -33,9 +34,7 @@ class ParticlePredictor:
     """
 
     def __init__(self, transition_model, rng=None):
-        if not isinstance(transition_model, TransitionModel):
-            raise TypeError(f"transition_model must be a TransitionModel, "
-                            f"got {type(transition_model).__name__}")
+        check_model(transition_model, TransitionModel, "transition_model")
         self.transition_model = transition_model
         self.rng = _random.check_rng(rng)
 
@@ -85,9 +84,7 @@ class KalmanPredictor:
     """
 
     def __init__(self, transition_model):
-        if not isinstance(transition_model, TransitionModel):
-            raise TypeError(f"transition_model must be a TransitionModel, "
-                            f"got {type(transition_model).__name__}")
+        check_model(transition_model, TransitionModel, "transition_model")
         self._check_model(transition_model)
         self.transition_model = transition_model
 
@@ -158,9 +155,7 @@ class AdaptiveKernelKalmanPredictor:
     """
 
     def __init__(self, transition_model, kernel=None, lambda_predictor=1e-3):
-        if not isinstance(transition_model, TransitionModel):
-            raise TypeError(f"transition_model must be a TransitionModel, "
-                            f"got {type(transition_model).__name__}")
+        check_model(transition_model, TransitionModel, "transition_model")
         self.transition_model = transition_model
         self.kernel = as_kernel(kernel)
         self.lambda_predictor = _validate.positive(lambda_predictor, "lambda_predictor")

@@ -6,6 +6,7 @@ from . import random as _random
 from .core import akkf as _akkf
 from .core import kalman as _kalman
 from .core import particle as _particle
+from .models.base import check_model
 from .models.measurement import LinearGaussian, MeasurementModel
 from .kernel import as_kernel
 from .resampler import Resampler
@@ -21,9 +22,7 @@ def _measurement_model(hypothesis, default):
     if model is None:
         raise ValueError("no measurement model: give the updater one or set the "
                          "detection's measurement_model")
-    if not isinstance(model, MeasurementModel):
-        raise TypeError(f"measurement model must be a MeasurementModel, "
-                        f"got {type(model).__name__}")
+    check_model(model, MeasurementModel, "measurement model")
     return model
 
 
@@ -48,9 +47,8 @@ class ParticleUpdater:
     """
 
     def __init__(self, measurement_model=None, resampler=None):
-        if measurement_model is not None and not isinstance(measurement_model, MeasurementModel):
-            raise TypeError(f"measurement_model must be a MeasurementModel, "
-                            f"got {type(measurement_model).__name__}")
+        if measurement_model is not None:
+            check_model(measurement_model, MeasurementModel, "measurement_model")
         if resampler is not None and not isinstance(resampler, Resampler):
             raise TypeError(f"resampler must be a Resampler, got {type(resampler).__name__}")
         self.measurement_model = measurement_model
@@ -218,9 +216,7 @@ class ExtendedKalmanUpdater(KalmanUpdater):
         self.jacobian = _kalman.check_jacobian(jacobian)
 
     def _check_model(self, model):
-        if not isinstance(model, MeasurementModel):
-            raise TypeError(f"measurement model must be a MeasurementModel, "
-                            f"got {type(model).__name__}")
+        check_model(model, MeasurementModel, "measurement model")
 
 
 class AdaptiveKernelKalmanUpdater:
@@ -241,9 +237,8 @@ class AdaptiveKernelKalmanUpdater:
     """
 
     def __init__(self, measurement_model=None, kernel=None, lambda_updater=1e-3, rng=None):
-        if measurement_model is not None and not isinstance(measurement_model, MeasurementModel):
-            raise TypeError(f"measurement_model must be a MeasurementModel, "
-                            f"got {type(measurement_model).__name__}")
+        if measurement_model is not None:
+            check_model(measurement_model, MeasurementModel, "measurement_model")
         self.measurement_model = measurement_model
         self.kernel = as_kernel(kernel)
         self.lambda_updater = _validate.positive(lambda_updater, "lambda_updater")

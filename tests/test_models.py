@@ -205,3 +205,14 @@ def test_bad_model_calls():
         sensor.logpdf([np.nan, 2.0], np.zeros(4))
     with pytest.raises(ValueError, match="state contains NaN"):
         sensor.function(np.full(4, np.nan))
+
+
+@against_stonesoup
+def test_a_stone_soup_model_in_a_native_class_points_to_the_drop_ins():
+    with pytest.raises(TypeError, match=r"transition_model must be a TransitionModel of "
+                                        r"fasttrack.models, got stonesoup\..*fasttrack.stonesoup"):
+        ft.ParticlePredictor(ss_linear.ConstantVelocity(0.1))
+    sensor = ss_nonlinear.CartesianToBearingRange(ndim_state=4, mapping=(0, 2),
+                                                  noise_covar=np.eye(2))
+    with pytest.raises(TypeError, match="measurement_model must be a MeasurementModel.*drop-in"):
+        ft.ParticleUpdater(sensor)

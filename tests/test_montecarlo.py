@@ -4,6 +4,7 @@ import datetime
 import functools
 import os
 import signal
+import subprocess
 import sys
 import time
 
@@ -233,9 +234,10 @@ def test_a_batch_that_always_kills_its_worker_fails_its_runs():
             os.kill(os.getpid(), signal.SIGKILL)
         return pf_scenario(seed)
 
-    with pytest.warns(RuntimeWarning, match="4 of 4 runs failed"):
-        results = mc.run_trials(always_killing, make_pf, 4, seed=1, processes=2,
-                                max_retries=1, progress=False)
+    with pytest.raises(RuntimeError, match="all 4 runs failed .* run 0: WorkerLost") as error:
+        mc.run_trials(always_killing, make_pf, 4, seed=1, processes=2, max_retries=1,
+                      progress=False)
+    results = error.value.results
     assert [f.run for f in results.failures] == [0, 1, 2, 3]
     assert all("died 2 times" in f.error for f in results.failures)
 
@@ -376,3 +378,40 @@ def test_a_position_mapping_outside_the_states_is_an_error_up_front():
         mc.run_trials(pf_scenario, make_pf, 3, seed=1, position_mapping=(0, 5), progress=False)
     with pytest.raises(ValueError, match="position_mapping"):
         mc.run_trial(pf_scenario, make_pf, mc.run_seeds(1, 1)[0], position_mapping=(0, 5))
+
+
+_UNGUARDED = """
+import functools
+import fasttrack as ft
+from fasttrack.scenarios import particle_filter_tutorial
+
+def make_filter(scenario, rng):
+    return (ft.ParticlePredictor(scenario.transition_model, rng=rng),
+            ft.ParticleUpdater(scenario.measurement_model, ft.SystematicResampler(rng=rng)))
+
+scenario = functools.partial(particle_filter_tutorial, 50, steps=3)
+{call}
+"""
+_CALL = "print(ft.run_trials(scenario, make_filter, 4, seed=1, processes=2, progress=False))"
+
+
+@pytest.mark.parametrize("guarded", [False, True])
+def test_a_script_without_the_main_guard_is_told_so(tmp_path, guarded):
+    call = f'if __name__ == "__main__":\n    {_CALL}' if guarded else _CALL
+    script = tmp_path / "trials.py"
+    script.write_text(_UNGUARDED.format(call=call))
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          timeout=600)
+    if guarded:
+        assert done.returncode == 0, done.stderr[-2000:]
+        assert "4 of 4 runs completed" in done.stdout
+    else:
+        assert done.returncode == 1
+        assert "outside an 'if __name__ == \"__main__\":' block" in done.stderr
+        assert "processes=1" in done.stderr and "WorkerLost" not in done.stderr
+
+
+def test_one_process_needs_nothing_picklable():
+    local = lambda seed: pf_scenario(seed)  # noqa: E731 (a lambda cannot be pickled)
+    results = mc.run_trials(local, make_pf, 2, seed=3, processes=1, progress=False)
+    assert not results.failures and len(results.per_run()) == 2

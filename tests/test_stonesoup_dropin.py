@@ -415,3 +415,11 @@ def test_a_changed_model_parameter_is_seen():
     sensor.noise_covar[0, 0] = 4.0
     changed = fast_model(sensor)
     assert changed is not first and changed.noise_covar[0, 0] == 4.0
+
+
+def test_resampled_weights_are_stone_soups_to_the_bit():
+    n = next(k for k in range(2, 1000) if np.log(1 / k) != -np.log(k))
+    for resampler in (fss.SystematicResampler(), fss.StratifiedResampler(),
+                      fss.MultinomialResampler(), fss.ResidualResampler()):
+        out = resampler.resample(_particles(n))
+        assert np.array_equal(np.asarray(out.log_weight, float), np.full(n, np.log(1 / n)))

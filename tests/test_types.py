@@ -270,3 +270,18 @@ def test_run_filter_is_the_loop_a_user_writes():
     with pytest.raises(TypeError, match=r"detections\[1\] must be a Detection, got ndarray"):
         ft.run_filter(predictor, updater, scenario.prior,
                       [scenario.detections[0], np.zeros(2)])
+
+
+def test_position_rmse_pairs_by_order_or_by_timestamp():
+    from fasttrack.metrics import position_rmse
+    truth = [ft.GroundTruthState([k, 0, 0, 0], timestamp=float(k)) for k in range(5)]
+    track = [ft.GaussianState([k + 1, 0, 0, 0], np.eye(4), timestamp=float(k))
+             for k in (1, 3)]
+    assert position_rmse(track, truth, pair="timestamp") == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="pair='timestamp' matches them by time"):
+        position_rmse(track, truth)
+    with pytest.raises(ValueError, match=r"truth has no state at the track's timestamps \[9.0\]"):
+        position_rmse([ft.GaussianState([0, 0, 0, 0], np.eye(4), timestamp=9.0)], truth,
+                      pair="timestamp")
+    with pytest.raises(ValueError, match="pair must be"):
+        position_rmse(track, truth, pair="time")

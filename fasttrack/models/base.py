@@ -13,6 +13,19 @@ from .._jit import status as _status
 from .._jit.user import output_status
 
 
+def check_model(model, kind, name):
+    """``model`` if it is an instance of ``kind`` (TransitionModel or MeasurementModel), else
+    a TypeError naming ``name``, pointing Stone Soup's models to :mod:`fasttrack.stonesoup`."""
+    if isinstance(model, kind):
+        return model
+    hint = ""
+    if type(model).__module__.split(".")[0] == "stonesoup":
+        hint = ("; for Stone Soup's models use the drop-in classes of fasttrack.stonesoup, "
+                "which take them")
+    raise TypeError(f"{name} must be a {kind.__name__} of fasttrack.models, got "
+                    f"{type(model).__module__}.{type(model).__name__}{hint}")
+
+
 def state_columns(state, name="state"):
     """The (d, N) float64 array of a state object (anything with ``state_vector``) or an
     array_like: a (d,) vector becomes one column."""

@@ -9,7 +9,7 @@ import numpy as np
 
 from .._validate import count
 from .metrics import METRICS, _check_mapping, _check_mapping_fits, _check_metrics, _row_dtype
-from .workers import _client, _local_cores, _run_dask, _run_local, _serialise
+from .workers import _client, _local_cores, _run_dask, _run_local, _serialise, check_main_guard
 from .trial import _children, _root_seed
 from .results import TrialResults
 
@@ -93,6 +93,14 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client
     TrialResults
         Failed runs are in ``results.failures`` with their seed and error (and a warning
         says how many); the other runs complete.
+
+    Raises
+    ------
+    RuntimeError
+        If every run failed (with the first failure's error; the exception's ``results``
+        holds them all), or if worker processes would
+        re-run the calling script: a script that calls ``run_trials`` with worker processes
+        must do so under ``if __name__ == "__main__":``.
     """
     n_runs = count(n_runs, "n_runs")
     metrics = _check_metrics(metrics)
@@ -106,8 +114,11 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client
         _check_mapping_fits(scenario(seed=_children(_children(root, 1)[0], 2)[0]), mapping)
         processes = _local_cores() if processes is None else count(processes, "processes")
         batches = _batches(root, n_runs, batch_size, processes)
-        payload = _serialise(scenario, make_filter, metrics, mapping,
-                             None if processes == 1 else 1)
+        if processes == 1:  # in this process: nothing to pickle
+            payload = (scenario, make_filter, metrics, mapping, None)
+        else:
+            check_main_guard()
+            payload = _serialise(scenario, make_filter, metrics, mapping, 1)
         return _collect(_run_local(payload, batches, processes, max_retries), root, n_runs,
                         metrics, progress)
     with _client(client) as connected:
@@ -142,8 +153,15 @@ def _collect(results, root, n_runs, metrics, progress):
     table = np.concatenate(tables) if tables else np.zeros(0, _row_dtype(metrics))
     table = table[np.lexsort((table["step"], table["run"]))]
     failures.sort(key=lambda f: f.run)
+    results = TrialResults(table, failures, root, n_runs)
+    if failures and len(failures) == n_runs:
+        first = failures[0]
+        error = RuntimeError(f"all {n_runs} runs failed (see the error's results.failures); "
+                             f"the first, run {first.run}: {first.error}\n{first.traceback}")
+        error.results = results
+        raise error
     if failures:
         warnings.warn(f"{len(failures)} of {n_runs} runs failed (first: run {failures[0].run}, "
                       f"{failures[0].error}); see results.failures", RuntimeWarning,
                       stacklevel=3)
-    return TrialResults(table, failures, root, n_runs)
+    return results

@@ -93,9 +93,12 @@ def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping
 def _run_batch(payload, runs):
     """Run ``runs`` (index, seed) pairs in this process: the task of a worker.
 
-    ``payload`` is the pickled (scenario, make_filter, metrics, position_mapping, threads).
+    ``payload`` is (scenario, make_filter, metrics, position_mapping, threads), pickled for
+    another process.
     Returns the rows of the completed runs and the failures."""
-    scenario, make_filter, metrics, mapping, threads = pickle.loads(payload)
+    if isinstance(payload, bytes):
+        payload = pickle.loads(payload)
+    scenario, make_filter, metrics, mapping, threads = payload
     if threads is not None:
         import numba
         from ..threads import set_threads

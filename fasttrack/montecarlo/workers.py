@@ -1,11 +1,13 @@
 """Where batches of runs execute: this process, a pool of local worker processes kept between
 calls, or a Dask cluster."""
+import ast
 import collections
 import contextlib
 import multiprocessing
 import multiprocessing.connection
 import os
 import pickle
+import sys
 import traceback
 
 from .._validate import count
@@ -28,7 +30,48 @@ def _serialise(scenario, make_filter, metrics, mapping, threads):
     except Exception as error:
         raise TypeError(f"scenario and make_filter must be picklable to run in other "
                         f"processes (define them at module level, install cloudpickle, or "
-                        f"pass processes=1): {error}") from error
+                        f"pass processes=1 to run in this process): {error}") from error
+
+
+def check_main_guard():
+    """Raise RuntimeError if this call comes from top-level code of a script that is not
+    under ``if __name__ == "__main__":``: spawned worker processes import the script again
+    and would run the call again, and die starting processes of their own."""
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if path is None or not str(path).endswith(".py") or not os.path.exists(path):
+        return  # an interactive session, python -c, a notebook: nothing is re-imported
+    frame = sys._getframe(1)
+    while frame is not None and not (frame.f_globals is vars(main)
+                                     and frame.f_code.co_name == "<module>"):
+        frame = frame.f_back
+    if frame is None:
+        return
+    line = frame.f_lineno
+    try:
+        tree = ast.parse(open(path).read())
+    except (OSError, SyntaxError):
+        return
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and _is_main_test(node.test) \
+                and node.body[0].lineno <= line <= node.body[-1].end_lineno:
+            return
+    raise RuntimeError(
+        f"run_trials with worker processes was called from the top level of {path} (line "
+        f"{line}) outside an 'if __name__ == \"__main__\":' block: each worker process "
+        f"imports the script again and would run it again. Put the script's top-level work "
+        f"under that guard, or pass processes=1 to run in this process.")
+
+
+def _is_main_test(test):
+    """Whether an ``if`` test is ``__name__ == "__main__"`` (either way round)."""
+    if not (isinstance(test, ast.Compare) and len(test.ops) == 1
+            and isinstance(test.ops[0], ast.Eq)):
+        return False
+    sides = [test.left, test.comparators[0]]
+    names = [s for s in sides if isinstance(s, ast.Name) and s.id == "__name__"]
+    values = [s for s in sides if isinstance(s, ast.Constant) and s.value == "__main__"]
+    return len(names) == 1 and len(values) == 1
 
 
 def _local_cores():

@@ -47,7 +47,8 @@ class _Scheme:
             particles = ParticleState(None, particle_list=particles)
         index = _resampling.draw(particles.log_weight, nparts, self._scheme(), self._residual,
                                  global_rng(), name="particles.log_weight")
-        return _indexed(particles, index, np.full(index.size, -np.log(index.size)))
+        # log(1/N) as Stone Soup stores it (-log N can differ in the last bit)
+        return _indexed(particles, index, np.full(index.size, np.log(1 / index.size)))
 
     def _scheme(self):
         return self._method
