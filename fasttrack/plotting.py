@@ -27,20 +27,23 @@ def _positions(states, mapping):
                      for s in states]).reshape(-1, 2)
 
 
-def plot_ground_truth(truth, mapping=(0, 2), ax=None, **style):
-    """The true path as a dashed line."""
+def plot_ground_truth(truth, mapping=(0, 2), ax=None, units="m", **style):
+    """The true path as a dashed line; the axes are labelled with the position components
+    and their ``units``."""
     ax = _axes(ax)
     xy = _positions(truth, mapping)
     ax.plot(xy[:, 0], xy[:, 1], **{"linestyle": "--", "color": "k", "label": "ground truth",
                                    **style})
-    ax.set_xlabel(f"state[{mapping[0]}]")
-    ax.set_ylabel(f"state[{mapping[1]}]")
+    ax.set_xlabel(f"x = state[{mapping[0]}] ({units})")
+    ax.set_ylabel(f"y = state[{mapping[1]}] ({units})")
     return ax
 
 
 def plot_detections(detections, measurement_model=None, ax=None, **style):
     """Detections mapped back to the position plane: bearing-range detections through the
-    model's ``inverse_function``; bearing-only ones as rays from the sensor."""
+    model's ``inverse_function``; bearing-only ones as rays from the sensor, three times as
+    long as the distance to the far corner of the axes' current view, and left out of the
+    axes' autoscaling (so they never stretch the view of what else is drawn)."""
     ax = _axes(ax)
     points, rays = [], []
     for detection in detections:
@@ -56,14 +59,18 @@ def plot_detections(detections, measurement_model=None, ax=None, **style):
         ax.scatter(xy[:, 0], xy[:, 1], **{"marker": "o", "facecolors": "none",
                                           "edgecolors": "tab:gray", "label": "detections",
                                           **style})
-    for i, (model, bearing) in enumerate(rays):
-        origin = model._offset[:2]
-        reach = max(np.abs(ax.get_xlim()).max(), np.abs(ax.get_ylim()).max(), 1.0) * 2
+    corners = np.array([[x, y] for x in ax.get_xlim() for y in ax.get_ylim()])
+    segments = []
+    for model, bearing in rays:
+        origin = np.ravel(model.translation_offset)[:2]
+        reach = 3 * (np.linalg.norm(corners - origin, axis=1).max() or 1.0)
         angle = bearing + model.rotation_offset.ravel()[2]
-        end = origin + reach * np.array([np.cos(angle), np.sin(angle)])
-        ax.plot([origin[0], end[0]], [origin[1], end[1]],
-                **{"color": "tab:blue", "alpha": 0.25, "linewidth": 0.8,
-                   "label": "bearings" if i == 0 else None, **style})
+        segments.append([origin, origin + reach * np.array([np.cos(angle), np.sin(angle)])])
+    if segments:
+        from matplotlib.collections import LineCollection
+        ax.add_collection(LineCollection(segments, **{
+            "color": "tab:blue", "alpha": 0.25, "linewidth": 0.8, "label": "bearings",
+            **style}), autolim=False)
     return ax
 
 
@@ -79,19 +86,22 @@ def _ellipse(ax, mean, covar, **style):
 def plot_track(track, mapping=(0, 2), ax=None, particles=False, uncertainty=False,
                label="track", **style):
     """A track's means as a line; with ``particles``, every state's particle cloud; with
-    ``uncertainty``, one-sigma ellipses of the position covariance."""
+    ``uncertainty``, the one-sigma ellipse of each state's position covariance (39 % of the
+    probability in 2-D)."""
     ax = _axes(ax)
     xy = _positions(track, mapping)
     line, = ax.plot(xy[:, 0], xy[:, 1], **{"marker": ".", "label": label, **style})
     index = list(mapping)
-    for state in track:
+    for k, state in enumerate(track):
         if particles and getattr(state, "state_vector", np.empty((0, 0))).shape[1] > 1:
             cloud = np.asarray(state.state_vector)[index]
-            ax.scatter(cloud[0], cloud[1], s=1, alpha=0.15, color=line.get_color())
+            ax.scatter(cloud[0], cloud[1], s=1, alpha=0.15, color=line.get_color(),
+                       label=f"{label} particles" if k == 0 else None)
         if uncertainty:
             covar = np.asarray(state.covar)[np.ix_(index, index)]
             mean = np.ravel(getattr(state, "mean", state.state_vector))[index]
-            _ellipse(ax, mean, covar, edgecolor=line.get_color())
+            _ellipse(ax, mean, covar, edgecolor=line.get_color(),
+                     label=f"{label} 1-sigma ellipses" if k == 0 else None)
     return ax
 
 

@@ -67,3 +67,31 @@ def test_plotting_errors():
         measurement_model = ft.LinearGaussian(2, (0,), np.eye(1))
     with pytest.raises(ValueError, match="cannot map LinearGaussian"):
         plotting.plot_detections([Unknown()])
+
+
+def test_bearing_rays_keep_the_view_of_the_track_and_everything_is_labelled():
+    scenario = adaptive_kernel_tutorial(30, steps=10)
+    predictor = ft.AdaptiveKernelKalmanPredictor(scenario.transition_model)
+    updater = ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, rng=1)
+    track = ft.run_filter(predictor, updater, scenario.prior, scenario.detections)
+    ax = plotting.plot_ground_truth(scenario.truth)
+    view = ax.get_xlim(), ax.get_ylim()
+    plotting.plot_detections(scenario.detections, ax=ax)
+    assert (ax.get_xlim(), ax.get_ylim()) == view  # the rays do not stretch the axes
+    corners = np.array([[x, y] for x in view[0] for y in view[1]])
+    origin = np.ravel(scenario.measurement_model.translation_offset)[:2]
+    (rays,) = ax.collections
+    for ends in rays.get_segments():
+        assert np.allclose(ends[0], origin)
+        assert np.linalg.norm(ends[1] - origin) == pytest.approx(
+            3 * np.linalg.norm(corners - origin, axis=1).max())
+    plotting.plot_track(track, ax=ax, particles=True)
+    labels = ax.get_legend_handles_labels()[1]
+    assert labels == ["ground truth", "bearings", "track", "track particles"]
+    assert ax.get_xlabel() == "x = state[0] (m)" and ax.get_ylabel() == "y = state[2] (m)"
+    ekf = extended_kalman_tutorial(steps=4)
+    ekf_track = ft.run_filter(ft.ExtendedKalmanPredictor(ekf.transition_model),
+                              ft.ExtendedKalmanUpdater(ekf.measurement_model), ekf.prior,
+                              ekf.detections)
+    ax = plotting.plot_track(ekf_track, uncertainty=True)
+    assert "track 1-sigma ellipses" in ax.get_legend_handles_labels()[1]

@@ -49,7 +49,7 @@ def test_guide_monte_carlo_runs():
     import re
     guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()
     code = re.search(r"## Monte Carlo evaluation\n.*?```python\n(.*?)```", guide, re.S).group(1)
-    namespace = {}
+    namespace = {"__name__": "__main__"}  # the snippet guards its work
     exec(compile(code, "guide monte carlo", "exec"), namespace)
     results = namespace["results"]
     assert not results.failures and len(namespace["rmse_by_step"]) == 21
