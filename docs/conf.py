@@ -1,13 +1,15 @@
-"""Sphinx configuration of the API reference: ``python -m sphinx -W -b html docs docs/_build``."""
+"""Sphinx configuration of the documentation (the Markdown guides with MyST, and the API
+reference): ``python -m sphinx -W -b html docs docs/_build/html``."""
 import fasttrack
 
 project = "fasttrack"
 release = version = fasttrack.__version__
-extensions = ["sphinx.ext.autodoc", "sphinx.ext.napoleon"]
+extensions = ["sphinx.ext.autodoc", "sphinx.ext.napoleon", "myst_parser"]
+myst_heading_anchors = 3
 napoleon_google_docstring = False
 napoleon_numpy_docstring = True
 autodoc_default_options = {"members": True, "show-inheritance": True}
 autodoc_member_order = "bysource"
-exclude_patterns = ["_build", "examples", "*.md"]
+exclude_patterns = ["_build", "examples"]
 html_theme = "alabaster"
 nitpicky = False

@@ -415,3 +415,16 @@ def test_one_process_needs_nothing_picklable():
     local = lambda seed: pf_scenario(seed)  # noqa: E731 (a lambda cannot be pickled)
     results = mc.run_trials(local, make_pf, 2, seed=3, processes=1, progress=False)
     assert not results.failures and len(results.per_run()) == 2
+
+
+def test_compilation_is_not_timed_as_a_step():
+    calls = []
+
+    def counting(scenario, rng):
+        calls.append(1)
+        return make_pf(scenario, rng)
+
+    mc.run_trials(pf_scenario, counting, 3, seed=2, processes=1, progress=False)
+    assert len(calls) == 4  # one untimed run first, in a process new to this filter
+    mc.run_trials(pf_scenario, counting, 3, seed=2, processes=1, progress=False)
+    assert len(calls) == 7  # the same filter in the same process is warm already

@@ -1,5 +1,6 @@
 """One run: its seeds, its scenario and filter, and its scored steps; and a batch of runs,
 the task of a worker."""
+import hashlib
 import numbers
 import pickle
 import time
@@ -90,12 +91,20 @@ def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping
     return rows
 
 
+#: Payloads (digests of their pickles, or the ids of scenario and make_filter) warmed in this
+#: process.
+_WARMED = set()
+
+
 def _run_batch(payload, runs):
     """Run ``runs`` (index, seed) pairs in this process: the task of a worker.
 
     ``payload`` is (scenario, make_filter, metrics, position_mapping, threads), pickled for
-    another process.
+    another process. The first batch of a payload in a process is preceded by one untimed
+    run of its first seed, so that compilation is not timed as a step.
     Returns the rows of the completed runs and the failures."""
+    key = hashlib.sha256(payload).digest() if isinstance(payload, bytes) \
+        else tuple(map(id, payload[:2]))
     if isinstance(payload, bytes):
         payload = pickle.loads(payload)
     scenario, make_filter, metrics, mapping, threads = payload
@@ -103,6 +112,12 @@ def _run_batch(payload, runs):
         import numba
         from ..threads import set_threads
         set_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    if runs and key not in _WARMED:
+        _WARMED.add(key)
+        try:
+            run_trial(scenario, make_filter, runs[0][1], metrics, mapping)
+        except Exception:  # the timed run reports it
+            pass
     tables, failures = [], []
     for run, run_seed in runs:
         try:
