@@ -94,7 +94,7 @@ def resamplers(table, plots, n, repeats):
         drawn = resampler.resample(particles).state_vector[0].astype(int)
         print(f"  {name:<12} offspring {np.bincount(drawn, minlength=5)}")
         if plots:
-            ax = plots.resampling(TUTORIAL_WEIGHTS, (np.sort(drawn) + 0.5) / 5)
+            ax = plots.resampling(TUTORIAL_WEIGHTS, np.bincount(drawn, minlength=5))
             plots.save(ax, f"resampler-{name}.png", f"{name} resampling of the tutorial weights")
     print(f"  {'expected':<12} N w = {5 * TUTORIAL_WEIGHTS}")
     kept = ft.ESSResampler().resample(particles) is particles
@@ -203,8 +203,8 @@ class Plots:
     def track(self, track, ax, **options):
         return self.plotting.plot_track(track, ax=ax, color="tab:red", **options)
 
-    def resampling(self, weights, points):
-        return self.plotting.plot_resampling(weights, points)
+    def resampling(self, weights, offspring):
+        return self.plotting.plot_resampling(weights, offspring=offspring)
 
     def save(self, ax, name, title):
         self.written.append(self.plotting.save(ax, self.out / name, title=title))

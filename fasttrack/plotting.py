@@ -105,22 +105,37 @@ def plot_track(track, mapping=(0, 2), ax=None, particles=False, uncertainty=Fals
     return ax
 
 
-def plot_resampling(weights, points=None, ax=None):
-    """The resampling picture of the resampler tutorial: the cumulative weights as a step
-    function on [0, 1] and, if given, the uniform ``points`` a scheme drew, each falling on
-    the particle it selects."""
+def plot_resampling(weights, points=None, offspring=None, ax=None):
+    """The resampling picture of the resampler tutorial: each particle's weight as a bar of
+    the cumulative weights on [0, 1], and either the uniform ``points`` a scheme drew (each
+    falls in the bar of the particle it selects), or the ``offspring`` counts: a particle
+    drawn k times gets k marks spread across its own bar and the label "x k"."""
     ax = _axes(ax)
     weights = np.asarray(weights, dtype=np.float64)
     cdf = np.concatenate(([0.0], np.cumsum(weights / weights.sum())))
     for i in range(weights.size):
         ax.barh(0, cdf[i + 1] - cdf[i], left=cdf[i], height=0.5, edgecolor="k",
-                label=f"particle {i}" if weights.size <= 10 else None)
-    if points is not None:
-        points = np.asarray(points)
-        ax.scatter(points, np.full(points.size, 0.35), marker="v", color="k", zorder=3)
+                label=f"particle {i} (w = {weights[i] / weights.sum():.3g})"
+                if weights.size <= 10 else None)
+    marks = np.asarray(points, dtype=np.float64) if points is not None else np.empty(0)
+    if offspring is not None:
+        offspring = np.asarray(offspring)
+        if offspring.shape != weights.shape:
+            raise ValueError(f"offspring must have one count per weight, {weights.shape}, "
+                             f"got {offspring.shape}")
+        marks = np.concatenate([cdf[i] + (np.arange(k) + 0.5) / k * (cdf[i + 1] - cdf[i])
+                                for i, k in enumerate(offspring) if k > 0] or [np.empty(0)])
+        for i, k in enumerate(offspring):
+            if k > 0:
+                ax.annotate(f"x {k}", ((cdf[i] + cdf[i + 1]) / 2, -0.38), ha="center",
+                            fontsize="small")
+    if marks.size:
+        ax.scatter(marks, np.full(marks.size, 0.35), marker="v", color="k", zorder=3,
+                   label="drawn points" if offspring is None else "drawn copies")
     ax.set_xlim(0, 1)
+    ax.set_ylim(-0.5, 0.5)
     ax.set_yticks([])
-    ax.set_xlabel("cumulative weight")
+    ax.set_xlabel("cumulative normalised weight")
     return ax
 
 

@@ -58,6 +58,14 @@ def test_plots_of_tracks_detections_particles_and_ellipses(tmp_path):
     _assert_drawn(plotting.save(ax, tmp_path / "bearings.png"))
     ax = plotting.plot_resampling([0.1, 0.5, 0.15, 0.05, 0.2], points=np.linspace(0.1, 0.9, 5))
     assert len(ax.patches) == 5
+    ax = plotting.plot_resampling([0.1, 0.5, 0.15, 0.05, 0.2], offspring=[0, 3, 1, 0, 1])
+    (marks,) = ax.collections
+    x = marks.get_offsets()[:, 0]
+    assert np.allclose(x, [0.1 + 0.5 / 6, 0.1 + 0.5 / 2, 0.1 + 2.5 / 6, 0.675, 0.9])
+    bars = [(p.get_x(), p.get_x() + p.get_width()) for p in ax.patches]
+    assert all(bars[1][0] < v < bars[1][1] for v in x[:3])  # particle 1's copies on its bar
+    assert [t.get_text() for t in ax.texts] == ["x 3", "x 1", "x 1"]
+    assert "drawn copies" in ax.get_legend_handles_labels()[1]
     _assert_drawn(plotting.save(ax, tmp_path / "cdf.png"))
 
 

@@ -50,6 +50,6 @@ print("from particles:", ft.SystematicResampler(rng=0).resample(listed).state_ve
 if out:
     from fasttrack import plotting
     for name, resampler in schemes.items():
-        drawn = np.sort(resampler.resample(particles).state_vector[0])
-        ax = plotting.plot_resampling(weights, (drawn + 0.5) / 5)
+        drawn = resampler.resample(particles).state_vector[0].astype(int)
+        ax = plotting.plot_resampling(weights, offspring=np.bincount(drawn, minlength=5))
         plotting.save(ax, f"{out}/resampling-{name}.png", title=name)
