@@ -109,16 +109,7 @@ def _ridge_map(f, lam):
         inv = 1.0 / c[i, i]
         for col in range(n):
             row[col] *= inv
-    for i in range(p - 1, -1, -1):
-        row = out[i]
-        for j in range(i + 1, p):
-            coef = c[j, i]
-            other = out[j]
-            for col in range(n):
-                row[col] -= coef * other[col]
-        inv = 1.0 / c[i, i]
-        for col in range(n):
-            row[col] *= inv
+    _back_substitute(c, out)
     return out
 
 
@@ -159,20 +150,28 @@ def _lq_ridge_map(f, lam):
     for i in range(p - 1, -1, -1):
         _reflect(q[:, i:], reflectors[i, i:])
     out = np.empty((p, n))  # L^T out = q[:, :n], L the lower triangle of b
+    for i in range(p):
+        for j in range(n):
+            out[i, j] = q[i, j]
+    _back_substitute(b, out)
+    return out
+
+
+@jit()
+def _back_substitute(lower, out):
+    """Solve ``L^T X = out`` in place for the (p, n) ``out``, L the lower triangle of the
+    leading (p, p) block of ``lower``: rows from the last up, by row updates."""
+    p, n = out.shape
     for i in range(p - 1, -1, -1):
         row = out[i]
-        source = q[i]
-        for j in range(n):
-            row[j] = source[j]
-        for k in range(i + 1, p):
-            coef = b[k, i]
-            other = out[k]
-            for j in range(n):
-                row[j] -= coef * other[j]
-        inv = 1.0 / b[i, i]
-        for j in range(n):
-            row[j] *= inv
-    return out
+        for j in range(i + 1, p):
+            coef = lower[j, i]
+            other = out[j]
+            for col in range(n):
+                row[col] -= coef * other[col]
+        inv = 1.0 / lower[i, i]
+        for col in range(n):
+            row[col] *= inv
 
 
 @jit()
