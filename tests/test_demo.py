@@ -75,6 +75,8 @@ def test_plotting_errors():
         measurement_model = ft.LinearGaussian(2, (0,), np.eye(1))
     with pytest.raises(ValueError, match="cannot map LinearGaussian"):
         plotting.plot_detections([Unknown()])
+    with pytest.raises(ValueError, match=r"offspring must have one count per weight, \(3,\)"):
+        plotting.plot_resampling([0.2, 0.3, 0.5], offspring=[1, 2])
 
 
 def test_bearing_rays_keep_the_view_of_the_track_and_everything_is_labelled():
