@@ -13,3 +13,16 @@ autodoc_member_order = "bysource"
 exclude_patterns = ["_build", "examples"]
 html_theme = "alabaster"
 nitpicky = False
+
+
+def _public_bases(app, name, obj, options, bases):
+    """Show a class's public ancestors in place of private helper bases."""
+    def public(base):
+        if not base.__name__.startswith("_"):
+            return [base]
+        return [b for parent in base.__bases__ for b in public(parent)]
+    bases[:] = [b for base in list(bases) for b in public(base)]
+
+
+def setup(app):
+    app.connect("autodoc-process-bases", _public_bases)

@@ -12,6 +12,11 @@ from . import _validate
 from ._jit import gram as _gram
 from .models.base import state_columns
 
+__all__ = [
+    "Kernel", "PolynomialKernel", "LinearKernel", "QuadraticKernel", "QuarticKernel",
+    "GaussianKernel",
+]
+
 #: A filter's Gaussian kernel of fixed variance whose value between typical points (at
 #: their median squared distance) is below this carries no information between them.
 NEGLIGIBLE = 1e-6

@@ -42,7 +42,12 @@ def test_api_reference_builds_without_warnings(tmp_path):
     done = subprocess.run([sys.executable, "-m", "sphinx", "-W", "-q", "-b", "html", str(docs),
                            str(tmp_path)], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
-    assert (tmp_path / "api.html").stat().st_size > 50_000
+    api = (tmp_path / "api.html").read_text()
+    assert len(api) > 50_000 and "ParticleStateUpdate" in api
+    for helper in ("_SchemeResampler", "check_timestamp", "as_particle_state", "column_vector",
+                   "dense_kernel_covar", "as_kernel", "rotation_matrix"):
+        assert helper not in api, helper  # public names only
+    assert (tmp_path / "guide.html").exists()  # the Markdown guides are in the site
 
 
 def test_guide_monte_carlo_runs():

@@ -16,6 +16,11 @@ from .._jit import sensor as _sensor
 from .base import (UserFunction, check_rows, gaussian_noise, read_only, scalar_or_array,
                    state_columns, wrap_angle)
 
+__all__ = [
+    "MeasurementModel", "LinearGaussian", "CartesianToBearingRange", "Cartesian2DToBearing",
+    "NonlinearGaussianMeasurement",
+]
+
 
 def rotation_matrix(rotation_offset):
     """The 3x3 sensor rotation ``Rx(-roll) Ry(pitch) Rz(-yaw)`` of angles (roll, pitch, yaw)."""

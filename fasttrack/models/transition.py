@@ -21,6 +21,11 @@ from .._jit import propagate as _kernels
 from .base import (UserFunction, check_rows, gaussian_noise, read_only, scalar_or_array,
                    state_columns)
 
+__all__ = [
+    "TransitionModel", "LinearGaussianTransitionModel", "ConstantVelocity",
+    "CombinedLinearGaussianTransitionModel", "NonlinearGaussianTransitionModel",
+]
+
 
 class TransitionModel:
     """Base class: ``function``, ``rvs``, ``logpdf`` and ``pdf`` from ``_mean`` and ``covar``.

@@ -2,6 +2,11 @@
 from .. import _validate
 from .base import Link, check_timestamp
 
+__all__ = [
+    "State", "GaussianState", "GaussianStatePrediction", "GaussianMeasurementPrediction",
+    "GaussianStateUpdate", "GroundTruthState", "Detection",
+]
+
 
 def column_vector(value, name="state_vector"):
     """A finite (d, 1) float64 column from a (d,) or (d, 1) array_like (d >= 1)."""

@@ -7,6 +7,11 @@ from .._jit import akkf as _akkf
 from .._jit import gram as _gram
 from .base import check_timestamp
 
+__all__ = [
+    "KernelParticleState", "KernelParticleStatePrediction",
+    "KernelParticleStateMeasurementPrediction", "KernelParticleStateUpdate",
+]
+
 
 class KernelParticleState:
     """Particles with kernel weights and a kernel covariance (the adaptive kernel Kalman

@@ -11,6 +11,8 @@ from .._jit import weights as _weights
 from .._jit.resample import take_columns as _take_columns
 from .base import Link, check_timestamp
 
+__all__ = ["Particle", "ParticleState", "ParticleStatePrediction", "ParticleStateUpdate"]
+
 
 class Particle:
     """One weighted particle.

@@ -5,6 +5,8 @@ import weakref
 
 from .base import Link
 
+__all__ = ["StateSequence", "Track", "GroundTruthPath", "SingleHypothesis"]
+
 
 class StateSequence:
     """States kept in time order: indexing is by position, iteration in time order, and
