@@ -9,8 +9,8 @@ from .threads import get_threads, set_threads  # noqa: E402
 from .random import seed  # noqa: E402
 from .resampler import (ESSResampler, MultinomialResampler, Resampler, ResidualResampler,
                         StratifiedResampler, SystematicResampler)
-from .resampling import (ResidualMethod, ess, multinomial, normalise, residual, stratified,
-                         systematic)
+from .resampling import (ResidualMethod, ess, multinomial, normalise, residual,
+                         resampling_points, stratified, systematic)
 from .models import (Cartesian2DToBearing, CartesianToBearingRange,
                      CombinedLinearGaussianTransitionModel, ConstantVelocity, LinearGaussian,
                      LinearGaussianTransitionModel, MeasurementModel,
@@ -55,6 +55,6 @@ __all__ = [
     "ResidualMethod", "ResidualResampler", "RunFailure", "SingleHypothesis", "State",
     "StratifiedResampler", "SystematicResampler", "Track", "TransitionModel", "TrialResults",
     "detections", "ess", "get_threads", "ground_truth", "local_cluster", "multinomial", "normalise",
-    "position_rmse", "residual", "run_filter", "run_seeds", "run_trial", "run_trials", "seed",
-    "set_threads", "stratified", "systematic", "tune_allocator", "warmup",
+    "position_rmse", "resampling_points", "residual", "run_filter", "run_seeds", "run_trial",
+    "run_trials", "seed", "set_threads", "stratified", "systematic", "tune_allocator", "warmup",
 ]

@@ -143,8 +143,10 @@ class BatchExtendedKalmanFilter:
 
         Parameters
         ----------
-        means : (K, d) array_like, covars : (K, d, d) array_like
-            The priors.
+        means : (K, d) array_like
+            The prior means.
+        covars : (K, d, d) array_like
+            The prior covariances, positive definite.
         measurements : (T, K, m) array_like
         time_intervals : float, (T,) or (T, K) array_like
             Seconds before each measurement.

@@ -93,8 +93,10 @@ def resamplers(table, plots, n, repeats):
     for name, resampler in schemes.items():
         drawn = resampler.resample(particles).state_vector[0].astype(int)
         print(f"  {name:<12} offspring {np.bincount(drawn, minlength=5)}")
-        if plots:
-            ax = plots.resampling(TUTORIAL_WEIGHTS, np.bincount(drawn, minlength=5))
+        if plots:  # the points the scheme drew (the same seed), or residual's copies
+            ax = (plots.resampling(TUTORIAL_WEIGHTS, offspring=np.bincount(drawn, minlength=5))
+                  if name == "residual" else
+                  plots.resampling(TUTORIAL_WEIGHTS, ft.resampling_points(5, name, rng=1)))
             plots.save(ax, f"resampler-{name}.png", f"{name} resampling of the tutorial weights")
     print(f"  {'expected':<12} N w = {5 * TUTORIAL_WEIGHTS}")
     kept = ft.ESSResampler().resample(particles) is particles
@@ -203,8 +205,8 @@ class Plots:
     def track(self, track, ax, **options):
         return self.plotting.plot_track(track, ax=ax, color="tab:red", **options)
 
-    def resampling(self, weights, offspring):
-        return self.plotting.plot_resampling(weights, offspring=offspring)
+    def resampling(self, weights, points=None, offspring=None):
+        return self.plotting.plot_resampling(weights, points, offspring)
 
     def save(self, ax, name, title):
         self.written.append(self.plotting.save(ax, self.out / name, title=title))

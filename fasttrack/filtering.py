@@ -8,9 +8,11 @@ def run_filter(predictor, updater, prior, detections):
 
     Parameters
     ----------
-    predictor, updater
-        Any fasttrack predictor and updater (``predictor.predict(state, timestamp)``,
-        ``updater.update(SingleHypothesis(prediction, detection))``).
+    predictor : predictor
+        Any fasttrack predictor: ``predictor.predict(state, timestamp)``.
+    updater : updater
+        Any fasttrack updater, matching the predictor:
+        ``updater.update(SingleHypothesis(prediction, detection))``.
     prior : state
         The state before the first detection.
     detections : iterable of Detection

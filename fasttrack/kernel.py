@@ -61,7 +61,20 @@ class Kernel:
 
     @staticmethod
     def angle_mask(ndim, angle_components=()):
-        """A (ndim,) bool array flagging ``angle_components``."""
+        """A (ndim,) bool array flagging ``angle_components``.
+
+        Parameters
+        ----------
+        ndim : int
+            Number of rows of the points.
+        angle_components : sequence of int
+            Rows that are angles, each in [0, ndim).
+
+        Returns
+        -------
+        bool ndarray
+            Of length ``ndim``.
+        """
         mask = np.zeros(ndim, dtype=np.bool_)
         for row in angle_components:
             if not (isinstance(row, numbers.Integral) and 0 <= row < ndim):
@@ -136,14 +149,30 @@ class _FixedDegreeKernel(PolynomialKernel):
 
 class QuadraticKernel(_FixedDegreeKernel):
     """``k(x, y) = (x . y / ialpha + c) ** 2``; ``c`` and ``ialpha`` as in
-    :class:`PolynomialKernel`."""
+    :class:`PolynomialKernel`.
+
+    Parameters
+    ----------
+    c : float
+        Offset, >= 0.
+    ialpha : float
+        Inverse scale of the inner product, > 0.
+    """
 
     _degree = 2
 
 
 class QuarticKernel(_FixedDegreeKernel):
     """``k(x, y) = (x . y / ialpha + c) ** 4``; ``c`` and ``ialpha`` as in
-    :class:`PolynomialKernel`."""
+    :class:`PolynomialKernel`.
+
+    Parameters
+    ----------
+    c : float
+        Offset, >= 0.
+    ialpha : float
+        Inverse scale of the inner product, > 0.
+    """
 
     _degree = 4
 

@@ -16,6 +16,15 @@ def tune_allocator(mmap_threshold_mb=64, trim_threshold_mb=1024):
     ``trim_threshold_mb`` of freed memory stays there for the next step. It affects the whole
     process (its memory stays near its peak) and is never applied implicitly.
 
+    Parameters
+    ----------
+    mmap_threshold_mb : float
+        Size in MiB from which an allocation is mapped afresh (glibc's
+        ``M_MMAP_THRESHOLD``).
+    trim_threshold_mb : float
+        MiB of free memory at the top of the heap kept before it is returned to the system
+        (glibc's ``M_TRIM_THRESHOLD``).
+
     Returns
     -------
     bool

@@ -99,6 +99,12 @@ class KalmanPredictor:
     def predict(self, prior, timestamp):
         """Predict ``prior`` (a :class:`~fasttrack.GaussianState`) to ``timestamp``.
 
+        Parameters
+        ----------
+        prior : GaussianState
+        timestamp : datetime.datetime or float seconds
+            Of the same kind as the prior's timestamp.
+
         Returns
         -------
         GaussianStatePrediction

@@ -3,6 +3,8 @@ import numbers
 
 import numpy as np
 
+__all__ = ["seed"]
+
 _default = np.random.default_rng()
 
 

@@ -15,6 +15,18 @@ class Resampler:
     """Base class of the resamplers: ``resample(particles, nparts=None)``."""
 
     def resample(self, particles, nparts=None):
+        """Resample ``particles`` (implemented by each subclass).
+
+        Parameters
+        ----------
+        particles : ParticleState or list of Particle
+        nparts : int, optional
+            Number of particles out, >= 1 (default: as many as in).
+
+        Returns
+        -------
+        ParticleState
+        """
         raise NotImplementedError
 
 
@@ -68,19 +80,40 @@ class _SchemeResampler(Resampler):
 
 class SystematicResampler(_SchemeResampler):
     """Systematic resampling: points ``(j + u) / n`` for a single uniform u; each particle
-    gets ``floor(n w_i)`` or ``ceil(n w_i)`` copies."""
+    gets ``floor(n w_i)`` or ``ceil(n w_i)`` copies.
+
+    Parameters
+    ----------
+    rng : None, int or numpy.random.Generator
+        Source of randomness (None: the package default generator, see
+        :func:`fasttrack.seed`).
+    """
 
     method = ResidualMethod.SYSTEMATIC
 
 
 class StratifiedResampler(_SchemeResampler):
-    """Stratified resampling: one uniform point in each stratum ``[j/n, (j+1)/n)``."""
+    """Stratified resampling: one uniform point in each stratum ``[j/n, (j+1)/n)``.
+
+    Parameters
+    ----------
+    rng : None, int or numpy.random.Generator
+        Source of randomness (None: the package default generator, see
+        :func:`fasttrack.seed`).
+    """
 
     method = ResidualMethod.STRATIFIED
 
 
 class MultinomialResampler(_SchemeResampler):
-    """Multinomial resampling: ``nparts`` independent draws from the weights."""
+    """Multinomial resampling: ``nparts`` independent draws from the weights.
+
+    Parameters
+    ----------
+    rng : None, int or numpy.random.Generator
+        Source of randomness (None: the package default generator, see
+        :func:`fasttrack.seed`).
+    """
 
     method = ResidualMethod.MULTINOMIAL
 
@@ -97,6 +130,8 @@ class ResidualResampler(_SchemeResampler):
         Scheme of the second stage: 'multinomial', 'systematic' or 'stratified', or the
         member.
     rng : None, int or numpy.random.Generator
+        Source of randomness (None: the package default generator, see
+        :func:`fasttrack.seed`).
     """
 
     residual = True
@@ -141,7 +176,18 @@ class ESSResampler(Resampler):
     def resample(self, particles, nparts=None):
         """``resampler.resample(particles, nparts)`` if the ESS is below the threshold,
         otherwise the input state itself (the same object; a list of Particle is returned as
-        the ParticleState built from it) and ``nparts`` is ignored."""
+        the ParticleState built from it) and ``nparts`` is ignored.
+
+        Parameters
+        ----------
+        particles : ParticleState or list of Particle
+        nparts : int, optional
+            Number of particles out when it resamples, >= 1 (default: as many as in).
+
+        Returns
+        -------
+        ParticleState
+        """
         state = as_particle_state(particles)
         if _particle.resampling_decision(state.log_weight, self.threshold)[1]:
             return self.resampler.resample(state, nparts)

@@ -18,6 +18,9 @@ from . import random as _random
 from ._jit import resample as _kernels
 from ._jit import weights as _weights
 
+__all__ = ["ResidualMethod", "ess", "multinomial", "normalise", "resampling_points", "residual",
+           "stratified", "systematic"]
+
 _NO_ROWS = np.empty((0, 0))
 
 
@@ -30,7 +33,24 @@ class ResidualMethod(str, enum.Enum):
 
     @classmethod
     def parse(cls, value, name="residual_method"):
-        """The member named by ``value`` (a member or its string value)."""
+        """The member named by ``value`` (a member or its string value).
+
+        Parameters
+        ----------
+        value : str or ResidualMethod
+            'multinomial', 'systematic' or 'stratified', or a member.
+        name : str
+            Name of the argument in the error message.
+
+        Returns
+        -------
+        ResidualMethod
+
+        Raises
+        ------
+        ValueError
+            If ``value`` names no member.
+        """
         try:
             return cls(value)
         except ValueError:
@@ -46,12 +66,16 @@ def _cdf(log_w, log_w_max):
     return cdf
 
 
-def _multinomial_starts(cdf, n, key, starts):
+def _occupancy(n, key, dtype):
     points = _buffers.empty(n + 1)
     _kernels.sorted_uniforms(key, n, points)
-    occupancy = _buffers.empty(n + 1, starts.dtype)
+    occupancy = _buffers.empty(n + 1, dtype)
     _kernels.stratum_occupancy(points, n, occupancy)
-    _kernels.multinomial_starts(cdf, n, key, occupancy, starts)
+    return occupancy
+
+
+def _multinomial_starts(cdf, n, key, starts):
+    _kernels.multinomial_starts(cdf, n, key, _occupancy(n, key, starts.dtype), starts)
 
 
 def _scheme_starts(method, cdf, n, key, dtype):
@@ -139,6 +163,7 @@ def systematic(log_weights, nparts=None, rng=None):
     nparts : int, optional
         Number of particles to draw, >= 1 (default N).
     rng : None, int or numpy.random.Generator
+        Source of the stream's key (None: the package default generator).
 
     Returns
     -------
@@ -151,7 +176,19 @@ def systematic(log_weights, nparts=None, rng=None):
 def stratified(log_weights, nparts=None, rng=None):
     """Stratified resampling: one uniform point in each stratum ``[j/n, (j+1)/n)``.
 
-    Parameters and return as :func:`systematic`.
+    Parameters
+    ----------
+    log_weights : (N,) array_like
+        Unnormalised log weights; ``-inf`` marks a zero weight.
+    nparts : int, optional
+        Number of particles to draw, >= 1 (default N).
+    rng : None, int or numpy.random.Generator
+        Source of the stream's key (None: the package default generator).
+
+    Returns
+    -------
+    (nparts,) int64 ndarray
+        Ascending ancestor indices.
     """
     return draw(log_weights, nparts, ResidualMethod.STRATIFIED, rng=rng)
 
@@ -159,8 +196,20 @@ def stratified(log_weights, nparts=None, rng=None):
 def multinomial(log_weights, nparts=None, rng=None):
     """Multinomial resampling: ``nparts`` independent draws from the weights.
 
-    Parameters and return as :func:`systematic` (indices ascending, as the draws are
-    exchangeable).
+    Parameters
+    ----------
+    log_weights : (N,) array_like
+        Unnormalised log weights; ``-inf`` marks a zero weight.
+    nparts : int, optional
+        Number of particles to draw, >= 1 (default N).
+    rng : None, int or numpy.random.Generator
+        Source of the stream's key (None: the package default generator).
+
+    Returns
+    -------
+    (nparts,) int64 ndarray
+        Ascending ancestor indices (the draws are exchangeable, so they are returned
+        sorted).
     """
     return draw(log_weights, nparts, ResidualMethod.MULTINOMIAL, rng=rng)
 
@@ -171,8 +220,12 @@ def residual(log_weights, nparts=None, rng=None, method="multinomial"):
 
     Parameters
     ----------
-    log_weights, nparts, rng
-        As :func:`systematic`.
+    log_weights : (N,) array_like
+        Unnormalised log weights; ``-inf`` marks a zero weight.
+    nparts : int, optional
+        Number of particles to draw, >= 1 (default N).
+    rng : None, int or numpy.random.Generator
+        Source of the stream's key (None: the package default generator).
     method : {'multinomial', 'systematic', 'stratified'} or ResidualMethod
         Scheme of the second stage.
 
@@ -185,8 +238,51 @@ def residual(log_weights, nparts=None, rng=None, method="multinomial"):
                 rng=rng)
 
 
+_SCHEME_CODES = {ResidualMethod.SYSTEMATIC: 0, ResidualMethod.STRATIFIED: 1,
+                 ResidualMethod.MULTINOMIAL: 2}
+
+
+def resampling_points(nparts, method="systematic", rng=None):
+    """The uniform points a resampling draw tests against the cumulative weights.
+
+    With the same ``rng`` (the same int seed, or a generator in the same state), a draw of
+    ``nparts`` particles by :func:`systematic`, :func:`stratified` or :func:`multinomial`
+    selects, for each point p, the particle i with ``cdf[i-1] <= p < cdf[i]`` of the
+    normalised cumulative weights: the picture of the resampler tutorial.
+
+    Parameters
+    ----------
+    nparts : int
+        Number of particles drawn, >= 1.
+    method : {'systematic', 'stratified', 'multinomial'} or ResidualMethod
+        The scheme whose points to draw.
+    rng : None, int or numpy.random.Generator
+        The same as the draw's: one key is drawn from it.
+
+    Returns
+    -------
+    (nparts,) float64 ndarray
+        Points in [0, 1): ascending for systematic and stratified, one per stratum
+        ``[j/n, (j+1)/n)``; for multinomial, iid uniform (unsorted).
+    """
+    method = ResidualMethod.parse(method, "method")
+    n = _validate.count(nparts, "nparts")
+    key = _random.stream_key(rng)
+    occupancy = (_occupancy(n, key, np.int64) if method is ResidualMethod.MULTINOMIAL
+                 else np.zeros(1, np.int64))
+    out = _buffers.empty(n)
+    _kernels.scheme_points(_SCHEME_CODES[method], key, n, occupancy, out)
+    return out
+
+
 def ess(log_weights):
     """Kish's effective sample size ``(sum w)**2 / sum(w**2)`` of unnormalised log weights.
+
+    Parameters
+    ----------
+    log_weights : (N,) array_like
+        Unnormalised log weights: no NaN or ``+inf``, not all ``-inf`` (``-inf`` marks a
+        zero weight).
 
     Returns
     -------
@@ -199,6 +295,12 @@ def ess(log_weights):
 
 def normalise(log_weights):
     """Log weights shifted so that their exponentials sum to 1 (computed with logsumexp).
+
+    Parameters
+    ----------
+    log_weights : (N,) array_like
+        Unnormalised log weights: no NaN or ``+inf``, not all ``-inf`` (``-inf`` marks a
+        zero weight, and stays ``-inf``).
 
     Returns
     -------

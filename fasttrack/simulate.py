@@ -39,7 +39,20 @@ def ground_truth(transition_model, initial_state, steps, time_interval=1.0, star
 
 def detections(truth, measurement_model, rng=None):
     """One :class:`Detection` (with measurement noise, carrying its measurement model) of
-    each state of ``truth``, at the same timestamps."""
+    each state of ``truth``, at the same timestamps.
+
+    Parameters
+    ----------
+    truth : iterable of states
+        E.g. a :class:`GroundTruthPath`; each state's ``state_vector`` is measured.
+    measurement_model : MeasurementModel
+    rng : None, int or numpy.random.Generator
+        Source of the measurement noise (None: the package default generator).
+
+    Returns
+    -------
+    list of Detection
+    """
     rng = _random.generator(_random.check_rng(rng))
     return [Detection(measurement_model.function(state, noise=True, rng=rng),
                       timestamp=state.timestamp, measurement_model=measurement_model)

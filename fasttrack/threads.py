@@ -18,7 +18,7 @@ The policy, measured on 2 cores (a particle-filter step at N = 1e5; ``bench/test
 - **A limit.** :func:`set_threads` caps the threads of fasttrack's calls (default: Numba's
   ``NUMBA_NUM_THREADS``, the cores). Results never depend on the thread count.
 - **Batches of filters** run their compiled (single-threaded, GIL-free) step on chunks of
-  the batch in a pool of Python threads (:func:`in_chunks`): as fast as a parallel kernel,
+  the batch in a pool of Python threads: as fast as a parallel kernel,
   without Numba compiling a parallel version of a large step.
 
 Numba's thread count is per Python thread, and fasttrack sets it for its own calls: use
@@ -30,6 +30,8 @@ import os
 import site
 import sys
 import threading
+
+__all__ = ["get_threads", "set_threads"]
 
 _LIBTBB = {"linux": "libtbb.so.12", "darwin": "libtbb.12.dylib", "win32": "tbb12.dll"}
 _local = threading.local()

@@ -58,6 +58,12 @@ class ParticleUpdater:
         """The posterior of ``hypothesis.prediction`` given ``hypothesis.measurement``:
         :meth:`weigh`, then the resampler.
 
+        Parameters
+        ----------
+        hypothesis : SingleHypothesis
+            The ``prediction`` (a :class:`~fasttrack.ParticleState`) and the
+            ``measurement`` (a :class:`~fasttrack.Detection`, not None).
+
         Returns
         -------
         ParticleStateUpdate
@@ -75,6 +81,12 @@ class ParticleUpdater:
     def weigh(self, hypothesis):
         """The posterior before resampling: ``log_weight += log p(z | particle)``,
         normalised with logsumexp.
+
+        Parameters
+        ----------
+        hypothesis : SingleHypothesis
+            The ``prediction`` (a :class:`~fasttrack.ParticleState`) and the
+            ``measurement`` (a :class:`~fasttrack.Detection`, not None).
 
         Returns
         -------
@@ -151,6 +163,13 @@ class KalmanUpdater:
         """The predicted measurement of ``predicted_state``: mean ``h(x)``, innovation
         covariance ``H P H^T + R`` and cross covariance ``P H^T``.
 
+        Parameters
+        ----------
+        predicted_state : GaussianState
+        measurement_model : MeasurementModel, optional
+            Used instead of the updater's (a :class:`~fasttrack.LinearGaussian` for
+            :class:`KalmanUpdater`).
+
         Returns
         -------
         GaussianMeasurementPrediction
@@ -171,6 +190,12 @@ class KalmanUpdater:
 
         The innovation's angle components are wrapped. The measurement prediction is stored
         on the hypothesis as ``measurement_prediction``.
+
+        Parameters
+        ----------
+        hypothesis : SingleHypothesis
+            The ``prediction`` (a :class:`~fasttrack.GaussianState`) and the
+            ``measurement`` (a :class:`~fasttrack.Detection`, not None).
 
         Returns
         -------
@@ -202,7 +227,12 @@ class ExtendedKalmanUpdater(KalmanUpdater):
 
     Parameters
     ----------
-    measurement_model, force_symmetric_covariance, use_joseph_cov
+    measurement_model : MeasurementModel, optional
+        Used when the detection has none of its own; any model (linearised at the
+        prediction).
+    force_symmetric_covariance : bool
+        As :class:`KalmanUpdater`.
+    use_joseph_cov : bool
         As :class:`KalmanUpdater`.
     jacobian : {'analytic', 'forward', 'central'}
         The built-in polar sensors' analytic Jacobian, or finite differences ('forward':
@@ -247,6 +277,12 @@ class AdaptiveKernelKalmanUpdater:
     def predict_measurement(self, predicted_state, measurement_model=None):
         """Noise-free measurements of every predicted particle.
 
+        Parameters
+        ----------
+        predicted_state : KernelParticleState
+        measurement_model : MeasurementModel, optional
+            Used instead of the updater's.
+
         Returns
         -------
         KernelParticleStateMeasurementPrediction
@@ -274,6 +310,12 @@ class AdaptiveKernelKalmanUpdater:
 
         The measurement prediction is computed unless the hypothesis has one, and stored on
         it.
+
+        Parameters
+        ----------
+        hypothesis : SingleHypothesis
+            The ``prediction`` (a :class:`~fasttrack.KernelParticleState`) and the
+            ``measurement`` (a :class:`~fasttrack.Detection`, not None).
 
         Returns
         -------

@@ -267,6 +267,16 @@ def multinomial_starts(cdf, n, key, occupancy, starts):
     starts[1:last + 1] = np.searchsorted(points, cdf[:last] * scale, side="left")
 
 
+def scheme_points(scheme, key, n, occupancy, out):
+    j = np.arange(n)
+    if scheme == 0:
+        out[:n] = (j + uniform(key, 0)) / n
+    elif scheme == 1:
+        out[:n] = (j + uniform(key, j)) / n
+    else:
+        out[:n] = (np.repeat(j, np.diff(occupancy[:n + 1])) + uniform(key, n + 1 + j)) / n
+
+
 def residual_floors(cdf, log_w, log_w_max, n, floors, residuals):
     expected = np.exp(log_w - log_w_max) * (n / cdf[-1])
     floors[:] = np.floor(expected * (1.0 + 1e-12)).astype(np.int64)

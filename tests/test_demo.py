@@ -69,6 +69,20 @@ def test_plots_of_tracks_detections_particles_and_ellipses(tmp_path):
     _assert_drawn(plotting.save(ax, tmp_path / "cdf.png"))
 
 
+@pytest.mark.parametrize("resampler", [ft.SystematicResampler, ft.StratifiedResampler,
+                                       ft.MultinomialResampler])
+def test_resampling_plot_marks_sit_on_the_bars_of_the_particles_drawn(resampler):
+    weights = np.array([1, 5, 1.5, 0.5, 2]) / 10
+    particles = ft.ParticleState(np.arange(5.0)[None], weight=weights)
+    drawn = resampler(rng=7).resample(particles).state_vector[0].astype(int)
+    ax = plotting.plot_resampling(weights, ft.resampling_points(5, resampler.method, rng=7))
+    (marks,) = ax.collections
+    bars = np.array([(p.get_x(), p.get_x() + p.get_width()) for p in ax.patches])
+    under = [np.flatnonzero((bars[:, 0] <= x) & (x < bars[:, 1]))[0]
+             for x in marks.get_offsets()[:, 0]]
+    np.testing.assert_array_equal(np.sort(under), drawn)
+
+
 def test_plotting_errors():
     class Unknown:
         state_vector = np.zeros((1, 1))

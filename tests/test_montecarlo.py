@@ -183,7 +183,7 @@ def test_adaptive_kernel_filter_runs():
     assert [s.metric for s in results.summary()] == ["rmse", "step_seconds"]
 
 
-def test_summary_is_a_t_interval():
+def test_summary_is_a_t_interval_of_the_log_mean():
     table = np.zeros(6, mc.metrics._row_dtype(("position_error", "nees")))
     table["run"] = [0, 0, 1, 1, 2, 2]
     table["step"] = [0, 1] * 3
@@ -192,11 +192,21 @@ def test_summary_is_a_t_interval():
     results = mc.TrialResults(table, [], np.random.SeedSequence(0), 3)
     rmse = np.sqrt([12.5, 1.0, 2.0])
     summary = {s.metric: s for s in results.summary(confidence=0.9)}
-    low, high = stats.t.interval(0.9, 2, loc=rmse.mean(), scale=stats.sem(rmse))
-    assert (summary["rmse"].low, summary["rmse"].high) == pytest.approx((low, high))
+    low, high = stats.t.interval(0.9, 2, loc=np.log(rmse.mean()),
+                                 scale=stats.sem(rmse) / rmse.mean())
+    assert (summary["rmse"].low, summary["rmse"].high) == pytest.approx(np.exp([low, high]))
     assert summary["anees"].mean == pytest.approx(np.mean([1.0, 3.0, 6.0]))
     np.testing.assert_allclose(results.rmse_over_time(), np.sqrt([10 / 3, 7.0]))
     assert "3 of 3 runs completed" in str(results)
+
+
+def test_summary_interval_of_a_skewed_positive_metric_stays_positive():
+    table = np.zeros(3, mc.metrics._row_dtype(("step_seconds",)))
+    table["run"] = [0, 1, 2]
+    table["step_seconds"] = [1e-3, 2e-3, 0.5]  # one run paid for compilation
+    (summary,) = mc.TrialResults(table, [], np.random.SeedSequence(0), 3).summary()
+    assert 0 < summary.low < summary.mean < summary.high
+    assert summary.mean - stats.t.ppf(0.975, 2) * stats.sem(table["step_seconds"]) < 0
 
 
 def test_failing_runs_are_reported_and_the_others_complete():

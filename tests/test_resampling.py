@@ -44,6 +44,19 @@ def log_w():
 
 # --- each kernel against its mirror ---------------------------------------------------------
 
+@pytest.mark.parametrize("scheme", [0, 1, 2])
+def test_scheme_points_match_mirror(scheme):
+    n, key = 1000, stream_key(4)
+    points = np.empty(n + 1)
+    kernels.sorted_uniforms(key, n, points)
+    occupancy = np.empty(n + 1, np.int64)
+    kernels.stratum_occupancy(points, n, occupancy)
+    got, want = np.empty(n), np.empty(n)
+    kernels.scheme_points(scheme, key, n, occupancy, got)
+    reference.scheme_points(scheme, key, n, occupancy, want)
+    np.testing.assert_allclose(got, want, rtol=1e-15)
+
+
 @pytest.mark.parametrize("n", [1, 7, 20_000, 45_001])
 @pytest.mark.parametrize("name", ["systematic_starts", "stratified_starts"])
 def test_starts_kernels_match_mirrors(log_w, n, name):
@@ -252,6 +265,28 @@ def test_plain_functions_equal_draw(log_w):
     assert np.array_equal(ft.residual(log_w, rng=5, method="stratified"),
                           _draw(log_w, None, "stratified", True, 5))
     assert np.array_equal(ft.residual(log_w, rng=5), _draw(log_w, None, "multinomial", True, 5))
+
+
+@pytest.mark.parametrize("nparts", [5, 20_000, 31_007])
+@pytest.mark.parametrize("method", METHODS)
+def test_each_drawn_index_is_the_bar_under_its_resampling_point(log_w, method, nparts):
+    points = ft.resampling_points(nparts, method, rng=12)
+    cdf = _cdf(log_w)
+    under = np.searchsorted(cdf / cdf[-1], points, side="right")
+    np.testing.assert_array_equal(np.sort(under), _draw(log_w, nparts, method, False, 12))
+    assert points.min() >= 0 and points.max() < 1
+    strata = np.floor(points * nparts)
+    if method == "multinomial":
+        assert 0 < len(np.unique(strata)) < nparts  # iid: some strata empty, some crowded
+    else:
+        np.testing.assert_array_equal(strata, np.arange(nparts))
+
+
+def test_resampling_points_reject_bad_arguments():
+    with pytest.raises(ValueError, match="method must be one of"):
+        ft.resampling_points(5, "residual")
+    with pytest.raises(ValueError, match="nparts must be >= 1"):
+        ft.resampling_points(0)
 
 
 def test_rng_conventions(log_w):

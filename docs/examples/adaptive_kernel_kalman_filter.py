@@ -1,8 +1,12 @@
-"""The adaptive-kernel-Kalman-filter tutorial on fasttrack: a nearly-constant-velocity target
+"""
+Adaptive kernel Kalman filter
+=============================
+
+The adaptive-kernel-Kalman-filter tutorial on fasttrack: a nearly-constant-velocity target
 seen by a bearing-only sensor, tracked by the AKKF with quadratic, quartic and Gaussian
 kernels.
 
-Run: python docs/examples/adaptive_kernel_kalman_filter.py [output folder for the plot]
+Run ``python docs/examples/adaptive_kernel_kalman_filter.py [DIR]``; given DIR, it writes its plot there.
 """
 import datetime
 import sys

@@ -1,8 +1,12 @@
-"""The extended-Kalman-filter tutorial on fasttrack: the particle-filter tutorial's target and
+"""
+Extended Kalman filter
+======================
+
+The extended-Kalman-filter tutorial on fasttrack: the particle-filter tutorial's target and
 bearing-range sensor, tracked by an EKF whose measurement Jacobian comes from finite
 differences (Stone Soup's rule) or in closed form.
 
-Run: python docs/examples/extended_kalman_filter.py [output folder for the plot]
+Run ``python docs/examples/extended_kalman_filter.py [DIR]``; given DIR, it writes its plot there.
 """
 import datetime
 import sys

@@ -1,7 +1,11 @@
-"""The particle-filter tutorial on fasttrack: a nearly-constant-velocity target seen by a
+"""
+Particle filter
+===============
+
+The particle-filter tutorial on fasttrack: a nearly-constant-velocity target seen by a
 bearing-range sensor, tracked by a sequential importance resampling particle filter.
 
-Run: python docs/examples/particle_filter.py [output folder for the plot]
+Run ``python docs/examples/particle_filter.py [DIR]``; given DIR, it writes its plot there.
 """
 import datetime
 import sys

@@ -1,7 +1,11 @@
-"""The resampler tutorial on fasttrack: the five resampling schemes on five weighted particles,
+"""
+Resampling
+==========
+
+The resampler tutorial on fasttrack: the five resampling schemes on five weighted particles,
 up- and down-sampling, and resampling only when the effective sample size is low.
 
-Run: python docs/examples/resampling.py [output folder for the plots]
+Run ``python docs/examples/resampling.py [DIR]``; given DIR, it writes its plots there.
 """
 import sys
 
@@ -49,7 +53,11 @@ print("from particles:", ft.SystematicResampler(rng=0).resample(listed).state_ve
 
 if out:
     from fasttrack import plotting
-    for name, resampler in schemes.items():
-        drawn = resampler.resample(particles).state_vector[0].astype(int)
-        ax = plotting.plot_resampling(weights, offspring=np.bincount(drawn, minlength=5))
+    # Each scheme's points (the uniforms its seed-42 draw above used) fall in the bars of the
+    # particles it copied; residual resampling's copies are shown as counts.
+    for name in ["systematic", "stratified", "multinomial"]:
+        ax = plotting.plot_resampling(weights, ft.resampling_points(5, name, rng=42))
         plotting.save(ax, f"{out}/resampling-{name}.png", title=name)
+    drawn = schemes["residual"].resample(particles).state_vector[0].astype(int)
+    ax = plotting.plot_resampling(weights, offspring=np.bincount(drawn, minlength=5))
+    plotting.save(ax, f"{out}/resampling-residual.png", title="residual")

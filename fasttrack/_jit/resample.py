@@ -164,6 +164,21 @@ def multinomial_starts(cdf, n, key, occupancy, starts):
                     following[i] += np.int64(s + uniform(key, n + 1 + occupancy[s] + q) < y)
 
 
+@jit()
+def scheme_points(scheme, key, n, occupancy, out):
+    """``out[:n]`` = the n points (in [0, 1)) that the starts kernels above test for stream
+    ``key``: scheme 0 systematic, 1 stratified, 2 multinomial (from the ``occupancy`` of
+    :func:`stratum_occupancy`; in counter order, not sorted)."""
+    for s in range(n):
+        if scheme == 0:
+            out[s] = (s + uniform(key, np.int64(0))) / n
+        elif scheme == 1:
+            out[s] = (s + uniform(key, np.int64(s))) / n
+        else:
+            for k in range(occupancy[s], occupancy[s + 1]):
+                out[k] = (s + uniform(key, n + 1 + k)) / n
+
+
 @jit(parallel=True, size=1)
 def residual_floors(cdf, log_w, log_w_max, n, floors, residuals):
     """``floors = floor(n w)`` and ``residuals = n w - floors`` for w normalised by the sum

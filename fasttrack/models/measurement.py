@@ -52,6 +52,15 @@ class MeasurementModel:
 
     Attributes: ``ndim_state``, ``ndim_meas``, ``mapping``, ``noise_covar`` (R) and
     ``angle_components`` (the measurement rows that are angles).
+
+    Parameters
+    ----------
+    ndim_state : int
+        Number of state dimensions d, >= 1.
+    noise_covar : (m, m) array_like
+        R, symmetric positive semi-definite.
+    ndim_meas : int
+        Number of measurement dimensions m (the size of ``noise_covar``).
     """
 
     angle_components = ()
@@ -89,7 +98,13 @@ class MeasurementModel:
         """Recompute what the kernels are given after a parameter changed."""
 
     def covar(self, **kwargs):
-        """R (m, m)."""
+        """R (m, m).
+
+        Parameters
+        ----------
+        **kwargs : dict
+            Ignored (accepted for Stone Soup's call signature).
+        """
         return self.noise_covar
 
     def _columns(self, state, name="state"):
@@ -99,7 +114,18 @@ class MeasurementModel:
 
     def measurement_column(self, measurement, name="measurement"):
         """The measurement as an (m, 1) float64 C-contiguous array, not checked for NaN (the
-        Kalman kernels check it): the detection's own array when it is one."""
+        Kalman kernels check it): the detection's own array when it is one.
+
+        Parameters
+        ----------
+        measurement : Detection or (m,) / (m, 1) array_like
+        name : str
+            Name of the measurement in error messages.
+
+        Returns
+        -------
+        (m, 1) float64 ndarray
+        """
         z = getattr(measurement, "state_vector", measurement)
         if type(z) is np.ndarray and z.shape == (self._ndim_meas, 1) \
                 and z.dtype == np.float64 and z.flags.c_contiguous:
@@ -112,7 +138,18 @@ class MeasurementModel:
         return np.ascontiguousarray(z.reshape(-1, 1))
 
     def measurement_vector(self, measurement, name="measurement"):
-        """A finite (m,) float64 vector from a Detection or array_like."""
+        """A finite (m,) float64 vector from a Detection or array_like.
+
+        Parameters
+        ----------
+        measurement : Detection or (m,) / (m, 1) array_like
+        name : str
+            Name of the measurement in error messages.
+
+        Returns
+        -------
+        (m,) float64 ndarray
+        """
         z = _validate.finite_array(getattr(measurement, "state_vector", measurement), name)
         if z.ndim not in (1, 2) or z.size != self.ndim_meas or (z.ndim == 2 and z.shape[1] != 1):
             raise ValueError(f"{name} must have {self.ndim_meas} components, as a "
@@ -121,7 +158,18 @@ class MeasurementModel:
         return np.ascontiguousarray(z.reshape(-1))
 
     def wrap(self, values):
-        """Wrap the angle rows of (m, N) ``values`` to [-pi, pi), in place; returns them."""
+        """Wrap the angle rows of (m, N) ``values`` to [-pi, pi), in place; returns them.
+
+        Parameters
+        ----------
+        values : (m, N) float64 ndarray
+            Measurements (or differences of measurements), one per column; modified.
+
+        Returns
+        -------
+        (m, N) float64 ndarray
+            ``values`` itself.
+        """
         for r in self.angle_components:
             values[r] = wrap_angle(values[r])
         return values
@@ -155,12 +203,35 @@ class MeasurementModel:
         return self.wrap(out)
 
     def rvs(self, num_samples=1, rng=None):
-        """(m, num_samples) draws of the measurement noise."""
+        """(m, num_samples) draws of the measurement noise v ~ N(0, R).
+
+        Parameters
+        ----------
+        num_samples : int
+            Number of draws, >= 1.
+        rng : None, int or numpy.random.Generator
+            Source of the draws (None: the package default generator).
+
+        Returns
+        -------
+        (m, num_samples) float64 ndarray
+        """
         return self._noise.sample(_validate.count(num_samples, "num_samples"), rng)
 
     def logpdf(self, measurement, state):
         """Log density of ``measurement`` given each column of ``state`` (a float for one
-        column); angle components of the innovation are wrapped."""
+        column); angle components of the innovation are wrapped.
+
+        Parameters
+        ----------
+        measurement : Detection or (m,) / (m, 1) array_like
+        state : state object or (d,) / (d, N) array_like
+            The states conditioned on, one per column.
+
+        Returns
+        -------
+        float or (N,) float64 ndarray
+        """
         z = self.measurement_vector(measurement)
         x = self._columns(state)
         zeros = np.zeros(x.shape[1])
@@ -169,12 +240,40 @@ class MeasurementModel:
         return scalar_or_array(out)
 
     def pdf(self, measurement, state):
-        """Density of ``measurement`` given each column of ``state``."""
+        """Density of ``measurement`` given each column of ``state``.
+
+        Parameters
+        ----------
+        measurement : Detection or (m,) / (m, 1) array_like
+        state : state object or (d,) / (d, N) array_like
+            The states conditioned on, one per column.
+
+        Returns
+        -------
+        float or (N,) float64 ndarray
+        """
         return np.exp(self.logpdf(measurement, state))
 
     def log_likelihood(self, z, x, log_w, out):
         """``out = log_w + log p(z | x[:, i])`` for a validated (m,) z and (d, N) x; returns
-        ``max(out)``. The hot step of the particle updater, in one kernel."""
+        ``max(out)``. The hot step of the particle updater, in one kernel.
+
+        Parameters
+        ----------
+        z : (m,) float64 ndarray
+            The measurement, as :meth:`measurement_vector` returns it.
+        x : (d, N) float64 ndarray
+            States, one per column, finite (as a state's ``state_vector``).
+        log_w : (N,) float64 ndarray
+            Log weights added to the log likelihoods.
+        out : (N,) float64 ndarray
+            Written with the result.
+
+        Returns
+        -------
+        float
+            The largest entry of ``out``.
+        """
         raise NotImplementedError
 
 
@@ -238,13 +337,27 @@ class LinearGaussian(_KernelModel):
         self._refresh()
 
     def matrix(self, **kwargs):
-        """H (m, d)."""
+        """H (m, d).
+
+        Parameters
+        ----------
+        **kwargs : dict
+            Ignored (accepted for Stone Soup's call signature).
+        """
         h = np.zeros((self.ndim_meas, self.ndim_state))
         h[np.arange(self.ndim_meas), self.mapping] = 1.0
         return h
 
     def jacobian(self, state=None, **kwargs):
-        """H (the model is linear)."""
+        """H (m, d) (the model is linear).
+
+        Parameters
+        ----------
+        state : state object or array_like, optional
+            Ignored: the Jacobian is the same at every state.
+        **kwargs : dict
+            Ignored (accepted for Stone Soup's call signature).
+        """
         return self.matrix()
 
 
@@ -338,8 +451,19 @@ class CartesianToBearingRange(_PolarSensor):
         """The state (d, K) whose position gives each measurement column (other state
         components 0).
 
-        Raises ValueError if the sensor has roll or pitch, whose projection cannot be
-        inverted.
+        Parameters
+        ----------
+        detection : Detection or (2,) / (2, K) array_like
+            Measurements (bearing in rad, range), one per column.
+
+        Returns
+        -------
+        (d, K) float64 ndarray
+
+        Raises
+        ------
+        ValueError
+            If the sensor has roll or pitch, whose projection cannot be inverted.
         """
         if self.rotation_offset[0, 0] != 0 or self.rotation_offset[1, 0] != 0:
             raise ValueError("inverse_function needs a sensor without roll or pitch "
@@ -356,8 +480,23 @@ class CartesianToBearingRange(_PolarSensor):
 
 
 class Cartesian2DToBearing(_PolarSensor):
-    """z = bearing (rad, an angle) of the position ``x[mapping]``; parameters as
-    :class:`CartesianToBearingRange` with a (1, 1) ``noise_covar``."""
+    """z = bearing (rad, an angle) of the position ``x[mapping]`` seen from a sensor at
+    ``translation_offset`` rotated by ``rotation_offset``; parameters as
+    :class:`CartesianToBearingRange` with a (1, 1) ``noise_covar``.
+
+    Parameters
+    ----------
+    ndim_state : int
+    mapping : sequence of 2 int
+        State indices of x and y.
+    noise_covar : (1, 1) array_like
+        R of the bearing (rad).
+    translation_offset : (2,) array_like, optional
+        Sensor position (default the origin).
+    rotation_offset : (3,) array_like, optional
+        Sensor (roll, pitch, yaw) in rad (default zeros), as
+        :class:`CartesianToBearingRange`.
+    """
 
     kind = _sensor.BEARING
     _NDIM_MEAS = 1

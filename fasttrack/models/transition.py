@@ -76,19 +76,66 @@ class TransitionModel:
         return mean + noise.reshape(x.shape[0], -1)
 
     def rvs(self, num_samples=1, time_interval=None, rng=None):
-        """(d, num_samples) draws of the process noise."""
+        """(d, num_samples) draws of the process noise w ~ N(0, Q(dt)).
+
+        Parameters
+        ----------
+        num_samples : int
+            Number of draws, >= 1.
+        time_interval : datetime.timedelta or float seconds
+            Required, except by :class:`LinearGaussianTransitionModel` (which does not
+            depend on it).
+        rng : None, int or numpy.random.Generator
+            Source of the draws (None: the package default generator).
+
+        Returns
+        -------
+        (d, num_samples) float64 ndarray
+        """
         num = _validate.count(num_samples, "num_samples")
         return self._noise(self._seconds(time_interval)).sample(num, rng)
 
     def logpdf(self, state1, state2, time_interval=None):
-        """Log density of ``state1`` given ``state2`` (columns pair up; a float for one)."""
+        """Log density of ``state1`` given ``state2`` (columns pair up; a float for one).
+
+        Parameters
+        ----------
+        state1 : state object or (d,) / (d, N) array_like
+            The states after the interval.
+        state2 : state object or (d,) / (d, N) array_like
+            The states before it; columns pair up with ``state1``'s (a single column of
+            either is broadcast).
+        time_interval : datetime.timedelta or float seconds
+            Required, except by :class:`LinearGaussianTransitionModel` (which does not
+            depend on it).
+
+        Returns
+        -------
+        float or (N,) float64 ndarray
+        """
         x1 = self._columns(state1, "state1")
         x2 = self._columns(state2, "state2")
         dt = self._seconds(time_interval)
         return scalar_or_array(self._noise(dt).logpdf(x1 - self._mean(x2, dt)))
 
     def pdf(self, state1, state2, time_interval=None):
-        """Density of ``state1`` given ``state2``."""
+        """Density of ``state1`` given ``state2``.
+
+        Parameters
+        ----------
+        state1 : state object or (d,) / (d, N) array_like
+            The states after the interval.
+        state2 : state object or (d,) / (d, N) array_like
+            The states before it; columns pair up with ``state1``'s (a single column of
+            either is broadcast).
+        time_interval : datetime.timedelta or float seconds
+            Required, except by :class:`LinearGaussianTransitionModel` (which does not
+            depend on it).
+
+        Returns
+        -------
+        float or (N,) float64 ndarray
+        """
         return np.exp(self.logpdf(state1, state2, time_interval))
 
     def _seconds(self, time_interval):
@@ -152,7 +199,16 @@ class _LinearGaussian(TransitionModel):
         return out
 
     def jacobian(self, state=None, time_interval=None):
-        """The transition matrix F(dt) (the model is linear)."""
+        """The transition matrix F(dt) (d, d) (the model is linear).
+
+        Parameters
+        ----------
+        state : state object or array_like, optional
+            Ignored: the Jacobian is the same at every state.
+        time_interval : datetime.timedelta or float seconds
+            Required, except by :class:`LinearGaussianTransitionModel` (which does not
+            depend on it).
+        """
         return self.matrix(self._seconds(time_interval))
 
     def _kalman_spec(self, dt):
@@ -210,7 +266,13 @@ class LinearGaussianTransitionModel(_LinearGaussian):
                                                            self.ndim_state).copy()
 
     def matrix(self, time_interval=None):
-        """F (d, d); the time interval is ignored."""
+        """F (d, d); the time interval is ignored.
+
+        Parameters
+        ----------
+        time_interval : datetime.timedelta or float seconds, optional
+            Ignored (the model is time-invariant).
+        """
         return self.transition_matrix
 
     def _matrix(self, dt):
@@ -220,7 +282,13 @@ class LinearGaussianTransitionModel(_LinearGaussian):
         return self._revision
 
     def covar(self, time_interval=None):
-        """Q (d, d); the time interval is ignored."""
+        """Q (d, d); the time interval is ignored.
+
+        Parameters
+        ----------
+        time_interval : datetime.timedelta or float seconds, optional
+            Ignored (the model is time-invariant).
+        """
         return self.covariance_matrix
 
     def _covar(self, dt):
@@ -259,10 +327,24 @@ class ConstantVelocity(_LinearGaussian):
         return None  # F does not depend on q
 
     def matrix(self, time_interval):
+        """F(dt) = ``[[1, dt], [0, 1]]`` (2, 2).
+
+        Parameters
+        ----------
+        time_interval : datetime.timedelta or float seconds
+            dt (may be negative).
+        """
         dt = self._seconds(time_interval)
         return np.array([[1.0, dt], [0.0, 1.0]])
 
     def covar(self, time_interval):
+        """Q(dt) = ``q [[t^3/3, t^2/2], [t^2/2, t]]`` (2, 2) with ``t = |dt|``.
+
+        Parameters
+        ----------
+        time_interval : datetime.timedelta or float seconds
+            dt (may be negative).
+        """
         t = abs(self._seconds(time_interval))
         return self.noise_diff_coeff * np.array([[t**3 / 3, t**2 / 2], [t**2 / 2, t]])
 
@@ -314,10 +396,22 @@ class CombinedLinearGaussianTransitionModel(_LinearGaussian):
         return self._revision, tuple(model._parameters() for model in self._models)
 
     def matrix(self, time_interval):
+        """F(dt) (d, d): the parts' transition matrices on the diagonal.
+
+        Parameters
+        ----------
+        time_interval : datetime.timedelta or float seconds
+        """
         dt = self._seconds(time_interval)
         return _block_diag([model.matrix(dt) for model in self.model_list])
 
     def covar(self, time_interval):
+        """Q(dt) (d, d): the parts' process noise covariances on the diagonal.
+
+        Parameters
+        ----------
+        time_interval : datetime.timedelta or float seconds
+        """
         dt = self._seconds(time_interval)
         return _block_diag([model.covar(dt) for model in self.model_list])
 
@@ -363,6 +457,14 @@ class NonlinearGaussianTransitionModel(TransitionModel):
                                    doc="The user's function f (fixed).")
 
     def covar(self, time_interval):
+        """Q(dt) (d, d): the fixed Q, or ``covariance(dt)`` (checked to be finite and
+        symmetric) when a callable was given.
+
+        Parameters
+        ----------
+        time_interval : datetime.timedelta or float seconds
+            dt, passed to a callable ``covariance`` in seconds.
+        """
         return _validate.covariance(self._covariance(self._seconds(time_interval)),
                                     "covariance(dt)", self.ndim_state)
 

@@ -12,7 +12,19 @@ from .metrics import _SUMMARIES
 @dataclasses.dataclass(frozen=True)
 class RunFailure:
     """A run that raised: its index, ``seed`` (a SeedSequence: ``run_trial(..., seed)``
-    reproduces it), the error as ``'Type: message'``, and the traceback text."""
+    reproduces it), the error as ``'Type: message'``, and the traceback text.
+
+    Parameters
+    ----------
+    run : int
+        Index of the run, in [0, n_runs).
+    seed : numpy.random.SeedSequence
+        The run's seed.
+    error : str
+        ``'Type: message'`` of the exception.
+    traceback : str
+        The formatted traceback (empty if the run's worker was lost).
+    """
 
     run: int
     seed: np.random.SeedSequence
@@ -23,7 +35,26 @@ class RunFailure:
 @dataclasses.dataclass(frozen=True)
 class MetricSummary:
     """A per-run statistic over the completed runs: ``mean`` and its confidence interval
-    [``low``, ``high``] (Student t), from ``runs`` runs where it is defined."""
+    [``low``, ``high``], from ``runs`` runs where it is defined.
+
+    Every statistic is non-negative, so the interval is the Student t interval of
+    ``log(mean)`` (delta method), ``mean * exp(-h) .. mean * exp(h)`` with
+    ``h = t * s / (mean * sqrt(runs))``: it never goes below zero, and for a small relative
+    error ``s / mean`` it equals the usual ``mean +- t * s / sqrt(runs)``. NaN bounds from a
+    single run.
+
+    Parameters
+    ----------
+    metric : str
+        Name of the per-run statistic: a column of :meth:`TrialResults.per_run`
+        ('rmse', 'anees', 'anis', 'mean_ess' or 'step_seconds').
+    mean : float
+        Mean over the runs.
+    low, high : float
+        Bounds of the confidence interval.
+    runs : int
+        Number of runs where the statistic is defined.
+    """
 
     metric: str
     mean: float
@@ -34,6 +65,17 @@ class MetricSummary:
 
 class TrialResults:
     """The results of :func:`run_trials`.
+
+    Parameters
+    ----------
+    table : numpy.ndarray
+        The tidy table (see the attributes).
+    failures : list of RunFailure
+        The failed runs.
+    seed : numpy.random.SeedSequence
+        The root seed.
+    n_runs : int
+        Number of runs, completed or failed.
 
     Attributes
     ----------
@@ -85,6 +127,11 @@ class TrialResults:
         """The mean over runs of each per-run statistic (see :meth:`per_run`), with a
         ``confidence`` interval.
 
+        Parameters
+        ----------
+        confidence : float
+            Confidence level of the interval, in (0, 1).
+
         Returns
         -------
         list of MetricSummary
@@ -101,9 +148,15 @@ class TrialResults:
             if n == 0:
                 continue
             mean = float(np.mean(values))
-            half = (stats.t.ppf(0.5 + confidence / 2, n - 1) * np.std(values, ddof=1)
-                    / math.sqrt(n)) if n > 1 else np.nan
-            out.append(MetricSummary(name, mean, mean - half, mean + half, n))
+            if n == 1:
+                low = high = np.nan
+            elif mean == 0.0:
+                low = high = 0.0
+            else:
+                relative = np.std(values, ddof=1) / (mean * math.sqrt(n))
+                factor = math.exp(stats.t.ppf(0.5 + confidence / 2, n - 1) * relative)
+                low, high = mean / factor, mean * factor
+            out.append(MetricSummary(name, mean, low, high, n))
         return out
 
     def rmse_over_time(self):

@@ -17,7 +17,20 @@ from .results import RunFailure
 
 def run_seeds(seed, n_runs):
     """The per-run seeds of ``run_trials(..., n_runs, seed=seed)``:
-    ``numpy.random.SeedSequence(seed).spawn(n_runs)``."""
+    ``numpy.random.SeedSequence(seed).spawn(n_runs)``.
+
+    Parameters
+    ----------
+    seed : None, int or numpy.random.SeedSequence
+        Root seed, as for :func:`run_trials` (None: fresh entropy, so new seeds each call).
+    n_runs : int
+        Number of runs, >= 1.
+
+    Returns
+    -------
+    list of numpy.random.SeedSequence
+        One per run, in run order.
+    """
     return _children(_root_seed(seed), count(n_runs, "n_runs"))
 
 
@@ -43,10 +56,18 @@ def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping
 
     Parameters
     ----------
-    scenario, make_filter, metrics, position_mapping
-        As for :func:`run_trials`.
+    scenario : callable
+        ``scenario(seed=seed_sequence)`` returns the run's scenario, as for
+        :func:`run_trials`.
+    make_filter : callable
+        ``make_filter(scenario, rng)`` returns ``(predictor, updater)``, as for
+        :func:`run_trials`.
     run_seed : numpy.random.SeedSequence
         The run's seed, e.g. ``run_seeds(seed, n_runs)[i]`` or a failure's ``seed``.
+    metrics : sequence of str
+        As for :func:`run_trials`.
+    position_mapping : sequence of int
+        State components of the position, as for :func:`run_trials`.
 
     Returns
     -------

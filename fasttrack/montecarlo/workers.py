@@ -14,6 +14,7 @@ from .._validate import count
 from .trial import _run_batch
 from .results import RunFailure
 
+__all__ = ["local_cluster"]
 
 _INSTALL = "pip install 'fasttrack[distributed]'"
 
@@ -254,6 +255,11 @@ def local_cluster(n_workers=None):
 
         with local_cluster(2) as client:
             results = run_trials(scenario, make_filter, 1000, client=client)
+
+    Parameters
+    ----------
+    n_workers : int, optional
+        Number of worker processes, >= 1 (default: the usable cores).
     """
     try:
         from distributed import Client, LocalCluster

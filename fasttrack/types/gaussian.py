@@ -17,7 +17,15 @@ def column_vector(value, name="state_vector"):
 
 
 class State:
-    """A point state: a (d, 1) ``state_vector`` at a ``timestamp``."""
+    """A point state: a (d, 1) ``state_vector`` at a ``timestamp``.
+
+    Parameters
+    ----------
+    state_vector : (d,) or (d, 1) array_like
+        Finite; stored as a (d, 1) float64 column.
+    timestamp : datetime.datetime or float, optional
+        Time of the state (a datetime, or seconds).
+    """
 
     def __init__(self, state_vector, timestamp=None):
         self.state_vector = column_vector(state_vector)
@@ -38,6 +46,15 @@ class GaussianState(State):
 
     The covariance must be finite and symmetric (to 1e-9 relative); positive definiteness is
     checked where a filter needs it.
+
+    Parameters
+    ----------
+    state_vector : (d,) or (d, 1) array_like
+        Finite; stored as a (d, 1) float64 column.
+    covar : (d, d) array_like
+        Finite and symmetric.
+    timestamp : datetime.datetime or float, optional
+        Time of the state (a datetime, or seconds).
     """
 
     def __init__(self, state_vector, covar, timestamp=None):
@@ -64,7 +81,20 @@ class GaussianState(State):
 class GaussianStatePrediction(GaussianState):
     """A predicted Gaussian state, with the ``transition_model`` that produced it and the
     ``prior`` it came from (a weak link when a predictor made it, see the module's
-    notes)."""
+    notes).
+
+    Parameters
+    ----------
+    state_vector : (d,) or (d, 1) array_like
+        Finite; stored as a (d, 1) float64 column.
+    covar : (d, d) array_like
+        Finite and symmetric (to 1e-9 relative).
+    timestamp : datetime.datetime or float, optional
+        Time of the state (a datetime, or seconds).
+    transition_model : TransitionModel, optional
+    prior : state, optional
+        The state predicted from; held strongly (see :mod:`fasttrack.types`).
+    """
 
     prior = Link()
 
@@ -76,7 +106,19 @@ class GaussianStatePrediction(GaussianState):
 
 class GaussianMeasurementPrediction(GaussianState):
     """A predicted measurement: mean ``state_vector`` (m, 1), innovation covariance
-    ``covar`` (m, m) and ``cross_covar`` (d, m) between state and measurement."""
+    ``covar`` (m, m) and ``cross_covar`` (d, m) between state and measurement.
+
+    Parameters
+    ----------
+    state_vector : (m,) or (m, 1) array_like
+        Predicted measurement mean; finite, stored as an (m, 1) float64 column.
+    covar : (m, m) array_like
+        Innovation covariance; finite and symmetric (to 1e-9 relative).
+    timestamp : datetime.datetime or float, optional
+        Time of the state (a datetime, or seconds).
+    cross_covar : (d, m) array_like, optional
+        Cross covariance of state and measurement (stored as given).
+    """
 
     def __init__(self, state_vector, covar, timestamp=None, cross_covar=None):
         super().__init__(state_vector, covar, timestamp)
@@ -84,7 +126,18 @@ class GaussianMeasurementPrediction(GaussianState):
 
 
 class GaussianStateUpdate(GaussianState):
-    """An updated Gaussian state, with the ``hypothesis`` it was updated from."""
+    """An updated Gaussian state, with the ``hypothesis`` it was updated from.
+
+    Parameters
+    ----------
+    state_vector : (d,) or (d, 1) array_like
+        Finite; stored as a (d, 1) float64 column.
+    covar : (d, d) array_like
+        Finite and symmetric (to 1e-9 relative).
+    hypothesis : SingleHypothesis, optional
+    timestamp : datetime.datetime or float, optional
+        Time of the state (a datetime, or seconds).
+    """
 
     def __init__(self, state_vector, covar, hypothesis=None, timestamp=None):
         super().__init__(state_vector, covar, timestamp)
@@ -92,7 +145,17 @@ class GaussianStateUpdate(GaussianState):
 
 
 class GroundTruthState(State):
-    """A true state, with optional ``metadata``."""
+    """A true state, with optional ``metadata``.
+
+    Parameters
+    ----------
+    state_vector : (d,) or (d, 1) array_like
+        Finite; stored as a (d, 1) float64 column.
+    timestamp : datetime.datetime or float, optional
+        Time of the state (a datetime, or seconds).
+    metadata : mapping, optional
+        Copied into a new dict (default empty).
+    """
 
     def __init__(self, state_vector, timestamp=None, metadata=None):
         super().__init__(state_vector, timestamp)
@@ -101,7 +164,18 @@ class GroundTruthState(State):
 
 class Detection(State):
     """A measurement ``state_vector`` (m, 1) at a ``timestamp``; its ``measurement_model``, if
-    set, is used by updaters instead of their own."""
+    set, is used by updaters instead of their own.
+
+    Parameters
+    ----------
+    state_vector : (m,) or (m, 1) array_like
+        The measurement; finite, stored as an (m, 1) float64 column.
+    timestamp : datetime.datetime or float, optional
+        Time of the measurement (a datetime, or seconds).
+    measurement_model : MeasurementModel, optional
+    metadata : mapping, optional
+        Copied into a new dict (default empty).
+    """
 
     def __init__(self, state_vector, timestamp=None, measurement_model=None, metadata=None):
         super().__init__(state_vector, timestamp)

@@ -120,7 +120,20 @@ def factor_kernel_covar(kernel_covar, m):
 
 class KernelParticleStatePrediction(KernelParticleState):
     """A predicted :class:`KernelParticleState`, with the ``transition_model`` that produced
-    it."""
+    it.
+
+    Parameters
+    ----------
+    state_vector : (d, M) array_like
+        Particles, one column each; finite.
+    timestamp : datetime.datetime or float, optional
+        As :class:`KernelParticleState`.
+    weight : (M,) array_like, optional
+        As :class:`KernelParticleState`.
+    kernel_covar : (M, M) array_like, optional
+        As :class:`KernelParticleState`.
+    transition_model : TransitionModel, optional
+    """
 
     def __init__(self, state_vector, timestamp=None, weight=None, kernel_covar=None,
                  transition_model=None):
@@ -130,12 +143,39 @@ class KernelParticleStatePrediction(KernelParticleState):
 
 class KernelParticleStateMeasurementPrediction(KernelParticleState):
     """Predicted measurements (m, M) of a :class:`KernelParticleState`'s particles, with its
-    weights and kernel covariance."""
+    weights and kernel covariance.
+
+    Parameters
+    ----------
+    state_vector : (m, M) array_like
+        Predicted measurements, one column per particle; finite.
+    timestamp : datetime.datetime or float, optional
+        As :class:`KernelParticleState`.
+    weight : (M,) array_like, optional
+        As :class:`KernelParticleState`.
+    kernel_covar : (M, M) array_like, optional
+        As :class:`KernelParticleState`.
+    """
 
 
 class KernelParticleStateUpdate(KernelParticleState):
     """An updated :class:`KernelParticleState`, with the ``hypothesis`` it came from and the
-    ``proposal`` (d, M) particles that the next prediction propagates."""
+    ``proposal`` (d, M) particles that the next prediction propagates.
+
+    Parameters
+    ----------
+    state_vector : (d, M) array_like
+        Particles, one column each; finite.
+    timestamp : datetime.datetime or float, optional
+        As :class:`KernelParticleState`.
+    weight : (M,) array_like, optional
+        As :class:`KernelParticleState`.
+    kernel_covar : (M, M) array_like, optional
+        As :class:`KernelParticleState`.
+    hypothesis : SingleHypothesis, optional
+    proposal : (d, M) array_like, optional
+        Particles for the next prediction to propagate; finite.
+    """
 
     def __init__(self, state_vector, timestamp=None, weight=None, kernel_covar=None,
                  hypothesis=None, proposal=None):

@@ -288,7 +288,28 @@ def as_particle_state(value, name="particles"):
 class ParticleStatePrediction(ParticleState):
     """A predicted particle state: a :class:`ParticleState` with the ``transition_model`` that
     produced it and the ``prior`` it came from (also its ``parent``; weak links when a
-    predictor made them, see the module's notes)."""
+    predictor made them, see the module's notes).
+
+    Parameters
+    ----------
+    state_vector : (d, N) array_like, optional
+        As :class:`ParticleState`.
+    timestamp : datetime.datetime or float, optional
+        As :class:`ParticleState`.
+    weight : (N,) array_like, optional
+        As :class:`ParticleState`.
+    log_weight : (N,) array_like, optional
+        As :class:`ParticleState`.
+    parent : ParticleState, optional
+        As :class:`ParticleState`.
+    particle_list : list of Particle, optional
+        As :class:`ParticleState`.
+    fixed_covar : (d, d) array_like, optional
+        As :class:`ParticleState`.
+    transition_model : TransitionModel, optional
+    prior : ParticleState, optional
+        The state predicted from; held strongly (see :mod:`fasttrack.types`).
+    """
 
     prior = Link()
 
@@ -309,6 +330,24 @@ class ParticleStateUpdate(ParticleState):
     the weights after the update and before any resampling (what an
     :class:`~fasttrack.ESSResampler` decided on), and ``resampled``, whether its resampler
     drew new particles.
+
+    Parameters
+    ----------
+    state_vector : (d, N) array_like, optional
+        As :class:`ParticleState`.
+    timestamp : datetime.datetime or float, optional
+        As :class:`ParticleState`.
+    weight : (N,) array_like, optional
+        As :class:`ParticleState`.
+    log_weight : (N,) array_like, optional
+        As :class:`ParticleState`.
+    parent : ParticleState, optional
+        As :class:`ParticleState`.
+    particle_list : list of Particle, optional
+        As :class:`ParticleState`.
+    fixed_covar : (d, d) array_like, optional
+        As :class:`ParticleState`.
+    hypothesis : SingleHypothesis, optional
     """
 
     #: Effective sample size before resampling (None if not made by a ParticleUpdater).

@@ -19,7 +19,15 @@ class StateSequence:
             self.append(state)
 
     def append(self, state):
-        """Add a state, keeping time order (after any states with the same timestamp)."""
+        """Add a state, keeping time order (after any states with the same timestamp).
+
+        Parameters
+        ----------
+        state : state object
+            Anything with a ``timestamp`` (None, a datetime or seconds; a state without a
+            timestamp goes at the end, and the timestamps must not mix datetimes and
+            numbers).
+        """
         if not hasattr(state, "timestamp"):
             raise TypeError(f"a {type(self).__name__} holds states, got {type(state).__name__}")
         if state.timestamp is None or not self.states or self.states[-1].timestamp is None \
@@ -69,7 +77,15 @@ def _time_order(a, b):
 
 
 class Track(StateSequence):
-    """A track: estimated states in time order, with an ``id``."""
+    """A track: estimated states in time order, with an ``id``.
+
+    Parameters
+    ----------
+    states : iterable of states, optional
+        Added with :meth:`append`, so kept in time order.
+    id : str, optional
+        Default: a new random UUID, as a string.
+    """
 
     def __init__(self, states=None, id=None):
         super().__init__(states)
@@ -77,7 +93,15 @@ class Track(StateSequence):
 
 
 class GroundTruthPath(StateSequence):
-    """A true path: :class:`GroundTruthState` objects in time order, with an ``id``."""
+    """A true path: :class:`GroundTruthState` objects in time order, with an ``id``.
+
+    Parameters
+    ----------
+    states : iterable of GroundTruthState, optional
+        Added with :meth:`append`, so kept in time order.
+    id : str, optional
+        Default: a new random UUID, as a string.
+    """
 
     def __init__(self, states=None, id=None):
         super().__init__(states)
@@ -91,6 +115,16 @@ class SingleHypothesis:
     The hypothesis holds its ``prediction`` until an updater has used it; from then on the
     link is weak (see the module's notes): an update, kept in a :class:`Track`, does not
     keep its prediction's particle cloud alive unless the program holds the prediction.
+
+    Parameters
+    ----------
+    prediction : state
+        The predicted state (a prediction from a predictor).
+    measurement : Detection or None
+        None for a missed detection.
+    measurement_prediction : state, optional
+        A predicted measurement. The Kalman and adaptive kernel updaters store theirs here;
+        the adaptive kernel updater uses one given instead of computing it.
     """
 
     prediction = Link()
