@@ -6,9 +6,15 @@ from . import _errors
 from . import _validate
 from . import threads as _threads
 from ._jit import kalman as _kalman
+from ._jit import status as _status
 from .models.measurement import NonlinearGaussianMeasurement, MeasurementModel
 from .models.transition import LinearGaussianTransitionModel, TransitionModel
 from .core import kalman as _kalman_core
+
+
+#: Update: the "prior" of the identity step is the caller's prediction.
+_AS_PREDICTION = {_status.PRIOR_NOT_PSD: _status.PREDICTION_NOT_PSD,
+                  _status.PRIOR_NOT_SYMMETRIC: _status.PREDICTION_NOT_SYMMETRIC}
 
 
 class BatchExtendedKalmanFilter:
@@ -58,6 +64,8 @@ class BatchExtendedKalmanFilter:
         covars = _validate.finite_array(covars, "covars", 3)
         if covars.shape != (k, d, d):
             raise ValueError(f"covars must have shape ({k}, {d}, {d}), got {covars.shape}")
+        if measurements is None:
+            return means, covars, None
         measurements = _validate.finite_array(measurements, "measurements", len(leading) + 2)
         if measurements.shape != (*leading, k, m):
             raise ValueError(f"measurements must have shape {(*leading, k, m)}, "
@@ -88,9 +96,21 @@ class BatchExtendedKalmanFilter:
         return (model.kind, model._mapping, model._offset, model._rotation, model._noise_covar,
                 model._angles, self._method, self.use_joseph_cov)
 
+    @staticmethod
+    def _in_chunks(k, run):
+        """``run(lo, hi)`` on chunks of the K filters, in parallel threads."""
+        _threads.in_chunks(run, k, serial_below=1024, align=_kalman.FILTERS_PER_BLOCK)
+
+    @staticmethod
+    def _raise(status):
+        failed = np.flatnonzero(status)
+        if failed.size:
+            raise ValueError(f"{failed.size} of {status.size} filters failed; filter "
+                             f"{failed[0]}: {_errors.MESSAGES[status[failed[0]]]}")
+
     def _step(self, spec, intervals, means, covars, measurements, means_out, covars_out,
               status):
-        """One step of every filter, on chunks of the batch in parallel threads."""
+        """One step of every filter."""
         measurement_spec = self._measurement_spec()
 
         def run(lo, hi):
@@ -98,7 +118,84 @@ class BatchExtendedKalmanFilter:
                                covars[lo:hi], measurements[lo:hi], means_out[lo:hi],
                                covars_out[lo:hi], status[lo:hi])
 
-        _threads.in_chunks(run, means.shape[0], serial_below=1024, align=_kalman.FILTERS_PER_BLOCK)
+        self._in_chunks(means.shape[0], run)
+
+    def predict(self, means, covars, time_intervals):
+        """Predict every filter and its measurement, for gating and association.
+
+        Parameters
+        ----------
+        means : (K, d) array_like
+        covars : (K, d, d) array_like
+            Positive semi-definite.
+        time_intervals : float or (K,) array_like
+            Seconds from each filter's state to the prediction.
+
+        Returns
+        -------
+        means, covars : (K, d), (K, d, d) ndarray
+            The predicted states.
+        z_hats : (K, m) ndarray
+            The predicted measurements.
+        innovation_covars : (K, m, m) ndarray
+            ``S = H P H^T + R``, H the measurement Jacobian at the predicted mean.
+
+        Raises
+        ------
+        ValueError
+            If a filter's prediction is undefined (naming the first such filter and why).
+        """
+        means, covars, _ = self._arrays(means, covars, None, ())
+        k, d = means.shape
+        m = self.measurement_model.ndim_meas
+        intervals = self._intervals(time_intervals, (k,))
+        out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))
+        status = np.zeros(k, dtype=np.int64)
+        if k:
+            spec = self._spec(intervals)
+            model = self.measurement_model
+            measurement_spec = (model.kind, model._mapping, model._offset, model._rotation,
+                                model._noise_covar, self._method)
+
+            def run(lo, hi):
+                _kalman.batch_predict(*spec, intervals[lo:hi], *measurement_spec,
+                                      means[lo:hi], covars[lo:hi],
+                                      *[a[lo:hi] for a in out], status[lo:hi])
+
+            self._in_chunks(k, run)
+        self._raise(status)
+        return out
+
+    def update(self, means, covars, measurements):
+        """Update every (predicted) filter with its measurement.
+
+        Parameters
+        ----------
+        means : (K, d) array_like
+        covars : (K, d, d) array_like
+            Positive semi-definite.
+        measurements : (K, m) array_like
+
+        Returns
+        -------
+        means, covars : (K, d), (K, d, d) ndarray
+            The posteriors.
+
+        Raises
+        ------
+        ValueError
+            If a filter's update is undefined (naming the first such filter and why).
+        """
+        means, covars, measurements = self._arrays(means, covars, measurements, ())
+        k, d = means.shape
+        means_out, covars_out = np.empty_like(means), np.empty_like(covars)
+        status = np.zeros(k, dtype=np.int64)
+        if k:  # a step through the identity (F = I, Q = 0: exact) is the update alone
+            stay = (_kalman.FIXED, np.empty(0), np.eye(d), np.zeros((d, d)))
+            self._step(stay, np.zeros(k), means, covars, measurements, means_out,
+                       covars_out, status)
+        self._raise(np.array([_AS_PREDICTION.get(code, code) for code in status], np.int64))
+        return means_out, covars_out
 
     def step(self, means, covars, measurements, time_intervals):
         """One predict + update of every filter.
@@ -132,10 +229,7 @@ class BatchExtendedKalmanFilter:
         status = np.empty(k, dtype=np.int64)
         self._step(self._spec(intervals), intervals, means, covars, measurements, means_out,
                    covars_out, status)
-        failed = np.flatnonzero(status)
-        if failed.size:
-            raise ValueError(f"{failed.size} of {k} filters failed; filter {failed[0]}: "
-                             f"{_errors.MESSAGES[status[failed[0]]]}")
+        self._raise(status)
         return means_out, covars_out
 
     def run(self, means, covars, measurements, time_intervals):

@@ -1,6 +1,10 @@
-"""Simulation helpers: a ground-truth path from a transition model and detections of it."""
+"""Simulation helpers: a ground-truth path from a transition model and detections of it,
+and multi-target scenarios with births, deaths, missed detections and clutter."""
+import dataclasses
 import datetime
 import numbers
+
+import numpy as np
 
 from . import _validate
 from . import random as _random
@@ -64,3 +68,128 @@ def _advance(start, offset):
         return start + datetime.timedelta(seconds=offset)
     assert isinstance(start, numbers.Real)
     return start + offset
+
+
+@dataclasses.dataclass(frozen=True)
+class MultiTargetScenario:
+    """A simulated multi-target scenario, scan by scan (scan t at ``t * time_interval``
+    seconds).
+
+    Attributes
+    ----------
+    truths : list of (n_t, d) float64 ndarray
+        The states of the targets alive at each scan.
+    truth_ids : list of (n_t,) int64 ndarray
+        Their identities (the order of birth, from 0).
+    detections : list of (M_t, m) float64 ndarray
+        Each scan's measurements: target detections and clutter, in random order.
+    origins : list of (M_t,) int64 ndarray
+        The target each measurement came from, -1 for clutter.
+    time_interval : float
+        Seconds between scans.
+    region : (2, m) float64 ndarray
+        Lower and upper corner of the measurement region where clutter falls.
+    clutter_density : float
+        Expected clutter measurements per unit volume of the region per scan.
+    """
+
+    truths: list
+    truth_ids: list
+    detections: list
+    origins: list
+    time_interval: float
+    region: np.ndarray
+    clutter_density: float
+
+
+def multi_target(transition_model, measurement_model, initial_states, steps, region,
+                 time_interval=1.0, prob_detect=0.9, clutter_rate=0.0, birth_rate=0.0,
+                 birth_mean=None, birth_covar=None, prob_survive=1.0, rng=None):
+    """Simulate targets, their detections and clutter over ``steps`` scans.
+
+    At each scan after the first, every target survives with ``prob_survive`` and moves
+    through the transition model (with process noise), and Poisson(``birth_rate``) targets
+    are born from N(``birth_mean``, ``birth_covar``). Each live target is detected with
+    ``prob_detect`` (with measurement noise), and Poisson(``clutter_rate``) clutter
+    measurements fall uniformly in ``region``.
+
+    Parameters
+    ----------
+    transition_model : TransitionModel
+    measurement_model : MeasurementModel
+    initial_states : (n, d) array_like
+        The targets alive at the first scan.
+    steps : int
+        Number of scans, >= 1.
+    region : (2, m) array_like
+        Lower and upper corner of the clutter region, in measurement space.
+    time_interval : float
+        Seconds between scans, > 0.
+    prob_detect : float
+        Probability of detection P_D, in [0, 1].
+    clutter_rate : float
+        Expected clutter measurements per scan, >= 0.
+    birth_rate : float
+        Expected births per scan, >= 0.
+    birth_mean : (d,) array_like, optional
+        Mean of a new target's state (required if ``birth_rate > 0``).
+    birth_covar : (d, d) array_like, optional
+        Its covariance.
+    prob_survive : float
+        Probability that a target lives on to the next scan, in [0, 1].
+    rng : None, int or numpy.random.Generator
+
+    Returns
+    -------
+    MultiTargetScenario
+    """
+    steps = _validate.count(steps, "steps")
+    d, m = transition_model.ndim_state, measurement_model.ndim_meas
+    states = _validate.finite_array(initial_states, "initial_states", 2)
+    if states.shape[1:] != (d,):
+        raise ValueError(f"initial_states must have shape (n, {d}), got {states.shape}")
+    region = _validate.finite_array(region, "region", 2)
+    if region.shape != (2, m) or np.any(region[1] <= region[0]):
+        raise ValueError(f"region must be (2, {m}): a lower and a larger upper corner, "
+                         f"got {region.tolist()}")
+    for name, p in (("prob_detect", prob_detect), ("prob_survive", prob_survive)):
+        if not 0 <= p <= 1:
+            raise ValueError(f"{name} must be in [0, 1], got {p}")
+    for name, rate in (("clutter_rate", clutter_rate), ("birth_rate", birth_rate)):
+        if not rate >= 0:
+            raise ValueError(f"{name} must be >= 0, got {rate}")
+    if birth_rate > 0 and (birth_mean is None or birth_covar is None):
+        raise ValueError("birth_rate > 0 needs birth_mean and birth_covar")
+    dt = float(time_interval)
+    if not dt > 0:
+        raise ValueError(f"time_interval must be > 0 seconds, got {time_interval}")
+    rng = _random.generator(_random.check_rng(rng))
+    ids = np.arange(states.shape[0])
+    next_id = states.shape[0]
+    out = {"truths": [], "truth_ids": [], "detections": [], "origins": []}
+    for t in range(steps):
+        if t > 0:
+            alive = rng.random(ids.size) < prob_survive
+            states, ids = states[alive], ids[alive]
+            if states.shape[0]:
+                states = np.ascontiguousarray(transition_model.function(
+                    states.T, noise=True, time_interval=dt, rng=rng).T)
+            born = rng.poisson(birth_rate) if birth_rate > 0 else 0
+            if born:
+                new = rng.multivariate_normal(np.ravel(birth_mean), birth_covar, born)
+                states = np.concatenate((states, new))
+                ids = np.concatenate((ids, np.arange(next_id, next_id + born)))
+                next_id += born
+        seen = rng.random(ids.size) < prob_detect
+        measured = (np.asarray(measurement_model.function(states[seen].T, noise=True,
+                                                          rng=rng)).T.reshape(-1, m)
+                    if seen.any() else np.empty((0, m)))
+        clutter = rng.uniform(region[0], region[1], (rng.poisson(clutter_rate), m))
+        shuffle = rng.permutation(measured.shape[0] + clutter.shape[0])
+        out["truths"].append(states.copy())
+        out["truth_ids"].append(ids.copy())
+        out["detections"].append(np.ascontiguousarray(np.concatenate((measured, clutter))[shuffle]))
+        out["origins"].append(np.concatenate((ids[seen], np.full(clutter.shape[0], -1)))[shuffle])
+    volume = float(np.prod(region[1] - region[0]))
+    return MultiTargetScenario(time_interval=dt, region=region,
+                               clutter_density=clutter_rate / volume, **out)

@@ -710,3 +710,308 @@ def largest_magnitude(w):
 def draw_proposal(x, w, lt, sigma, v1t, v2t, key, out):
     """``x w + sqrt(diag(x S x^T)) * normals`` (normals of stream ``key``, row-major)."""
     proposal_dense(x, w, dense_covariance(lt, sigma, v1t, v2t), key, out)
+
+
+# --- assign (linear sum assignment, GOSPA, OSPA) --------------------------------------------
+
+
+def lsap(cost, row_to_col):
+    """scipy.optimize.linear_sum_assignment; infeasible: every row -1 and False."""
+    from scipy.optimize import linear_sum_assignment
+    row_to_col[:] = -1
+    try:
+        rows, cols = linear_sum_assignment(cost)
+    except ValueError:
+        return False
+    row_to_col[rows] = cols
+    return True
+
+
+def lsap_batch(costs, offsets, shapes, row_offsets, row_to_col, feasible):
+    for q, (nr, nc) in enumerate(shapes):
+        block = costs[offsets[q]:offsets[q + 1]].reshape(nr, nc)
+        feasible[q] = lsap(block, row_to_col[row_offsets[q]:row_offsets[q + 1]])
+
+
+def _capped(rows, cols, c):
+    """min(|rows[i] - cols[j]|, c) for every pair."""
+    d = np.sqrt(((rows[:, None, :] - cols[None, :, :]) ** 2).sum(axis=-1))
+    return np.where(d < c, d, c)
+
+
+def gospa_steps(truths, truth_offsets, estimates, estimate_offsets, c, p, alpha, assignment,
+                out):
+    """GOSPA from its definition, step by step: scipy's pairs on min(d, c)^p (truth rows),
+    then c^p/alpha per unassigned point; with alpha = 2 a pair at the cut-off is split
+    into a missed truth and a false estimate."""
+    from scipy.optimize import linear_sum_assignment
+    cut = c ** p
+    dummy = cut / alpha
+    for k in range(truth_offsets.size - 1):
+        x = truths[truth_offsets[k]:truth_offsets[k + 1]]
+        y = estimates[estimate_offsets[k]:estimate_offsets[k + 1]]
+        n, m = len(x), len(y)
+        pairs = np.full(n, -1)
+        loc = missed = false = 0.0
+        if n and m:
+            cost = _capped(x, y, c) ** p
+            rows, cols = linear_sum_assignment(cost)
+            pairs[rows] = cols
+            at_cut = (cost[rows, cols] == cut) if alpha == 2 else np.zeros(len(rows), bool)
+            loc = cost[rows, cols][~at_cut].sum()
+            pairs[rows[at_cut]] = -1
+            missed = dummy * (n - len(rows) + at_cut.sum())
+            false = dummy * (m - len(rows) + at_cut.sum())
+            total = cost[rows, cols].sum() + dummy * (n + m - 2 * len(rows))
+        else:
+            missed, false = dummy * n, dummy * m
+            total = missed + false
+        assignment[truth_offsets[k]:truth_offsets[k + 1]] = pairs
+        out[k] = total ** (1 / p), loc, missed, false
+
+
+def switching_loss(truth_ids, truth_offsets, estimate_offsets, assigned_ids, n_ids, out):
+    """Stone Soup's _SwitchingLoss.add_associations on dicts, step by step."""
+    record = {}
+    for k in range(truth_offsets.size - 1):
+        out[k] = 0.0
+        if estimate_offsets[k + 1] == estimate_offsets[k]:
+            continue  # Stone Soup's mapping is empty without estimates
+        for t in range(truth_offsets[k], truth_offsets[k + 1]):
+            truth = int(truth_ids[t])
+            estimate = None if assigned_ids[t] == -1 else int(assigned_ids[t])
+            if truth not in record:
+                if estimate is not None:
+                    record[truth] = estimate
+            elif record[truth] != estimate:
+                out[k] += 0.5 + 0.5 * (estimate is not None and record[truth] is not None)
+                record[truth] = estimate
+
+
+def _bottleneck(cost):
+    """min over complete assignments of the largest entry: the least threshold at which
+    scipy still finds an assignment."""
+    from scipy.optimize import linear_sum_assignment
+    for value in np.unique(cost):
+        try:
+            linear_sum_assignment(np.where(cost <= value, 0.0, np.inf))
+        except ValueError:
+            continue
+        return value
+
+
+def ospa_steps(truths, truth_offsets, estimates, estimate_offsets, c, p, stonesoup, out):
+    """OSPA from its definition (or, with ``stonesoup``, Stone Soup 1.9.1's computation:
+    the square matrix of min(d, c) padded with c, scipy's pairs on it, then the powers)."""
+    from scipy.optimize import linear_sum_assignment
+    for k in range(truth_offsets.size - 1):
+        x = truths[truth_offsets[k]:truth_offsets[k + 1]]
+        y = estimates[estimate_offsets[k]:estimate_offsets[k + 1]]
+        n, m = len(x), len(y)
+        big = max(n, m)
+        if big == 0:
+            out[k] = 0.0
+        elif p == np.inf:
+            if n != m:
+                out[k] = c
+            elif stonesoup:
+                cost = _capped(y, x, c)
+                out[k] = cost[linear_sum_assignment(cost)].max()
+            else:
+                out[k] = _bottleneck(_capped(x, y, c))
+        elif stonesoup:
+            cost = np.full((big, big), float(c))
+            cost[:m, :n] = _capped(y, x, c)
+            out[k] = ((1 / big) * np.sum(cost[linear_sum_assignment(cost)] ** p)) ** (1 / p)
+        else:
+            cost = _capped(x, y, c) ** p
+            total = cost[linear_sum_assignment(cost)].sum() + c ** p * (big - min(n, m))
+            out[k] = (total / big) ** (1 / p)
+
+
+# --- jpda ----------------------------------------------------------------------------------
+
+
+def _joint_events(weights):
+    """Every joint event of a (T, M + 1) cluster (one column per track, no detection column
+    twice, positive weights only) and its weight: brute-force enumeration."""
+    import itertools
+    options = [np.flatnonzero(row > 0) for row in weights]
+    for event in itertools.product(*options):
+        taken = [j for j in event if j > 0]
+        if len(taken) == len(set(taken)):
+            yield event, np.prod([weights[t, j] for t, j in enumerate(event)])
+
+
+def ehm_marginals(weights, max_nodes, out):
+    """Marginals by enumerating every joint event (``max_nodes`` is ignored)."""
+    out[...] = 0.0
+    for t, row in enumerate(weights):
+        if not (row > 0).any():
+            return 3, t
+    total = 0.0
+    for event, weight in _joint_events(weights):
+        total += weight
+        for t, j in enumerate(event):
+            out[t, j] += weight
+    if weights.shape[0] == 0:
+        return 0, 0
+    if not total > 0:
+        return 3, -1
+    out /= total
+    return 0, 0
+
+
+def ehm_marginals_batch(weights, offsets, shapes, max_nodes, out, info):
+    for c, (n_tracks, n_dets) in enumerate(shapes):
+        lo, hi = offsets[c], offsets[c + 1]
+        info[c] = ehm_marginals(weights[lo:hi].reshape(n_tracks, n_dets + 1), max_nodes,
+                                out[lo:hi].reshape(n_tracks, n_dets + 1))
+
+
+def pda_weight_matrix(means, covars, detections, angles, gate, prob_detect, prob_gate,
+                      gate_threshold, clutter_spatial_density, volume_factor, include_all,
+                      out, status):
+    """PDAHypothesiser's weights with NumPy (inverse covariance, scipy's Gaussian pdf)."""
+    from scipy.stats import multivariate_normal
+    out[:, 0] = 1.0 - prob_detect * prob_gate
+    out[:, 1:] = 0.0
+    status[:] = 0
+    for t in range(means.shape[0]):
+        if np.linalg.eigvalsh(covars[t]).min() <= 0:
+            status[t] = 2
+            out[t] = 0.0
+            continue
+        nu = detections - means[t]
+        nu[:, angles] = wrap_angle(nu[:, angles])
+        d2 = np.einsum("di,ij,dj->d", nu, np.linalg.inv(covars[t]), nu)
+        valid = gate[t] & (d2 <= gate_threshold)
+        kept = valid | (gate[t] & include_all)
+        pdf = multivariate_normal(np.zeros(means.shape[1]), covars[t]).pdf(nu)
+        out[t, 1:] = np.where(kept, prob_detect * np.atleast_1d(pdf), 0.0)
+        if clutter_spatial_density > 0:
+            out[t, 1:] /= clutter_spatial_density
+        elif valid.any():
+            out[t, 1:] *= volume_factor * np.sqrt(np.linalg.det(covars[t])) / valid.sum()
+
+
+# --- kalman batches of tracks (prediction with measurement, update) -------------------------
+
+def batch_predict(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
+                  rotation, noise, method, means, covariances, means_out, covariances_out,
+                  z_hats, innovation_covars, status):
+    d, m = means.shape[1], z_hats.shape[1]
+    angles = np.zeros(m, dtype=bool)
+    for k in range(means.shape[0]):
+        x, p = np.empty((d, 1)), np.empty((d, d))
+        status[k] = predict_one(t_kind, rates, fixed_matrix, fixed_covar, dts[k],
+                                means[k][:, None], covariances[k], x, p)
+        z_hat, h = np.empty((m, 1)), np.empty((m, d))
+        measure(m_kind, x, mapping, offset, rotation, z_hat)
+        measurement_jacobian(m_kind, x[:, 0], mapping, offset, rotation, angles, method, h)
+        means_out[k], covariances_out[k] = x[:, 0], p
+        z_hats[k], innovation_covars[k] = z_hat[:, 0], h @ p @ h.T + noise
+
+
+# --- gating, clusters, nearest-neighbour assignment (dense) -----------------------------------
+
+def cell_keys(detections, axes, origin, cell, shape, keys):
+    cells = np.floor((detections[:, axes] - origin[:len(axes)]) / cell).astype(np.int64)
+    keys[:] = 0
+    if len(axes) == 1:
+        keys[:] = cells[:, 0]
+    elif len(axes) == 2:
+        keys[:] = cells[:, 0] * shape[1] + cells[:, 1]
+
+
+def _dense_gate(z_hats, covariances, detections, angles, threshold):
+    """Squared distances (K, M), inf outside the gates, and the log-likelihoods."""
+    v = detections[None, :, :] - z_hats[:, None, :]
+    v[..., angles] = wrap_angle(v[..., angles])
+    d2 = np.einsum("kji,kil,kjl->kj", v, np.linalg.inv(covariances), v)
+    m = z_hats.shape[1]
+    log_norm = 0.5 * (m * np.log(2 * np.pi) + np.linalg.slogdet(covariances)[1])
+    return np.where(d2 < threshold, d2, np.inf), -0.5 * d2 - log_norm[:, None]
+
+
+def gate(z_hats, covariances, detections, order, sorted_keys, axes, angles, origin, cell,
+         shape, threshold, starts, status):
+    d2, _ = _dense_gate(z_hats, covariances, detections, angles, threshold)
+    starts[0] = 0
+    starts[1:] = np.cumsum(np.isfinite(d2).sum(axis=1))
+    status[:] = 0
+
+
+def gate_candidates(z_hats, covariances, detections, order, sorted_keys, axes, angles, origin,
+                    cell, shape, threshold, starts, candidates, distances2, log_likelihoods):
+    d2, ll = _dense_gate(z_hats, covariances, detections, angles, threshold)
+    rows, cols = np.nonzero(np.isfinite(d2))
+    candidates[:], distances2[:], log_likelihoods[:] = cols, d2[rows, cols], ll[rows, cols]
+
+
+def clusters(starts, candidates, n_detections, labels):
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    k = starts.size - 1
+    rows = np.repeat(np.arange(k), np.diff(starts))
+    graph = coo_matrix((np.ones(rows.size), (rows, k + candidates)),
+                       shape=(k + n_detections,) * 2)
+    _, raw = connected_components(graph, directed=False)
+    first = {}
+    for label in raw:  # renumber in order of the first member
+        first.setdefault(label, len(first))
+    labels[:] = [first[label] for label in raw]
+    return len(first)
+
+
+def gnn_problems(labels, n_clusters, k_tracks, n_detections, shapes, offsets, row_offsets,
+                 track_rows, detection_columns):
+    tracks, detections = labels[:k_tracks], labels[k_tracks:]
+    for c in range(n_clusters):
+        track_rows[tracks == c] = np.arange((tracks == c).sum())
+        detection_columns[detections == c] = np.arange((detections == c).sum())
+        shapes[c] = (tracks == c).sum(), (detections == c).sum() + (tracks == c).sum()
+    offsets[0] = row_offsets[0] = 0
+    offsets[1:] = np.cumsum(shapes[:, 0] * shapes[:, 1])
+    row_offsets[1:] = np.cumsum(shapes[:, 0])
+    return offsets[-1]
+
+
+def gnn_fill(labels, starts, candidates, costs, missed, shapes, offsets, track_rows,
+             detection_columns, flat):
+    flat[:] = np.inf
+    for k in range(starts.size - 1):
+        c = labels[k]
+        block = flat[offsets[c]:offsets[c + 1]].reshape(shapes[c])
+        block[track_rows[k], detection_columns[candidates[starts[k]:starts[k + 1]]]] = \
+            costs[starts[k]:starts[k + 1]]
+        block[track_rows[k], shapes[c, 1] - shapes[c, 0] + track_rows[k]] = missed[k]
+
+
+def gnn_assignments(labels, shapes, row_offsets, track_rows, detection_columns, n_detections,
+                    row_to_col, assigned):
+    k_tracks = track_rows.size
+    for k in range(k_tracks):
+        c = labels[k]
+        col = row_to_col[row_offsets[c] + track_rows[k]]
+        members = np.flatnonzero(labels[k_tracks:] == c)
+        assigned[k] = members[col] if 0 <= col < members.size else -1
+
+
+def greedy_assignments(starts, candidates, costs, missed, n_detections, assigned):
+    k_tracks = starts.size - 1
+    owners = np.repeat(np.arange(k_tracks), np.diff(starts))
+    options = sorted([(costs[q], owners[q], q) for q in range(candidates.size)]
+                     + [(missed[k], k, candidates.size + k) for k in range(k_tracks)],
+                     key=lambda option: (option[0], option[2]))
+    assigned[:] = -1
+    decided, taken = set(), set()
+    for _, k, q in options:
+        if k in decided:
+            continue
+        if q >= candidates.size:
+            decided.add(k)
+        elif candidates[q] not in taken:
+            decided.add(k)
+            taken.add(candidates[q])
+            assigned[k] = candidates[q]

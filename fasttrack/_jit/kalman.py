@@ -222,18 +222,9 @@ def _measure(kind, mapping, offset, rotation, method, x, z_hat, jacobian, status
 
 
 @jit()
-def _update(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, covariance_out,
-           innovation_covar, cross, status):
-    """The Kalman update of each filter given its predicted measurement and Jacobian H.
-
-    ``cross = P H^T``, ``S = H P H^T + R``, ``K = cross S^-1`` (by Cholesky), innovation
-    ``z - z_hat`` with angle rows wrapped, ``x_out = x + K v`` and ``P_out = P - K S K^T``
-    (``K S K^T = W^T W`` with ``W = L^-1 cross^T``), or with ``joseph``
-    ``(I - K H) P (I - K H)^T + K R K^T``. Filters whose S is not positive definite get
-    INNOVATION_NOT_PD, non-finite measurements MEASUREMENT_NOT_FINITE.
-    """
-    d, nb = x.shape
-    m = z.shape[0]
+def _innovation_covar(covariance, jacobian, noise, cross, innovation_covar):
+    """``cross = P H^T`` (d, m, B) and ``S = H P H^T + R`` (m, m, B) per filter."""
+    d, m, nb = cross.shape
     for r in range(d):
         for c in range(m):
             for b in range(nb):
@@ -249,6 +240,22 @@ def _update(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, cov
                     s += jacobian[r, k, b] * cross[k, c, b]
                 innovation_covar[r, c, b] = s
                 innovation_covar[c, r, b] = s
+
+
+@jit()
+def _update(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, covariance_out,
+           innovation_covar, cross, status):
+    """The Kalman update of each filter given its predicted measurement and Jacobian H.
+
+    ``cross = P H^T``, ``S = H P H^T + R``, ``K = cross S^-1`` (by Cholesky), innovation
+    ``z - z_hat`` with angle rows wrapped, ``x_out = x + K v`` and ``P_out = P - K S K^T``
+    (``K S K^T = W^T W`` with ``W = L^-1 cross^T``), or with ``joseph``
+    ``(I - K H) P (I - K H)^T + K R K^T``. Filters whose S is not positive definite get
+    INNOVATION_NOT_PD, non-finite measurements MEASUREMENT_NOT_FINITE.
+    """
+    d, nb = x.shape
+    m = z.shape[0]
+    _innovation_covar(covariance, jacobian, noise, cross, innovation_covar)
     lower = np.empty((m, m, nb))
     _cholesky(innovation_covar, lower, status, INNOVATION_NOT_PD)
     whitened = np.empty((m, d, nb))  # L^-1 cross^T
@@ -375,6 +382,41 @@ def batch_step(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, o
                     covariance_out, block_status)
         _from_block(x_out, lo, hi, means_out)
         _from_block(covariance_out, lo, hi, covariances_out)
+        for b in range(nb):
+            status[lo + b] = block_status[b]
+
+
+@jit()
+def batch_predict(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
+                  rotation, noise, method, means, covariances, means_out, covariances_out,
+                  z_hats, innovation_covars, status):
+    """Predict K filters (as :func:`batch_step`) and their measurements: the predicted means
+    (K, d) and covariances (K, d, d), measurements ``z_hats`` (K, m) and innovation
+    covariances ``S = H P H^T + R`` (K, m, m), for gating and association."""
+    k_filters, d = means.shape
+    m = z_hats.shape[1]
+    for block in range((k_filters + FILTERS_PER_BLOCK - 1) // FILTERS_PER_BLOCK):
+        lo = block * FILTERS_PER_BLOCK
+        hi = min(lo + FILTERS_PER_BLOCK, k_filters)
+        nb = hi - lo
+        x, covariance = np.empty((d, nb)), np.empty((d, d, nb))
+        _to_block(means, lo, hi, x)
+        _to_block(covariances, lo, hi, covariance)
+        block_status = np.zeros(nb, dtype=np.int64)
+        matrix, covar = np.empty((d, d, nb)), np.empty((d, d, nb))
+        _transition(t_kind, rates, fixed_matrix, fixed_covar, dts[lo:hi], matrix, covar)
+        x_pred, covariance_pred = np.empty((d, nb)), np.empty((d, d, nb))
+        _predict(matrix, covar, x, covariance, x_pred, covariance_pred, block_status)
+        z_hat, jacobian = np.empty((m, nb)), np.empty((m, d, nb))
+        _measure(m_kind, mapping, offset, rotation, method, x_pred, z_hat, jacobian,
+                 block_status)
+        innovation_covar = np.empty((m, m, nb))
+        _innovation_covar(covariance_pred, jacobian, noise, np.empty((d, m, nb)),
+                          innovation_covar)
+        _from_block(x_pred, lo, hi, means_out)
+        _from_block(covariance_pred, lo, hi, covariances_out)
+        _from_block(z_hat, lo, hi, z_hats)
+        _from_block(innovation_covar, lo, hi, innovation_covars)
         for b in range(nb):
             status[lo + b] = block_status[b]
 

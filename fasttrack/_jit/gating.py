@@ -1,0 +1,319 @@
+"""Gating and clustering kernels of multi-target association.
+
+K tracks have predicted measurements ``z_hats`` (K, m) and innovation covariances ``S``
+(K, m, m); M detections are rows of (M, m). A detection is in track k's gate when its
+squared Mahalanobis distance ``v^T S_k^-1 v`` (v = z - z_hat_k, angle rows wrapped) is
+below ``threshold``. The gate ellipse lies inside the box ``|v_a| <= sqrt(threshold S_aa)``,
+so on up to two *grid axes* (non-angle measurement rows) the detections are bucketed in
+square cells, sorted by cell, and each track tests only the detections of the cells its box
+meets: one binary search per cell row, O((K + M) log M) at a fixed density of targets.
+Candidates come out track by track (CSR: ``starts`` (K + 1,), then detection index, squared
+distance and log-likelihood per candidate), detections in ascending order per track.
+"""
+import numpy as np
+from numba import prange
+
+from . import jit
+from .numeric import wrap_angle
+
+_LOG_2PI = np.log(2.0 * np.pi)
+
+
+@jit()
+def _cell(value, origin, cell):
+    return np.int64(np.floor((value - origin) / cell))
+
+
+@jit()
+def cell_keys(detections, axes, origin, cell, shape, keys):
+    """``keys[j]`` = row-major cell index of detection j on the grid ``axes`` (0, 1 or 2
+    measurement rows) of ``shape`` cells from ``origin``; 0 for every detection without
+    axes."""
+    for j in range(detections.shape[0]):
+        key = np.int64(0)
+        if axes.size > 0:
+            key = _cell(detections[j, axes[0]], origin[0], cell)
+            if axes.size > 1:
+                key = key * shape[1] + _cell(detections[j, axes[1]], origin[1], cell)
+        keys[j] = key
+
+
+@jit()
+def _factor(covariance, lower):
+    """Lower Cholesky factor of the (m, m) ``covariance``; False if not positive
+    definite."""
+    m = covariance.shape[0]
+    for j in range(m):
+        s = covariance[j, j]
+        for k in range(j):
+            s -= lower[j, k] * lower[j, k]
+        if not s > 0.0:
+            return False
+        lower[j, j] = np.sqrt(s)
+        for i in range(j + 1, m):
+            t = covariance[i, j]
+            for k in range(j):
+                t -= lower[i, k] * lower[j, k]
+            lower[i, j] = t / lower[j, j]
+    return True
+
+
+@jit()
+def _distance2(z, z_hat, lower, angles, work):
+    """Squared Mahalanobis distance of ``z`` from ``z_hat`` given the Cholesky factor."""
+    m = z.shape[0]
+    total = 0.0
+    for r in range(m):
+        v = z[r] - z_hat[r]
+        s = wrap_angle(v) if angles[r] else v
+        for k in range(r):
+            s -= lower[r, k] * work[k]
+        work[r] = s / lower[r, r]
+        total += work[r] * work[r]
+    return total
+
+
+@jit()
+def _key_range(k, z_hats, covariances, axes, origin, cell, shape, threshold, row):
+    """The cell keys ``[low, high]`` of track k's gate box in cell row ``row`` (of
+    :func:`_rows`); empty (low > high) where the box misses the grid."""
+    lo = np.zeros(2, dtype=np.int64)
+    hi = np.zeros(2, dtype=np.int64)
+    for a in range(axes.size):
+        half = np.sqrt(threshold * covariances[k, axes[a], axes[a]])
+        lo[a] = max(_cell(z_hats[k, axes[a]] - half, origin[a], cell), 0)
+        hi[a] = min(_cell(z_hats[k, axes[a]] + half, origin[a], cell), shape[a] - 1)
+    if axes.size == 0:
+        return np.int64(0), np.int64(0)
+    if axes.size == 1:
+        return lo[0], hi[0]
+    base = (lo[0] + row) * shape[1]
+    if lo[0] + row > hi[0]:
+        return np.int64(1), np.int64(0)
+    return base + lo[1], base + hi[1]
+
+
+@jit()
+def _rows(k, z_hats, covariances, axes, origin, cell, shape, threshold):
+    """Number of cell rows track k's gate box spans (1 without a second grid axis)."""
+    if axes.size < 2:
+        return np.int64(1)
+    half = np.sqrt(threshold * covariances[k, axes[0], axes[0]])
+    lo = max(_cell(z_hats[k, axes[0]] - half, origin[0], cell), 0)
+    hi = min(_cell(z_hats[k, axes[0]] + half, origin[0], cell), shape[0] - 1)
+    return max(hi - lo + 1, 0)
+
+
+@jit()
+def _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles, origin, cell,
+          shape, threshold, write, first, candidates, distances2, log_likelihoods):
+    """Test track k's gate; count its candidates, and with ``write`` store them from
+    ``first`` on (ascending detection index). Returns the count, -1 if S is not positive
+    definite."""
+    m = z_hats.shape[1]
+    lower = np.zeros((m, m))
+    if not _factor(covariances[k], lower):
+        return np.int64(-1)
+    log_norm = 0.5 * m * _LOG_2PI
+    for r in range(m):
+        log_norm += np.log(lower[r, r])
+    work = np.empty(m)
+    count = np.int64(0)
+    for row in range(_rows(k, z_hats, covariances, axes, origin, cell, shape, threshold)):
+        low, high = _key_range(k, z_hats, covariances, axes, origin, cell, shape, threshold,
+                               row)
+        if low > high:
+            continue
+        start = np.searchsorted(sorted_keys, low, side="left")
+        stop = np.searchsorted(sorted_keys, high, side="right")
+        for i in range(start, stop):
+            j = order[i]
+            d2 = _distance2(detections[j], z_hats[k], lower, angles, work)
+            if d2 < threshold:
+                if write:
+                    candidates[first + count] = j
+                    distances2[first + count] = d2
+                    log_likelihoods[first + count] = -0.5 * d2 - log_norm
+                count += 1
+    if write and count > 1:  # cells come row by row: restore ascending detection order
+        picked = candidates[first:first + count].copy()
+        d2s = distances2[first:first + count].copy()
+        lls = log_likelihoods[first:first + count].copy()
+        index = np.argsort(picked, kind="mergesort")
+        for q in range(count):
+            candidates[first + q] = picked[index[q]]
+            distances2[first + q] = d2s[index[q]]
+            log_likelihoods[first + q] = lls[index[q]]
+    return count
+
+
+@jit(parallel=True, size=0)
+def gate(z_hats, covariances, detections, order, sorted_keys, axes, angles, origin, cell,
+         shape, threshold, starts, status):
+    """Count each track's candidates into ``starts[1:]`` and cumulate (``starts[0] = 0``);
+    ``status[k]`` = 1 where S_k is not positive definite (no candidates)."""
+    k_tracks = z_hats.shape[0]
+    none_i = np.empty(0, dtype=np.int64)
+    none_f = np.empty(0)
+    for k in prange(k_tracks):
+        count = _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles,
+                      origin, cell, shape, threshold, False, 0, none_i, none_f, none_f)
+        status[k] = np.int64(count < 0)
+        starts[k + 1] = max(count, 0)
+    starts[0] = 0
+    for k in range(k_tracks):
+        starts[k + 1] += starts[k]
+
+
+@jit(parallel=True, size=0)
+def gate_candidates(z_hats, covariances, detections, order, sorted_keys, axes, angles, origin,
+                    cell, shape, threshold, starts, candidates, distances2, log_likelihoods):
+    """Write the candidates counted by :func:`gate`."""
+    for k in prange(z_hats.shape[0]):
+        _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles, origin,
+              cell, shape, threshold, True, starts[k], candidates, distances2,
+              log_likelihoods)
+
+
+@jit()
+def _root(parent, i):
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@jit()
+def clusters(starts, candidates, n_detections, labels):
+    """Connected components of the gate graph: ``labels`` (K + M,) for the K tracks then the
+    M detections, numbered 0, 1, ... in order of their first member; a detection in no gate
+    is a cluster of its own. Returns the number of clusters."""
+    k_tracks = starts.size - 1
+    n = k_tracks + n_detections
+    parent = np.arange(n)
+    for k in range(k_tracks):
+        for q in range(starts[k], starts[k + 1]):
+            a, b = _root(parent, k), _root(parent, k_tracks + candidates[q])
+            if a != b:
+                parent[max(a, b)] = min(a, b)
+    count = np.int64(0)
+    for i in range(n):
+        r = _root(parent, i)
+        if r == i:
+            labels[i] = count
+            count += 1
+        else:
+            labels[i] = labels[r]
+    return count
+
+
+@jit()
+def _positions(labels, lo, hi, n_clusters, counts, local):
+    """Per cluster the number of nodes ``lo..hi-1`` in it (``counts``), and each node's rank
+    within its cluster (``local``)."""
+    for c in range(n_clusters):
+        counts[c] = 0
+    for i in range(lo, hi):
+        c = labels[i]
+        local[i - lo] = counts[c]
+        counts[c] += 1
+
+
+@jit()
+def gnn_problems(labels, n_clusters, k_tracks, n_detections, shapes, offsets, row_offsets,
+                 track_rows, detection_columns):
+    """Size the assignment problem of each cluster: its tracks as rows, its detections then
+    one missed column per track as columns (``shapes`` (C, 2), flat ``offsets`` and
+    ``row_offsets`` (C + 1,)); ``track_rows`` (K,) and ``detection_columns`` (M,) give each
+    node's row or column in its cluster. Returns the flat size; :func:`gnn_fill` fills."""
+    track_counts = np.empty(n_clusters, dtype=np.int64)
+    detection_counts = np.empty(n_clusters, dtype=np.int64)
+    _positions(labels, 0, k_tracks, n_clusters, track_counts, track_rows)
+    _positions(labels, k_tracks, k_tracks + n_detections, n_clusters, detection_counts,
+               detection_columns)
+    offsets[0] = 0
+    row_offsets[0] = 0
+    for c in range(n_clusters):
+        shapes[c, 0] = track_counts[c]
+        shapes[c, 1] = detection_counts[c] + track_counts[c]
+        offsets[c + 1] = offsets[c] + shapes[c, 0] * shapes[c, 1]
+        row_offsets[c + 1] = row_offsets[c] + shapes[c, 0]
+    return offsets[n_clusters]
+
+
+@jit()
+def gnn_fill(labels, starts, candidates, costs, missed, shapes, offsets, track_rows,
+             detection_columns, flat):
+    """Fill the problems sized by :func:`gnn_problems`: ``costs`` of the candidates, the
+    ``missed`` cost (K,) on each track's own missed column, ``inf`` elsewhere."""
+    for i in range(flat.size):
+        flat[i] = np.inf
+    k_tracks = starts.size - 1
+    for k in range(k_tracks):
+        c = labels[k]
+        width = shapes[c, 1]
+        n_dets = width - shapes[c, 0]
+        row = offsets[c] + track_rows[k] * width
+        for q in range(starts[k], starts[k + 1]):
+            flat[row + detection_columns[candidates[q]]] = costs[q]
+        flat[row + n_dets + track_rows[k]] = missed[k]
+
+
+@jit()
+def gnn_assignments(labels, shapes, row_offsets, track_rows, detection_columns, n_detections,
+                    row_to_col, assigned):
+    """Each track's detection (``assigned`` (K,), -1 if missed) from the clusters'
+    solutions."""
+    k_tracks = track_rows.size
+    n_clusters = shapes.shape[0]
+    first = np.zeros(n_clusters + 1, dtype=np.int64)  # detections of each cluster, in order
+    for j in range(n_detections):
+        first[labels[k_tracks + j] + 1] += 1
+    for c in range(n_clusters):
+        first[c + 1] += first[c]
+    by_cluster = np.empty(n_detections, dtype=np.int64)
+    for j in range(n_detections):
+        c = labels[k_tracks + j]
+        by_cluster[first[c] + detection_columns[j]] = j
+    for k in range(k_tracks):
+        c = labels[k]
+        col = row_to_col[row_offsets[c] + track_rows[k]]
+        n_dets = shapes[c, 1] - shapes[c, 0]
+        assigned[k] = by_cluster[first[c] + col] if 0 <= col < n_dets else -1
+
+
+@jit()
+def greedy_assignments(starts, candidates, costs, missed, n_detections, assigned):
+    """Nearest-neighbour association: over all (track, detection) candidates and each
+    track's missed option (cost ``missed[k]``), cheapest first, a track not yet decided
+    takes the option if its detection is still free (a missed option always is); of equal
+    costs, the candidates come first in their order (by track, then detection), then the
+    missed options."""
+    k_tracks = starts.size - 1
+    n = candidates.size
+    options = np.empty(n + k_tracks)
+    for q in range(n):
+        options[q] = costs[q]
+    for k in range(k_tracks):
+        options[n + k] = missed[k]
+    owner = np.empty(n + k_tracks, dtype=np.int64)
+    for k in range(k_tracks):
+        for q in range(starts[k], starts[k + 1]):
+            owner[q] = k
+        owner[n + k] = k
+    order = np.argsort(options, kind="mergesort")
+    decided = np.zeros(k_tracks, dtype=np.bool_)
+    taken = np.zeros(n_detections, dtype=np.bool_)
+    for k in range(k_tracks):
+        assigned[k] = -1
+    for i in range(order.size):
+        q = order[i]
+        k = owner[q]
+        if decided[k]:
+            continue
+        if q >= n:
+            decided[k] = True
+        elif not taken[candidates[q]]:
+            decided[k] = True
+            taken[candidates[q]] = True
+            assigned[k] = candidates[q]

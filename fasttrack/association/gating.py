@@ -1,0 +1,179 @@
+"""Gating of detections by tracks' predicted measurements, and the clusters of the gate
+graph."""
+import dataclasses
+
+import numpy as np
+
+from .. import _validate
+from .._jit import gating as _kernels
+
+
+@dataclasses.dataclass(frozen=True)
+class Gate:
+    """The candidate (track, detection) pairs of a gate, track by track.
+
+    Attributes
+    ----------
+    starts : (K + 1,) int64 ndarray
+        Track k's candidates are entries ``starts[k]:starts[k + 1]`` of the arrays below.
+    detections : (n,) int64 ndarray
+        Detection index of each candidate, ascending per track.
+    distances2 : (n,) float64 ndarray
+        Squared Mahalanobis distance ``v^T S^-1 v`` of each candidate (below the threshold).
+    log_likelihoods : (n,) float64 ndarray
+        ``log N(z; z_hat, S)`` of each candidate.
+    n_detections : int
+        M, the number of detections gated.
+    """
+
+    starts: np.ndarray
+    detections: np.ndarray
+    distances2: np.ndarray
+    log_likelihoods: np.ndarray
+    n_detections: int
+
+    @property
+    def n_tracks(self):
+        """K, the number of tracks."""
+        return self.starts.size - 1
+
+    def tracks(self):
+        """The track index of each candidate, (n,) int64."""
+        return np.repeat(np.arange(self.n_tracks), np.diff(self.starts))
+
+    def dense(self, value="distances2", fill=np.inf):
+        """A (K, M) matrix of ``value`` (an attribute name) at the candidates, ``fill``
+        elsewhere."""
+        out = np.full((self.n_tracks, self.n_detections), fill)
+        out[self.tracks(), self.detections] = getattr(self, value)
+        return out
+
+
+def _grid_axes(m, angles, grid_axes):
+    if grid_axes is None:
+        return np.flatnonzero(~angles)[:2].astype(np.int64)
+    axes = np.asarray(grid_axes, dtype=np.int64).reshape(-1)
+    if axes.size > 2 or np.any((axes < 0) | (axes >= m)) or np.unique(axes).size != axes.size:
+        raise ValueError(f"grid_axes must be up to 2 distinct measurement rows in [0, {m}), "
+                         f"got {list(axes)}")
+    if angles[axes].any():
+        raise ValueError(f"grid_axes must not be angle rows, got {list(axes)} "
+                         f"(angle rows {list(np.flatnonzero(angles))})")
+    return axes
+
+
+def _grid(detections, covars, axes, threshold):
+    """Origin, cell size and shape of the detection grid: cells as large as the median gate
+    half-width, so that a typical gate meets a few cells."""
+    if axes.size == 0 or detections.shape[0] == 0:
+        return np.zeros(2), 1.0, np.ones(2, dtype=np.int64)
+    spread = covars[:, axes, axes].max(axis=1) if covars.shape[0] else np.ones(1)
+    cell = max(float(np.sqrt(threshold * np.median(spread))), 1e-300)
+    origin = np.zeros(2)
+    origin[:axes.size] = detections[:, axes].min(axis=0)
+    extent = detections[:, axes].max(axis=0) - origin[:axes.size]
+    cell = max(cell, float(extent.max()) / 2**30)  # at most 2^30 cells a side
+    shape = np.ones(2, dtype=np.int64)
+    shape[:axes.size] = np.floor(extent / cell).astype(np.int64) + 1
+    return origin, cell, shape
+
+
+def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axes=None):
+    """The detections in each track's gate ``v^T S^-1 v < threshold``.
+
+    Parameters
+    ----------
+    z_hats : (K, m) array_like
+        Predicted measurement of each track.
+    innovation_covars : (K, m, m) array_like
+        Innovation covariance S of each track, positive definite.
+    detections : (M, m) array_like
+        Measurements.
+    threshold : float
+        Squared Mahalanobis distance of the gate, > 0 (Stone Soup's ``missed_distance`` d
+        gives ``d**2``; a gate of probability P_G in m dimensions ``chi2.ppf(P_G, m)``).
+    angles : (m,) array_like of bool, optional
+        Angle rows, wrapped to [-pi, pi) in the innovations (default none).
+    grid_axes : sequence of int, optional
+        Up to two non-angle rows on which detections are bucketed (default the first two
+        non-angle rows); with none every track tests every detection.
+
+    Returns
+    -------
+    Gate
+
+    Raises
+    ------
+    ValueError
+        For shapes that do not match, non-finite values, a threshold <= 0, or an innovation
+        covariance that is not positive definite (naming the track).
+    """
+    z_hats = _validate.finite_array(z_hats, "z_hats", 2)
+    k, m = z_hats.shape
+    covars = _validate.finite_array(innovation_covars, "innovation_covars", 3)
+    if covars.shape != (k, m, m):
+        raise ValueError(f"innovation_covars must have shape ({k}, {m}, {m}), "
+                         f"got {covars.shape}")
+    detections = _validate.finite_array(detections, "detections", 2)
+    if detections.shape[1:] != (m,) and detections.size:
+        raise ValueError(f"detections must have shape (M, {m}), got {detections.shape}")
+    detections = detections.reshape(-1, m)
+    threshold = float(threshold)
+    if not threshold > 0:
+        raise ValueError(f"threshold must be > 0, got {threshold}")
+    angles = (np.zeros(m, dtype=np.bool_) if angles is None
+              else np.asarray(angles, dtype=np.bool_).reshape(-1))
+    if angles.shape != (m,):
+        raise ValueError(f"angles must have shape ({m},), got {angles.shape}")
+    axes = _grid_axes(m, angles, grid_axes)
+    origin, cell, shape = _grid(detections, covars, axes, threshold)
+    keys = np.empty(detections.shape[0], dtype=np.int64)
+    _kernels.cell_keys(detections, axes, origin, cell, shape, keys)
+    order = np.argsort(keys, kind="stable")
+    sorted_keys = np.ascontiguousarray(keys[order])
+    starts = np.empty(k + 1, dtype=np.int64)
+    status = np.empty(k, dtype=np.int64)
+    grid = (detections, order, sorted_keys, axes, angles, origin, cell, shape, threshold)
+    _kernels.gate(z_hats, covars, *grid, starts, status)
+    if status.any():
+        bad = int(np.flatnonzero(status)[0])
+        raise ValueError(f"innovation_covars[{bad}] is not positive definite")
+    n = int(starts[-1])
+    candidates, distances2, log_likelihoods = (np.empty(n, dtype=np.int64), np.empty(n),
+                                               np.empty(n))
+    _kernels.gate_candidates(z_hats, covars, *grid, starts, candidates, distances2,
+                             log_likelihoods)
+    return Gate(starts, candidates, distances2, log_likelihoods, detections.shape[0])
+
+
+@dataclasses.dataclass(frozen=True)
+class Clusters:
+    """Independent groups of tracks and detections: the connected components of the gate
+    graph (a track and a detection are joined when the detection is in the track's gate).
+
+    Attributes
+    ----------
+    track_labels : (K,) int64 ndarray
+        Cluster of each track.
+    detection_labels : (M,) int64 ndarray
+        Cluster of each detection (a detection in no gate is a cluster of its own).
+    n_clusters : int
+    """
+
+    track_labels: np.ndarray
+    detection_labels: np.ndarray
+    n_clusters: int
+
+    def members(self, c):
+        """The tracks and detections of cluster ``c``, two ascending int64 arrays."""
+        return (np.flatnonzero(self.track_labels == c),
+                np.flatnonzero(self.detection_labels == c))
+
+
+def clusters(gate):
+    """The clusters of a :class:`Gate`, numbered in order of their first track (then of
+    the detections in no gate)."""
+    k = gate.n_tracks
+    labels = np.empty(k + gate.n_detections, dtype=np.int64)
+    n = _kernels.clusters(gate.starts, gate.detections, gate.n_detections, labels)
+    return Clusters(labels[:k], labels[k:], int(n))

@@ -1,0 +1,281 @@
+"""Joint probabilistic data association (JPDA) on arrays: the hypothesis weights of Stone
+Soup's ``PDAHypothesiser`` (:func:`pda_weights`) and the exact marginal association
+probabilities of ``JPDA`` / ``JPDAwithEHM`` per cluster (:func:`jpda_marginals`, by
+efficient hypothesis management).
+
+A cluster's weights are a (T, M + 1) matrix: row t for track t, column 0 its missed
+detection, column j >= 1 detection j - 1, 0 for a hypothesis outside the gate. Tracks that
+share no detection (even indirectly) are independent: split them into clusters (connected
+components of the nonzero pattern of the detection columns) before calling
+:func:`jpda_marginals`; one big cluster gives the same marginals, only more slowly.
+
+Stone Soup's formulas (``stonesoup.hypothesiser.probability``, 1.9.1), for a track with
+predicted measurement ``z_hat`` and innovation covariance ``S`` (dimension m):
+
+- missed detection: ``1 - prob_detect * prob_gate``;
+- detection z with squared Mahalanobis distance ``d2 <= chi2.ppf(prob_gate, m)`` (or any
+  d2 when ``include_all``): ``prob_detect * N(z; z_hat, S) / clutter_spatial_density``;
+  the pdf is the plain Gaussian, not truncated to the gate;
+- with no clutter density: ``prob_detect * N(z; z_hat, S) * V / n``, V the volume of the
+  gate ellipsoid ``pi**(m/2) / Gamma(m/2 + 1) * chi2.ppf(prob_gate, m)**(m/2) *
+  sqrt(det S)`` and n the number of detections inside the gate;
+- then (``normalise=True``, the default) each row is divided by its sum.
+
+The JPDA marginals do not depend on the row normalisation.
+"""
+import functools
+import math
+
+import numpy as np
+
+from .. import _validate
+from .._jit import jpda as _kernels
+
+#: Default most nodes of one cluster's EHM net (memory: roughly 8 bytes per node, 8 per
+#: node and hypothesis, plus 16 for its forward and backward weights).
+MAX_NODES = 2**22
+
+#: Most detections shared across a cut of a cluster's track order (see
+#: :mod:`fasttrack._jit.jpda`).
+MAX_FRONTIER = _kernels.MAX_FRONTIER
+
+
+def _probability(value, name):
+    value = _validate.real(value, name)
+    if not 0.0 <= value <= 1.0:
+        raise ValueError(f"{name} must lie in [0, 1], got {value}")
+    return value
+
+
+def _flag(value, name):
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {type(value).__name__}")
+    return bool(value)
+
+
+def _bool_array(value, name, shape):
+    a = np.asarray(value)
+    if a.dtype != np.bool_:
+        raise TypeError(f"{name} must be a boolean array, got {_validate._describe(a)}")
+    if a.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {a.shape}")
+    return np.ascontiguousarray(a)
+
+
+@functools.lru_cache(maxsize=256)
+def _gate(prob_gate, m):
+    """Stone Soup's gate threshold ``chi2.ppf(prob_gate, m)`` and the factor of the gate
+    volume ``pi**(m/2) / Gamma(m/2 + 1) * threshold**(m/2)`` (times ``sqrt(det S)``).
+
+    The threshold is computed as scipy's chi2 computes it, ``2 gammaincinv(m/2, p)``
+    (identical values), without importing scipy.stats (half a second)."""
+    from scipy.special import gammaincinv
+    threshold = float(2.0 * gammaincinv(m / 2, prob_gate))
+    return threshold, math.pi ** (m / 2) / math.gamma(m / 2 + 1) * threshold ** (m / 2)
+
+
+def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
+                clutter_spatial_density=None, gate=None, angles=None, include_all=False,
+                normalise=True):
+    """PDA hypothesis weights of T tracks against M detections, as Stone Soup's
+    ``PDAHypothesiser`` computes them.
+
+    Parameters
+    ----------
+    means : (T, m) array_like
+        Each track's predicted measurement ``z_hat``.
+    covars : (T, m, m) array_like
+        Each track's innovation covariance ``S = H P H^T + R`` (symmetric positive
+        definite).
+    detections : (M, m) array_like
+        The detections' measurement vectors (M may be 0).
+    prob_detect : float
+        Probability of detection, in [0, 1] (Stone Soup's default 0.85).
+    prob_gate : float
+        Probability that the gate holds a detected target's measurement, in [0, 1]
+        (default 0.95); the gate is ``d2 <= chi2.ppf(prob_gate, m)``.
+    clutter_spatial_density : float, optional
+        Clutter density (> 0). None: Stone Soup's estimate from the gate volume and the
+        number of detections inside the gate.
+    gate : (T, M) bool array_like, optional
+        Pairs that may associate at all (e.g. from a coarse gating step). A False pair
+        gets weight 0 and is not counted inside the gate; None allows every pair.
+    angles : (m,) bool array_like, optional
+        Components that are angles: their innovations are wrapped to [-pi, pi) (as Stone
+        Soup's ``Bearing`` components are).
+    include_all : bool
+        Keep detections outside the gate (needs ``clutter_spatial_density``).
+    normalise : bool
+        Divide each row by its sum (Stone Soup's default), so row t holds the
+        hypothesiser's probabilities.
+
+    Returns
+    -------
+    weights : (T, M + 1) ndarray
+        Column 0 the missed detection, column j >= 1 detection j - 1; 0 outside the gate.
+
+    Raises
+    ------
+    ValueError
+        For wrong shapes, non-finite values, probabilities outside [0, 1], a covariance
+        that is not symmetric positive definite, ``include_all`` without a clutter density,
+        or (with ``normalise``) a track with no possible hypothesis.
+    TypeError
+        For non-numeric arrays, a non-boolean ``gate`` or ``angles``, a non-bool flag.
+    """
+    means = _validate.finite_array(means, "means", 2)
+    n_tracks, m = means.shape
+    if m < 1:
+        raise ValueError(f"means must have shape (T, m) with m >= 1, got {means.shape}")
+    covars = _validate.finite_array(covars, "covars", 3)
+    if covars.shape != (n_tracks, m, m):
+        raise ValueError(f"covars must have shape {(n_tracks, m, m)} (means has shape "
+                         f"{means.shape}), got {covars.shape}")
+    detections = _validate.finite_array(detections, "detections")
+    if detections.ndim == 1 and detections.size == 0:
+        detections = detections.reshape(0, m)
+    if detections.ndim != 2 or detections.shape[1] != m:
+        raise ValueError(f"detections must have shape (M, {m}) (means has {m} components), "
+                         f"got {detections.shape}")
+    n_dets = detections.shape[0]
+    prob_detect = _probability(prob_detect, "prob_detect")
+    prob_gate = _probability(prob_gate, "prob_gate")
+    include_all = _flag(include_all, "include_all")
+    normalise = _flag(normalise, "normalise")
+    if clutter_spatial_density is None:
+        if include_all:
+            raise ValueError("include_all=True needs a clutter_spatial_density (got None)")
+        density = 0.0
+    else:
+        density = _validate.positive(clutter_spatial_density, "clutter_spatial_density")
+    gate = (np.ones((n_tracks, n_dets), dtype=np.bool_) if gate is None
+            else _bool_array(gate, "gate", (n_tracks, n_dets)))
+    angles = (np.zeros(m, dtype=np.bool_) if angles is None
+              else _bool_array(angles, "angles", (m,)))
+    if n_tracks:
+        scale = np.maximum(np.abs(covars).max(axis=(1, 2)), np.finfo(float).tiny)
+        asym = np.abs(covars - covars.transpose(0, 2, 1)).max(axis=(1, 2)) > 1e-9 * scale
+        if asym.any():
+            raise ValueError(f"covars[{int(np.argmax(asym))}] must be symmetric")
+
+    threshold, volume_factor = _gate(prob_gate, m)
+    out = np.empty((n_tracks, n_dets + 1))
+    status = np.empty(n_tracks, dtype=np.int64)
+    _kernels.pda_weight_matrix(means, covars, detections, angles, gate, prob_detect,
+                               prob_gate, threshold, density, volume_factor, include_all,
+                               out, status)
+    if n_tracks and status.any():
+        t = int(np.flatnonzero(status)[0])
+        raise ValueError(f"covars[{t}] is not positive definite")
+    if normalise and n_tracks:
+        sums = out.sum(axis=1)
+        if not (sums > 0).all():
+            t = int(np.flatnonzero(~(sums > 0))[0])
+            raise ValueError(f"track {t} has no possible hypothesis: its missed-detection "
+                             f"weight 1 - prob_detect * prob_gate is 0 and no detection is "
+                             f"inside its gate")
+        out /= sums[:, None]
+    return out
+
+
+def _is_cluster_list(weights):
+    if isinstance(weights, np.ndarray) or not isinstance(weights, (list, tuple)):
+        return False
+    return len(weights) == 0 or all(np.ndim(w) == 2 for w in weights)
+
+
+def _cluster(value, name):
+    """``value`` as a float64 (T, M + 1) matrix (its entries are checked by _check)."""
+    w = _validate.float_array(value, name, 2)
+    if w.shape[1] < 1:
+        raise ValueError(f"{name} must have shape (T, M + 1) with at least the "
+                         f"missed-detection column, got {w.shape}")
+    return w
+
+
+def _check(w, name):
+    """Raise for non-finite or negative entries of ``w``."""
+    if not np.isfinite(w).all():
+        bad = "NaN" if np.isnan(w).any() else "infinite values"
+        raise ValueError(f"{name} contains {bad}")
+    if (w < 0).any():
+        raise ValueError(f"{name} contains negative weights")
+
+
+def _raise(code, detail, name, shape, max_nodes):
+    size = f"{shape[0]} tracks x {shape[1] - 1} detections"
+    if code == _kernels.EHM_FRONTIER:
+        raise ValueError(
+            f"{name} ({size}) is too big for exact JPDA: its EHM net would need a frontier "
+            f"of {detail} shared detections, more than {MAX_FRONTIER}; split the cluster "
+            f"(tighter gating) or use an approximate association")
+    if code == _kernels.EHM_NODES:
+        raise ValueError(
+            f"{name} ({size}) is too big for exact JPDA: its EHM net needs more than "
+            f"max_nodes={max_nodes} nodes; split the cluster (tighter gating), raise "
+            f"max_nodes or use an approximate association")
+    if detail >= 0:
+        raise ValueError(f"{name} row {detail} is all zero: track {detail} has no possible "
+                         f"hypothesis")
+    raise ValueError(f"{name} ({size}) has no joint association of positive weight: every "
+                     f"joint event gives some detection to two tracks")
+
+
+def jpda_marginals(weights, max_nodes=MAX_NODES):
+    """Exact JPDA marginal association probabilities, per cluster (efficient hypothesis
+    management): Stone Soup's ``JPDA`` and ``JPDAwithEHM`` probabilities.
+
+    Parameters
+    ----------
+    weights : (T, M + 1) array_like, or a list of them
+        One cluster's hypothesis weights (>= 0; column 0 missed detection, column j
+        detection j - 1; 0 = impossible), e.g. from :func:`pda_weights`; or a list of
+        clusters, computed in parallel.
+    max_nodes : int
+        Most nodes of one cluster's EHM net (:data:`MAX_NODES` by default), a bound on
+        time and memory.
+
+    Returns
+    -------
+    marginals : (T, M + 1) ndarray, or a list of them
+        ``marginals[t, j]``: the probability that track t takes hypothesis j given that no
+        detection goes to two tracks; each row sums to 1 and is 0 where ``weights`` is.
+        For a list: one array per cluster (views of one buffer).
+
+    Raises
+    ------
+    ValueError
+        For a non-finite or negative weight, a row with no positive weight, a cluster with
+        no joint event of positive weight, or a cluster too big for exact association
+        (an EHM frontier of more than :data:`MAX_FRONTIER` detections, or more than
+        ``max_nodes`` nodes); the message names the cluster and its size.
+    TypeError
+        For non-numeric weights or a non-integer ``max_nodes``.
+    """
+    max_nodes = _validate.count(max_nodes, "max_nodes")
+    if not _is_cluster_list(weights):
+        w = _cluster(weights, "weights")
+        _check(w, "weights")
+        out = np.empty_like(w)
+        code, detail = _kernels.ehm_marginals(w, max_nodes, out)
+        if code != _kernels.EHM_OK:
+            _raise(code, detail, "weights", w.shape, max_nodes)
+        return out
+    clusters = [_cluster(w, f"weights[{k}]") for k, w in enumerate(weights)]
+    if not clusters:
+        return []
+    shapes = np.array([(w.shape[0], w.shape[1] - 1) for w in clusters], dtype=np.int64)
+    offsets = np.zeros(len(clusters) + 1, dtype=np.int64)
+    np.cumsum([w.size for w in clusters], out=offsets[1:])
+    flat = np.concatenate([w.reshape(-1) for w in clusters])
+    if not (np.isfinite(flat).all() and flat.min(initial=0.0) >= 0.0):
+        for k, w in enumerate(clusters):
+            _check(w, f"weights[{k}]")
+    out = np.empty_like(flat)
+    info = np.empty((len(clusters), 2), dtype=np.int64)
+    _kernels.ehm_marginals_batch(flat, offsets, shapes, max_nodes, out, info)
+    bad = np.flatnonzero(info[:, 0])
+    if bad.size:
+        k = int(bad[0])
+        _raise(info[k, 0], int(info[k, 1]), f"weights[{k}]", clusters[k].shape, max_nodes)
+    return [out[offsets[k]:offsets[k + 1]].reshape(w.shape) for k, w in enumerate(clusters)]

@@ -1,0 +1,218 @@
+"""A multi-target tracker on arrays: every track set is (K, d) means and (K, d, d)
+covariances, advanced a scan at a time by batched predict, gate, assignment and update."""
+import dataclasses
+
+import numpy as np
+
+from . import _validate
+from .association.gating import gate
+from .association.neighbour import global_nearest_neighbour, nearest_neighbour
+from .batch import BatchExtendedKalmanFilter
+from .models.measurement import LinearGaussian
+
+_ASSOCIATORS = {"gnn": global_nearest_neighbour, "nn": nearest_neighbour}
+
+
+@dataclasses.dataclass
+class TrackSet:
+    """Tracks as arrays.
+
+    Attributes
+    ----------
+    ids : (K,) int64 ndarray
+        Track identities, unique over the tracker's life.
+    means : (K, d) float64 ndarray
+    covars : (K, d, d) float64 ndarray
+    updates : (K,) int64 ndarray
+        Number of detections each track has been updated with (its first one included).
+    misses : (K,) int64 ndarray
+        Scans since each track's last detection.
+    """
+
+    ids: np.ndarray
+    means: np.ndarray
+    covars: np.ndarray
+    updates: np.ndarray
+    misses: np.ndarray
+
+    @classmethod
+    def empty(cls, d):
+        """No tracks of dimension ``d``."""
+        none = np.empty(0, dtype=np.int64)
+        return cls(none, np.empty((0, d)), np.empty((0, d, d)), none.copy(), none.copy())
+
+    def __len__(self):
+        return self.ids.size
+
+    def take(self, keep):
+        """The tracks selected by a boolean mask or index array."""
+        return TrackSet(self.ids[keep], self.means[keep], self.covars[keep],
+                        self.updates[keep], self.misses[keep])
+
+    @staticmethod
+    def concatenate(first, second):
+        """The tracks of both sets."""
+        return TrackSet(*[np.concatenate((a, b)) for a, b in
+                          zip(dataclasses.astuple(first), dataclasses.astuple(second))])
+
+
+class MultiTargetTracker:
+    """Track an unknown number of targets through scans of detections with clutter and
+    missed detections (Stone Soup's ``MultiTargetTracker`` with a
+    ``MultiMeasurementInitiator``, ``UpdateTimeStepsDeleter``, optionally
+    ``CovarianceBasedDeleter``, and a ``DistanceHypothesiser(Mahalanobis)`` association).
+
+    Each scan: the confirmed tracks are predicted, gated and assigned the detections
+    (global nearest neighbour per cluster, or greedy nearest neighbour), updated, and deleted
+    after ``delete_after_misses`` scans without a detection or when the trace of their
+    covariance exceeds ``max_covar_trace``; then the tentative tracks do the same with the
+    detections left, and become confirmed after ``min_points`` detections; every detection
+    still left starts a tentative track.
+
+    Parameters
+    ----------
+    transition_model : linear-Gaussian TransitionModel
+    measurement_model : LinearGaussian
+    prior_mean : (d,) array_like
+        A new track's state in the components the sensor does not measure (the measured
+        ones come from the detection, as Stone Soup's ``SimpleMeasurementInitiator``).
+    prior_covar : (d, d) array_like
+        Its covariance there (the measured block comes from the sensor noise).
+    missed_distance : float
+        Mahalanobis distance of the gate and of the missed-detection option, > 0.
+    min_points : int
+        Detections that confirm a tentative track (the first included), >= 1.
+    delete_after_misses : int
+        Scans without a detection that delete a confirmed track, >= 1.
+    tentative_misses : int
+        The same for a tentative track.
+    max_covar_trace : float, optional
+        Delete a confirmed track whose covariance trace exceeds it.
+    association : {'gnn', 'nn'}
+        Global or greedy nearest neighbour.
+    """
+
+    def __init__(self, transition_model, measurement_model, prior_mean, prior_covar,
+                 missed_distance=3.0, min_points=2, delete_after_misses=3, tentative_misses=1,
+                 max_covar_trace=None, association="gnn"):
+        if not isinstance(measurement_model, LinearGaussian):
+            raise TypeError(f"measurement_model must be a LinearGaussian (tracks start from "
+                            f"its inverse), got {type(measurement_model).__name__}")
+        self.batch = BatchExtendedKalmanFilter(transition_model, measurement_model)
+        d = transition_model.ndim_state
+        mean = _validate.finite_array(prior_mean, "prior_mean").reshape(-1)
+        if mean.shape != (d,):
+            raise ValueError(f"prior_mean must have {d} components, got {mean.size}")
+        covar = _validate.covariance(prior_covar, "prior_covar", d)
+        self._start = self._initiation(measurement_model, mean, covar)
+        self.missed_distance = float(missed_distance)
+        if not self.missed_distance > 0:
+            raise ValueError(f"missed_distance must be > 0, got {missed_distance}")
+        self.min_points = _validate.count(min_points, "min_points")
+        self.delete_after_misses = _validate.count(delete_after_misses, "delete_after_misses")
+        self.tentative_misses = _validate.count(tentative_misses, "tentative_misses")
+        self.max_covar_trace = None if max_covar_trace is None else float(max_covar_trace)
+        if association not in _ASSOCIATORS:
+            raise ValueError(f"association must be one of {sorted(_ASSOCIATORS)}, "
+                             f"got {association!r}")
+        self._associate = _ASSOCIATORS[association]
+        self.confirmed = TrackSet.empty(d)
+        self.tentative = TrackSet.empty(d)
+        self.time = None
+        self._next_id = 0
+
+    @staticmethod
+    def _initiation(model, mean, covar):
+        """The affine map from a detection to a new track: ``x = x0 + G z``, covariance
+        ``P0 = G R G^T + prior_covar`` with the measured rows and columns of the prior
+        zeroed."""
+        gain = np.linalg.pinv(model.matrix())
+        mapped = list(model.mapping)
+        x0, p0 = mean.copy(), covar.copy()
+        x0[mapped] = 0.0
+        p0[mapped, :] = 0.0
+        p0[:, mapped] = 0.0
+        return x0, gain, gain @ model.covar() @ gain.T + p0
+
+    def _advance(self, tracks, detections, dt, available):
+        """Predict, associate with the ``available`` detections and update ``tracks``;
+        returns the tracks and the mask of the detections they took."""
+        taken = np.zeros(detections.shape[0], dtype=np.bool_)
+        if len(tracks) == 0:
+            return tracks, taken
+        means, covars, z_hats, innovation = self.batch.predict(tracks.means, tracks.covars, dt)
+        pool = np.flatnonzero(available)
+        result = gate(z_hats, innovation, detections[pool], self.missed_distance ** 2)
+        chosen = self._associate(result, self.missed_distance)
+        hit = chosen >= 0
+        if hit.any():
+            means[hit], covars[hit] = self.batch.update(means[hit], covars[hit],
+                                                        detections[pool[chosen[hit]]])
+            taken[pool[chosen[hit]]] = True
+        return TrackSet(tracks.ids, means, covars, tracks.updates + hit,
+                        np.where(hit, 0, tracks.misses + 1)), taken
+
+    def _start_tracks(self, detections):
+        x0, gain, p0 = self._start
+        n = detections.shape[0]
+        ids = np.arange(self._next_id, self._next_id + n)
+        self._next_id += n
+        return TrackSet(ids, x0 + detections @ gain.T, np.broadcast_to(p0, (n,) + p0.shape).copy(),
+                        np.ones(n, dtype=np.int64), np.zeros(n, dtype=np.int64))
+
+    def step(self, detections, time):
+        """Process one scan.
+
+        Parameters
+        ----------
+        detections : (M, m) array_like
+            The scan's measurements.
+        time : float
+            The scan's time in seconds, after the previous scan's.
+
+        Returns
+        -------
+        TrackSet
+            The confirmed tracks after the scan.
+        """
+        m = self.batch.measurement_model.ndim_meas
+        detections = _validate.finite_array(detections, "detections").reshape(-1, m)
+        time = float(time)
+        dt = 0.0 if self.time is None else time - self.time
+        if self.time is not None and not dt > 0:
+            raise ValueError(f"time must be after the previous scan's ({self.time} s), "
+                             f"got {time}")
+        self.time = time
+        free = np.ones(detections.shape[0], dtype=np.bool_)
+        self.confirmed, taken = self._advance(self.confirmed, detections, dt, free)
+        free &= ~taken
+        doomed = self.confirmed.misses >= self.delete_after_misses
+        if self.max_covar_trace is not None:
+            doomed |= np.trace(self.confirmed.covars, axis1=1, axis2=2) > self.max_covar_trace
+        self.confirmed = self.confirmed.take(~doomed)
+        self.tentative, taken = self._advance(self.tentative, detections, dt, free)
+        free &= ~taken
+        sure = self.tentative.updates >= self.min_points
+        self.confirmed = TrackSet.concatenate(self.confirmed, self.tentative.take(sure))
+        self.tentative = self.tentative.take(~sure)
+        self.tentative = self.tentative.take(self.tentative.misses < self.tentative_misses)
+        self.tentative = TrackSet.concatenate(self.tentative,
+                                              self._start_tracks(detections[free]))
+        return self.confirmed
+
+    def run(self, scans, time_interval=1.0):
+        """Process scans at ``time_interval`` seconds; the confirmed tracks after each.
+
+        Parameters
+        ----------
+        scans : iterable of (M_t, m) array_like
+            E.g. ``MultiTargetScenario.detections``.
+        time_interval : float
+            Seconds between scans.
+
+        Returns
+        -------
+        list of TrackSet
+        """
+        start = 0.0 if self.time is None else self.time + time_interval
+        return [self.step(scan, start + t * time_interval) for t, scan in enumerate(scans)]

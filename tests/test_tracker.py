@@ -1,0 +1,152 @@
+"""The multi-target scenario simulator and the array tracker, against Stone Soup's
+MultiTargetTracker built from its own components on the same scans."""
+import datetime
+
+import numpy as np
+import pytest
+
+import fasttrack as ft
+from fasttrack.simulate import multi_target
+from fasttrack.tracker import MultiTargetTracker
+
+TRANSITION = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+SENSOR = ft.LinearGaussian(4, (0, 2), np.eye(2))
+PRIOR_COVAR = np.diag([0.0, 1.0, 0.0, 1.0])
+
+
+def _scenario(n=10, steps=15, clutter=5.0, seed=3, spacing=25.0):
+    rng = np.random.default_rng(seed)
+    pos = np.c_[np.arange(n) % 4, np.arange(n) // 4] * spacing + rng.normal(0, 1, (n, 2))
+    vel = rng.normal(0, 1, (n, 2))
+    x0 = np.c_[pos[:, 0], vel[:, 0], pos[:, 1], vel[:, 1]]
+    return multi_target(TRANSITION, SENSOR, x0, steps, [[-30, -30], [130, 130]],
+                        prob_detect=0.9, clutter_rate=clutter, rng=seed)
+
+
+def _tracker(**options):
+    settings = dict(prior_mean=np.zeros(4), prior_covar=PRIOR_COVAR, missed_distance=3.0,
+                    min_points=3, delete_after_misses=3, tentative_misses=2)
+    return MultiTargetTracker(TRANSITION, SENSOR, **{**settings, **options})
+
+
+def test_simulated_scans_have_the_asked_detection_and_clutter_rates():
+    scenario = multi_target(TRANSITION, SENSOR, np.zeros((200, 4)), 50, [[-50, -50], [50, 50]],
+                            prob_detect=0.8, clutter_rate=30.0, rng=0)
+    origins = np.concatenate(scenario.origins)
+    assert (origins >= 0).sum() / (200 * 50) == pytest.approx(0.8, abs=0.01)
+    assert (origins < 0).sum() / 50 == pytest.approx(30.0, rel=0.05)
+    assert scenario.clutter_density == pytest.approx(30.0 / 1e4)
+    for detections, found, truths, ids in zip(scenario.detections, scenario.origins,
+                                              scenario.truths, scenario.truth_ids):
+        clutter = detections[found < 0]
+        assert np.all((clutter >= -50) & (clutter <= 50))
+        index = {i: k for k, i in enumerate(ids)}
+        rows = [index[i] for i in found[found >= 0]]
+        residuals = detections[found >= 0] - truths[rows][:, [0, 2]]
+        assert np.abs(residuals).max() < 6  # sensor noise R = I
+
+
+def test_births_and_deaths_change_the_target_set():
+    scenario = multi_target(TRANSITION, SENSOR, np.zeros((50, 4)), 40, [[-50, -50], [50, 50]],
+                            prob_survive=0.97, birth_rate=2.0, birth_mean=np.zeros(4),
+                            birth_covar=np.eye(4), rng=1)
+    alive = [ids.size for ids in scenario.truth_ids]
+    assert alive[0] == 50 and 40 < alive[-1] < 120
+    assert np.unique(np.concatenate(scenario.truth_ids)).size > 100  # new identities
+
+
+def test_tracker_finds_the_targets_with_few_false_tracks():
+    scenario = _scenario(n=12, steps=25, clutter=3.0)
+    tracker = _tracker()
+    for t, detections in enumerate(scenario.detections):
+        tracks = tracker.step(detections, float(t))
+    truth = scenario.truths[-1][:, [0, 2]]
+    error = np.linalg.norm(tracks.means[:, None, [0, 2]] - truth[None], axis=2)
+    assert (error.min(axis=0) < 3).mean() >= 0.9  # targets held
+    assert (error.min(axis=1) < 3).mean() >= 0.9  # tracks on targets
+    assert np.unique(tracks.ids).size == len(tracks)
+
+
+def _stone_soup_tracks(scenario):
+    from stonesoup.dataassociator.neighbour import GNNWith2DAssignment
+    from stonesoup.deleter.time import UpdateTimeStepsDeleter
+    from stonesoup.hypothesiser.distance import DistanceHypothesiser
+    from stonesoup.initiator.simple import MultiMeasurementInitiator
+    from stonesoup.measures import Mahalanobis
+    from stonesoup.models.measurement.linear import LinearGaussian
+    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                    ConstantVelocity)
+    from stonesoup.predictor.kalman import KalmanPredictor
+    from stonesoup.tracker.simple import MultiTargetTracker as SSTracker
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.state import GaussianState
+    from stonesoup.updater.kalman import KalmanUpdater
+
+    start, step = datetime.datetime(2026, 1, 1), datetime.timedelta(seconds=1)
+    sensor = LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=np.eye(2))
+    predictor = KalmanPredictor(CombinedLinearGaussianTransitionModel(
+        [ConstantVelocity(0.05), ConstantVelocity(0.05)]))
+    updater = KalmanUpdater(sensor)
+    associator = GNNWith2DAssignment(DistanceHypothesiser(predictor, updater, Mahalanobis(),
+                                                          missed_distance=3.0))
+    initiator = MultiMeasurementInitiator(
+        GaussianState(np.zeros((4, 1)), PRIOR_COVAR), UpdateTimeStepsDeleter(2), associator,
+        updater, measurement_model=sensor, min_points=3)
+    scans = [(start + t * step, {Detection(z.reshape(2, 1), timestamp=start + t * step,
+                                           measurement_model=sensor) for z in detections})
+             for t, detections in enumerate(scenario.detections)]
+    tracker = SSTracker(initiator, UpdateTimeStepsDeleter(3), iter(scans), associator, updater)
+    return [np.array([np.ravel(track.state_vector) for track in tracks]).reshape(-1, 4)
+            for _, tracks in tracker]
+
+
+def test_tracker_equals_stone_soups_multi_target_tracker_scan_by_scan():
+    pytest.importorskip("stonesoup")
+    scenario = _scenario()
+    tracker = _tracker()
+    stone_soup = _stone_soup_tracks(scenario)
+    confirmed = 0
+    for t, (detections, theirs) in enumerate(zip(scenario.detections, stone_soup)):
+        ours = tracker.step(detections, float(t)).means
+        ours = np.array(sorted(ours, key=lambda x: tuple(x))).reshape(-1, 4)
+        theirs = np.array(sorted(theirs, key=lambda x: tuple(x))).reshape(-1, 4)
+        assert ours.shape == theirs.shape, f"scan {t}"
+        np.testing.assert_allclose(ours, theirs, rtol=1e-9, atol=1e-9, err_msg=f"scan {t}")
+        confirmed = max(confirmed, len(ours))
+    assert confirmed >= 8
+
+
+def test_tracker_memory_stays_flat_over_many_scans():
+    import tracemalloc
+    scenario = _scenario(n=40, steps=120, clutter=20.0)
+    tracker = _tracker()
+    for t, detections in enumerate(scenario.detections[:20]):
+        tracker.step(detections, float(t))
+    tracemalloc.start()
+    for t, detections in enumerate(scenario.detections[20:], start=20):
+        tracker.step(detections, float(t))
+        if t == 40:
+            early = tracemalloc.get_traced_memory()[0]
+    late = tracemalloc.get_traced_memory()[0]
+    tracemalloc.stop()
+    assert late - early < 200_000  # bytes: no per-scan growth
+
+
+def test_tracker_rejects_bad_input():
+    with pytest.raises(TypeError, match="measurement_model must be a LinearGaussian"):
+        MultiTargetTracker(TRANSITION, ft.CartesianToBearingRange(4, (0, 2), np.eye(2)),
+                           np.zeros(4), PRIOR_COVAR)
+    with pytest.raises(ValueError, match="prior_mean must have 4 components"):
+        _tracker(prior_mean=np.zeros(3))
+    with pytest.raises(ValueError, match="missed_distance must be > 0"):
+        _tracker(missed_distance=0)
+    with pytest.raises(ValueError, match="association must be one of"):
+        _tracker(association="jpda2")
+    tracker = _tracker()
+    tracker.step(np.zeros((1, 2)), 1.0)
+    with pytest.raises(ValueError, match="time must be after the previous scan's"):
+        tracker.step(np.zeros((1, 2)), 1.0)
+    with pytest.raises(ValueError, match="detections contains NaN"):
+        tracker.step(np.full((1, 2), np.nan), 2.0)
+    with pytest.raises(ValueError, match="region must be"):
+        multi_target(TRANSITION, SENSOR, np.zeros((2, 4)), 3, [[0, 0], [-1, 1]])
