@@ -32,9 +32,16 @@ TARGETS = [
     ("akkf-quadratic", 30, "stonesoup", 10.0),
     ("akkf-quadratic", 1000, "stonesoup", 20.0),
     ("akkf-quartic", 1000, "stonesoup", 20.0),
+    ("gnn-associate", 100, "stonesoup", 100.0),
+    ("jpda-ehm", 100, "stonesoup", 100.0),
+    ("gospa-50-tracks", 100, "stonesoup", 100.0),
 ]
 # (workload, N, most microseconds per item): batches timed as one call over N items
 PER_ITEM_TARGETS = [("ekf-batch", 10**4, 0.5)]
+#: (workload, N, seconds): the most a whole call may take (multi-target tracking).
+TIME_TARGETS = [("gnn-associate", 1000, 10e-3), ("gnn-associate", 10**4, 150e-3),
+                ("jpda-ehm", 100, 10e-3), ("gospa-50-tracks", 100, 5e-3),
+                ("gospa-40-tracks", 30_000, 2.0), ("tracker-100-scans", 1000, 10.0)]
 # (configuration, bound on default / one-thread step time) of bench/test_load.py; at
 # N = 1000 both run the same one-thread code, so "never slower" allows the 5 % of noise
 LOAD_TARGETS = [("alone", 1 / 1.6), ("pair", 1.3), ("small", 1.05)]
@@ -223,6 +230,12 @@ def check(rows):
         elif seconds / n * 1e6 > most:
             failures.append(f"{workload} N={n}: {seconds / n * 1e6:.3g} us per item > "
                             f"target {most:.3g}")
+    for workload, n, most in TIME_TARGETS:
+        seconds = times.get((workload, n), {}).get("fasttrack")
+        if seconds is None:
+            failures.append(f"{workload} N={n}: not measured")
+        elif seconds > most:
+            failures.append(f"{workload} N={n}: {seconds:.3g} s > target {most:.3g} s")
     for workload, n, ratio, minimum in TARGETS:
         value = found.get((workload, n), {}).get(ratio)
         if value is None:

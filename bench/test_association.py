@@ -1,8 +1,9 @@
 """Multi-target association, one scan: predict every track, gate, solve the global nearest
 neighbour assignment (``GNNWith2DAssignment`` + ``DistanceHypothesiser(Mahalanobis,
 missed_distance=5)``), on targets on a jittered 20 m grid (CV 4-state, position sensor,
-R = I). fasttrack's arrays against the NumPy + SciPy floor (dense cost matrix +
-``linear_sum_assignment``) and Stone Soup in the same run."""
+R = I), N tracks x N detections. fasttrack's arrays against the NumPy + SciPy reference
+(dense cost matrix + ``linear_sum_assignment``) and Stone Soup in the same run. And a whole
+tracker (N targets, N clutter per scan, P_D = 0.9) over the scans of a scenario."""
 import datetime
 
 import numpy as np
@@ -65,15 +66,15 @@ def _floor_associate(n):
 
 @pytest.mark.parametrize("n", [100, 1000, 10_000])
 def test_gnn_fasttrack(benchmark, n):
-    benchmark.group = f"gnn associate {n} x {n}"
+    benchmark.group = f"gnn-associate N={n}"
     associate = _fasttrack_associate(n)
     assert (associate() >= 0).mean() > 0.95
     benchmark.pedantic(associate, rounds=20 if n < 10_000 else 5, warmup_rounds=1)
 
 
 @pytest.mark.parametrize("n", [100, 1000])
-def test_gnn_numpy_floor(benchmark, n):
-    benchmark.group = f"gnn associate {n} x {n}"
+def test_gnn_numpy_reference(benchmark, n):
+    benchmark.group = f"gnn-associate N={n}"
     associate = _floor_associate(n)
     np.testing.assert_array_equal(associate(), _fasttrack_associate(n)())  # same assignment
     benchmark.pedantic(associate, rounds=10 if n < 1000 else 3, warmup_rounds=1)
@@ -94,7 +95,7 @@ def test_gnn_stonesoup(benchmark, n):
     from stonesoup.types.track import Track
     from stonesoup.updater.kalman import KalmanUpdater
 
-    benchmark.group = f"gnn associate {n} x {n}"
+    benchmark.group = f"gnn-associate N={n}"
     start, step = datetime.datetime(2026, 1, 1), datetime.timedelta(seconds=1)
     sensor = LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=np.eye(2))
     predictor = KalmanPredictor(CombinedLinearGaussianTransitionModel(
@@ -137,7 +138,7 @@ def _track_all(transition, sensor, scans):
 @pytest.mark.parametrize("n, steps", [(100, 5), (1000, 100)])
 def test_tracker_fasttrack(benchmark, n, steps):
     """A whole scenario: n targets, n clutter per scan, P_D = 0.9."""
-    benchmark.group = f"tracker {n} targets {steps} scans"
+    benchmark.group = f"tracker-{steps}-scans N={n}"
     transition, sensor, simulated = _tracking_scenario(n, steps)
     confirmed = benchmark.pedantic(_track_all, args=(transition, sensor, simulated.detections),
                                    rounds=3 if n < 1000 else 1, warmup_rounds=0)
@@ -161,7 +162,7 @@ def test_tracker_stonesoup(benchmark, n, steps):
     from stonesoup.types.state import GaussianState
     from stonesoup.updater.kalman import KalmanUpdater
 
-    benchmark.group = f"tracker {n} targets {steps} scans"
+    benchmark.group = f"tracker-{steps}-scans N={n}"
     _, _, simulated = _tracking_scenario(n, steps)
     start, step = datetime.datetime(2026, 1, 1), datetime.timedelta(seconds=1)
     sensor = LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=np.eye(2))

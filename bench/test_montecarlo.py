@@ -1,7 +1,9 @@
 """Monte Carlo throughput: 1,000 runs of the particle-filter tutorial (21 steps, N = 1000,
 systematic resampling every step), each scenario simulated from its run's seed, scored with
 every metric: in this process on one Numba thread, on a local pool of 2 worker processes,
-and on a 2-worker Dask LocalCluster (one thread each).
+and on a 2-worker Dask LocalCluster (one thread each); and 1,000 runs of a 20-target
+scenario (30 scans, clutter, P_D = 0.9) tracked by the multi-target tracker and scored by
+GOSPA, on the Dask cluster.
 
 The local pool and the cluster are started, and their kernels compiled, before timing;
 ``test_startup`` times what a fresh pool and a fresh cluster cost before their first run.
@@ -14,15 +16,23 @@ import pytest
 
 import fasttrack as ft
 from fasttrack import montecarlo
-from fasttrack.scenarios import particle_filter_tutorial
+from fasttrack.scenarios import grid_targets, particle_filter_tutorial
+from fasttrack.tracker import MultiTargetTracker
 
 N_RUNS = 1000
 SCENARIO = functools.partial(particle_filter_tutorial, n_particles=1000)
+TARGETS = functools.partial(grid_targets, n_targets=20, steps=30, clutter_rate=20.0)
 
 
 def make_filter(scenario, rng):
     return (ft.ParticlePredictor(scenario.transition_model, rng=rng),
             ft.ParticleUpdater(scenario.measurement_model, ft.SystematicResampler(rng=rng)))
+
+
+def make_tracker(scenario, rng):
+    return MultiTargetTracker(scenario.transition_model, scenario.measurement_model,
+                              [0.0] * 4, [[0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 0],
+                                          [0, 0, 0, 1]], missed_distance=3.0, min_points=3)
 
 
 @pytest.fixture(scope="module")
@@ -69,3 +79,17 @@ def test_startup(benchmark, setup):
             ft.run_trials(SCENARIO, make_filter, 2, seed=0, client=client, progress=False)
 
     benchmark.pedantic(local if setup == "local-2" else dask, rounds=3, iterations=1)
+
+
+def test_thousand_multi_target_runs_on_dask(benchmark, cluster):
+    benchmark.group = f"montecarlo-mtt runs={N_RUNS}"
+    benchmark.extra_info["runs"] = N_RUNS
+
+    def trials(n_runs):
+        return ft.run_trials(TARGETS, make_tracker, n_runs, seed=1, client=cluster,
+                             progress=False)
+
+    trials(8)  # kernels loaded on the workers
+    results = benchmark.pedantic(lambda: trials(N_RUNS), rounds=1, iterations=1)
+    assert not results.failures and len(results.table) == 30 * N_RUNS
+    assert results.mean_over_time("gospa")[-1] < 40  # 20 targets: c / 2 = 5 m each if lost

@@ -27,6 +27,7 @@ from .kernel import (GaussianKernel, Kernel, LinearKernel, PolynomialKernel, Qua
 from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
                         ParticlePredictor)
 from .simulate import detections, ground_truth
+from .tracker import MultiTargetTracker
 from .types import (Detection, GaussianMeasurementPrediction, GaussianState,
                     GaussianStatePrediction, GaussianStateUpdate, GroundTruthPath,
                     GroundTruthState, KernelParticleState,
@@ -39,22 +40,22 @@ from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, Kalman
 
 
 __all__ = [
-    "AdaptiveKernelKalmanPredictor", "AdaptiveKernelKalmanUpdater",
-    "BatchExtendedKalmanFilter", "Cartesian2DToBearing", "CartesianToBearingRange",
-    "CombinedLinearGaussianTransitionModel", "ConstantVelocity", "Detection", "ESSResampler",
-    "ExtendedKalmanPredictor", "ExtendedKalmanUpdater", "GaussianKernel",
-    "GaussianMeasurementPrediction", "GaussianState", "GaussianStatePrediction",
-    "GaussianStateUpdate", "GroundTruthPath", "GroundTruthState", "KalmanPredictor",
-    "KalmanUpdater", "Kernel", "KernelParticleState",
+    "AdaptiveKernelKalmanPredictor", "AdaptiveKernelKalmanUpdater", "BatchExtendedKalmanFilter",
+    "Cartesian2DToBearing", "CartesianToBearingRange", "CombinedLinearGaussianTransitionModel",
+    "ConstantVelocity", "Detection", "ESSResampler", "ExtendedKalmanPredictor",
+    "ExtendedKalmanUpdater", "GaussianKernel", "GaussianMeasurementPrediction", "GaussianState",
+    "GaussianStatePrediction", "GaussianStateUpdate", "GroundTruthPath", "GroundTruthState",
+    "KalmanPredictor", "KalmanUpdater", "Kernel", "KernelParticleState",
     "KernelParticleStateMeasurementPrediction", "KernelParticleStatePrediction",
     "KernelParticleStateUpdate", "LinearGaussian", "LinearGaussianTransitionModel",
-    "LinearKernel", "MeasurementModel", "MetricSummary", "MultinomialResampler",
-    "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel", "Particle",
-    "ParticlePredictor", "ParticleState", "ParticleStatePrediction", "ParticleStateUpdate",
-    "ParticleUpdater", "PolynomialKernel", "QuadraticKernel", "QuarticKernel", "Resampler",
-    "ResidualMethod", "ResidualResampler", "RunFailure", "SingleHypothesis", "State",
-    "StratifiedResampler", "SystematicResampler", "Track", "TransitionModel", "TrialResults",
-    "detections", "ess", "get_threads", "ground_truth", "local_cluster", "multinomial", "normalise",
-    "position_rmse", "resampling_points", "residual", "run_filter", "run_seeds", "run_trial",
-    "run_trials", "seed", "set_threads", "stratified", "systematic", "tune_allocator", "warmup",
+    "LinearKernel", "MeasurementModel", "MetricSummary", "MultiTargetTracker",
+    "MultinomialResampler", "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel",
+    "Particle", "ParticlePredictor", "ParticleState", "ParticleStatePrediction",
+    "ParticleStateUpdate", "ParticleUpdater", "PolynomialKernel", "QuadraticKernel",
+    "QuarticKernel", "Resampler", "ResidualMethod", "ResidualResampler", "RunFailure",
+    "SingleHypothesis", "State", "StratifiedResampler", "SystematicResampler", "Track",
+    "TransitionModel", "TrialResults", "detections", "ess", "get_threads", "ground_truth",
+    "local_cluster", "multinomial", "normalise", "position_rmse", "resampling_points", "residual",
+    "run_filter", "run_seeds", "run_trial", "run_trials", "seed", "set_threads", "stratified",
+    "systematic", "tune_allocator", "warmup",
 ]

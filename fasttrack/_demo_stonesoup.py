@@ -107,3 +107,41 @@ def akkf_time(scenario, kernel_name):
                          prior, _detections(scenario, sensor))
     except Exception as error:  # noqa: BLE001 - shown in the table as a failure
         return error
+
+
+def tracker_time(scenario, missed_distance, min_points, delete_after_misses,
+                 tentative_misses):
+    """Seconds per scan of Stone Soup's MultiTargetTracker (GNN with a Mahalanobis
+    DistanceHypothesiser, MultiMeasurementInitiator, UpdateTimeStepsDeleter) on the scans of
+    a multi-target scenario, with the settings of fasttrack's tracker."""
+    import datetime
+    from stonesoup.dataassociator.neighbour import GNNWith2DAssignment
+    from stonesoup.deleter.time import UpdateTimeStepsDeleter
+    from stonesoup.hypothesiser.distance import DistanceHypothesiser
+    from stonesoup.initiator.simple import MultiMeasurementInitiator
+    from stonesoup.measures import Mahalanobis
+    from stonesoup.models.measurement.linear import LinearGaussian
+    from stonesoup.predictor.kalman import KalmanPredictor
+    from stonesoup.tracker.simple import MultiTargetTracker
+    from stonesoup.updater.kalman import KalmanUpdater
+
+    start, step = datetime.datetime(2026, 1, 1), datetime.timedelta(
+        seconds=scenario.time_interval)
+    sensor = LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=np.eye(2))
+    predictor = KalmanPredictor(_constant_velocity(0.05))
+    updater = KalmanUpdater(sensor)
+    associator = GNNWith2DAssignment(DistanceHypothesiser(predictor, updater, Mahalanobis(),
+                                                          missed_distance=missed_distance))
+    initiator = MultiMeasurementInitiator(
+        GaussianState(np.zeros((4, 1)), np.diag([0.0, 1.0, 0.0, 1.0])),
+        UpdateTimeStepsDeleter(tentative_misses), associator, updater,
+        measurement_model=sensor, min_points=min_points)
+    scans = [(start + t * step, {Detection(z.reshape(2, 1), timestamp=start + t * step,
+                                           measurement_model=sensor) for z in detections})
+             for t, detections in enumerate(scenario.detections)]
+    tracker = MultiTargetTracker(initiator, UpdateTimeStepsDeleter(delete_after_misses),
+                                 iter(scans), associator, updater)
+    began = time.perf_counter()
+    for _ in tracker:
+        pass
+    return (time.perf_counter() - began) / len(scans)

@@ -62,9 +62,31 @@ def _adaptive_kernel():
         kernel(scenario.prior)
 
 
+def _multi_target():
+    import fasttrack as ft
+    from fasttrack import association
+    from fasttrack.metrics import gospa_over_time
+    from fasttrack.scenarios import grid_targets
+    scenario = grid_targets(n_targets=4, steps=4, clutter_rate=4.0, seed=0)
+    tracker = ft.MultiTargetTracker(scenario.transition_model, scenario.measurement_model,
+                                    np.zeros(4), np.eye(4), association="nn")
+    tracks = tracker.run(scenario.detections)
+    tracker = ft.MultiTargetTracker(scenario.transition_model, scenario.measurement_model,
+                                    np.zeros(4), np.eye(4))
+    tracks = tracker.run(scenario.detections)
+    gospa_over_time([x[:, [0, 2]] for x in scenario.truths],
+                    [t.means[:, [0, 2]] for t in tracks], 10.0)
+    weights = association.pda_weights(np.zeros((2, 2)), np.broadcast_to(np.eye(2), (2, 2, 2)),
+                                      np.array([[0.1, 0.0], [0.0, 0.2]]),
+                                      clutter_spatial_density=1e-3)
+    association.jpda_marginals(weights)
+    association.jpda_marginals([weights, weights])
+
+
 #: Families, slowest to compile first (so that a pool balances them).
 FAMILIES = {"batch": _batch, "kalman": _kalman, "adaptive_kernel": _adaptive_kernel,
-            "resamplers": _resamplers, "particle_filter": _particle_filter}
+            "multi_target": _multi_target, "resamplers": _resamplers,
+            "particle_filter": _particle_filter}
 
 
 def _run(name):

@@ -1,6 +1,6 @@
-"""The demo behind ``python -m fasttrack demo``: the four tutorial scenarios tracked with
-fasttrack, in one table of accuracy and time per step against Stone Soup (when installed),
-with PNG plots."""
+"""The demo behind ``python -m fasttrack demo``: the four tutorial scenarios and a
+multi-target scenario tracked with fasttrack, in one table of accuracy and time per step
+against Stone Soup (when installed), with PNG plots."""
 import pathlib
 import sys
 import time
@@ -8,14 +8,16 @@ import time
 import numpy as np
 
 import fasttrack as ft
-from fasttrack.metrics import position_rmse
+from fasttrack.metrics import gospa_over_time, position_rmse
 from fasttrack.scenarios import (adaptive_kernel_tutorial, extended_kalman_tutorial,
-                                 particle_filter_tutorial)
+                                 grid_targets, particle_filter_tutorial)
 
 TUTORIAL_WEIGHTS = np.array([1, 5, 1.5, 0.5, 2]) / 10
 AKKF_KERNELS = {"quadratic": lambda: ft.QuadraticKernel(c=1, ialpha=1),
                 "quartic": lambda: ft.QuarticKernel(c=1, ialpha=1),
                 "gaussian": lambda: ft.GaussianKernel()}
+TRACKER = {"missed_distance": 3.0, "min_points": 3, "delete_after_misses": 3,
+           "tentative_misses": 2}
 
 
 def _median_time(function, repeats):
@@ -188,6 +190,41 @@ def adaptive_kernel_filter(table, plots, sizes, stonesoup_sizes, repeats):
                 plots.save(ax, f"akkf-{m}.png", f"Adaptive kernel Kalman filter, M = {m}")
 
 
+def _matched_rmse(scenario, tracks):
+    """Position RMSE of the tracks the GOSPA assignment (c = 10 m, p = 2) pairs with a
+    target, over all scans."""
+    truths = [x[:, [0, 2]] for x in scenario.truths]
+    result = gospa_over_time(truths, [t.means[:, [0, 2]] for t in tracks], 10.0, p=2)
+    pairs = sum(int((a >= 0).sum()) for a in result.assignment)
+    return float(np.sqrt(result.localisation.sum() / max(pairs, 1)))
+
+
+def multi_target(table, plots, sizes, stonesoup_sizes, steps):
+    """The GNN multi-target tracker on ``n`` targets on a 20 m grid with ``n`` clutter
+    detections per scan and P_D = 0.9, for each n in ``sizes``."""
+    stonesoup = _stonesoup()
+    for n in sizes:
+        _progress(f"multi-target tracker, {n:,} targets")
+        scenario = grid_targets(n_targets=n, steps=steps, clutter_rate=float(n), seed=1)
+
+        def run():
+            tracker = ft.MultiTargetTracker(scenario.transition_model,
+                                            scenario.measurement_model, np.zeros(4),
+                                            np.diag([0.0, 1.0, 0.0, 1.0]), **TRACKER)
+            return tracker.run(scenario.detections, scenario.time_interval)
+
+        tracks, ours = _timed_track(run, 1, steps)
+        theirs = None
+        if stonesoup and n in stonesoup_sizes:
+            _progress(f"Stone Soup multi-target tracker, {n:,} targets")
+            theirs = stonesoup.tracker_time(scenario, **TRACKER)
+        table.add("multi-target GNN tracker", n, _matched_rmse(scenario, tracks), ours, theirs)
+        if plots and n == sizes[0]:
+            ax = plots.plotting.plot_multi_target(scenario, tracks)
+            plots.save(ax, f"multi-target-{n}.png",
+                       f"GNN tracker: {n} targets, {n} clutter per scan, P_D = 0.9")
+
+
 class Plots:
     """PNG plots of the demo, written to ``out``."""
 
@@ -219,7 +256,7 @@ def run(quick=False, out="fasttrack-demo"):
     start = time.perf_counter()
     print(f"fasttrack {ft.__version__}: compiling kernels (cached after the first run)...",
           flush=True)
-    families = ["kalman", "adaptive_kernel", "resamplers", "particle_filter"]
+    families = ["kalman", "adaptive_kernel", "multi_target", "resamplers", "particle_filter"]
     if not quick:
         families.append("batch")
 
@@ -243,9 +280,11 @@ def run(quick=False, out="fasttrack-demo"):
     adaptive_kernel_filter(table, plots, [30] if quick else [30, 300],
                            stonesoup_sizes=[30] if quick else [30, 300],
                            repeats=2 if quick else 5)
+    multi_target(table, plots, [50] if quick else [50, 1000], stonesoup_sizes=[50],
+                 steps=10 if quick else 100)
     print(" " * 80, end="\r")
-    print("\nTime per step (resamplers: per call), medians; RMSE: position error against "
-          "the truth\n")
+    print("\nTime per step (resamplers: per call; tracker: per scan), medians; RMSE: position "
+          "error against the truth (tracker: of the tracks matched to targets)\n")
     print(table.render())
     if plots:
         print(f"\nPlots: {len(plots.written)} PNG files in {plots.out}/")

@@ -105,6 +105,52 @@ def plot_track(track, mapping=(0, 2), ax=None, particles=False, uncertainty=Fals
     return ax
 
 
+def _paths(ids_per_scan, points_per_scan):
+    """{identity: (n, 2) positions in scan order} from per-scan identities and points."""
+    paths = {}
+    for ids, points in zip(ids_per_scan, points_per_scan):
+        for i, xy in zip(ids, points):
+            paths.setdefault(int(i), []).append(xy)
+    return {i: np.array(xy) for i, xy in paths.items()}
+
+
+def plot_multi_target(scenario, tracks=None, mapping=(0, 2), ax=None, units="m"):
+    """A multi-target scenario: every target's true path (dashed), the clutter of all scans
+    (grey dots), the target detections (circles) and, given the tracker's output ``tracks``
+    (one track set per scan, with ``ids`` and ``means``), each track's path in its own
+    colour. Needs a position sensor (detections in the ``mapping`` plane).
+
+    Parameters
+    ----------
+    scenario : fasttrack.simulate.MultiTargetScenario
+    tracks : sequence of TrackSet, optional
+        E.g. ``MultiTargetTracker.run(scenario.detections)``.
+    mapping : sequence of int
+        The position components of the states.
+    ax : matplotlib.axes.Axes, optional
+    units : str
+        Position units, for the axis labels.
+    """
+    ax = _axes(ax)
+    index = list(mapping)
+    truths = _paths(scenario.truth_ids, [x[:, index] for x in scenario.truths])
+    for k, xy in enumerate(truths.values()):
+        ax.plot(xy[:, 0], xy[:, 1], linestyle="--", color="k", linewidth=0.8,
+                label="ground truth" if k == 0 else None)
+    detections = np.concatenate(scenario.detections)
+    origins = np.concatenate(scenario.origins)
+    ax.scatter(*detections[origins < 0].T, s=2, color="tab:gray", alpha=0.5, label="clutter")
+    ax.scatter(*detections[origins >= 0].T, s=8, facecolors="none", edgecolors="tab:blue",
+               linewidths=0.5, label="target detections")
+    if tracks is not None:
+        paths = _paths([t.ids for t in tracks], [t.means[:, index] for t in tracks])
+        for k, xy in enumerate(paths.values()):
+            ax.plot(xy[:, 0], xy[:, 1], linewidth=1.2, label="tracks" if k == 0 else None)
+    ax.set_xlabel(f"x = state[{mapping[0]}] ({units})")
+    ax.set_ylabel(f"y = state[{mapping[1]}] ({units})")
+    return ax
+
+
 def plot_resampling(weights, points=None, offspring=None, ax=None):
     """The resampling picture of the resampler tutorial: each particle's weight as a bar of
     the cumulative weights on [0, 1], and either the uniform ``points`` a scheme drew (each

@@ -1,13 +1,13 @@
 """The seed tutorials' scenarios, built with fasttrack: models, a simulated truth, its
-detections and the filter's prior."""
+detections and the filter's prior; and a multi-target scenario on a grid."""
 import datetime
 from dataclasses import dataclass
 
 import numpy as np
 
 from .models import (Cartesian2DToBearing, CartesianToBearingRange,
-                     CombinedLinearGaussianTransitionModel, ConstantVelocity)
-from .simulate import detections, ground_truth
+                     CombinedLinearGaussianTransitionModel, ConstantVelocity, LinearGaussian)
+from .simulate import detections, ground_truth, multi_target
 from .types import GaussianState, KernelParticleState, ParticleState
 
 START = datetime.datetime(2026, 1, 1)
@@ -85,3 +85,42 @@ def adaptive_kernel_tutorial(n_particles=30, seed=50, steps=30):
     samples = _diagonal_gaussian(rng, start, [0.1, 0.005, 0.1, 0.01], n_particles)
     prior = KernelParticleState(samples, timestamp=START)
     return Scenario(transition, sensor, truth, measured, prior)
+
+
+def grid_targets(n_targets=20, steps=50, spacing=20.0, clutter_rate=20.0, prob_detect=0.9,
+                 seed=None):
+    """A multi-target scenario: ``n_targets`` nearly-constant-velocity targets (q = 0.05)
+    starting on a jittered square grid of ``spacing`` metres with N(0, 1) m/s velocities,
+    seen once a second by a position sensor (R = I m^2) with ``prob_detect``, and
+    Poisson(``clutter_rate``) clutter per scan over the grid plus a 50 m margin.
+
+    Parameters
+    ----------
+    n_targets : int
+        Targets, >= 1.
+    steps : int
+        Scans, >= 1.
+    spacing : float
+        Grid spacing, metres.
+    clutter_rate : float
+        Expected clutter measurements per scan.
+    prob_detect : float
+        Probability of detection.
+    seed : None, int or numpy.random.SeedSequence
+        Fixes the targets, detections and clutter.
+
+    Returns
+    -------
+    fasttrack.simulate.MultiTargetScenario
+    """
+    rng = np.random.default_rng(seed)
+    side = int(np.ceil(np.sqrt(n_targets)))
+    grid = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2)
+    positions = grid[:n_targets] * spacing + rng.normal(0, 1, (n_targets, 2))
+    velocities = rng.normal(0, 1, (n_targets, 2))
+    initial = np.c_[positions[:, 0], velocities[:, 0], positions[:, 1], velocities[:, 1]]
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
+    sensor = LinearGaussian(4, (0, 2), np.eye(2))
+    edge = (side - 1) * spacing
+    return multi_target(transition, sensor, initial, steps, [[-50, -50], [edge + 50] * 2],
+                        prob_detect=prob_detect, clutter_rate=clutter_rate, rng=rng)

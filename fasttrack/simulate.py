@@ -77,6 +77,8 @@ class MultiTargetScenario:
 
     Attributes
     ----------
+    transition_model : TransitionModel
+    measurement_model : MeasurementModel
     truths : list of (n_t, d) float64 ndarray
         The states of the targets alive at each scan.
     truth_ids : list of (n_t,) int64 ndarray
@@ -93,6 +95,8 @@ class MultiTargetScenario:
         Expected clutter measurements per unit volume of the region per scan.
     """
 
+    transition_model: object
+    measurement_model: object
     truths: list
     truth_ids: list
     detections: list
@@ -191,5 +195,6 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
         out["detections"].append(np.ascontiguousarray(np.concatenate((measured, clutter))[shuffle]))
         out["origins"].append(np.concatenate((ids[seen], np.full(clutter.shape[0], -1)))[shuffle])
     volume = float(np.prod(region[1] - region[0]))
-    return MultiTargetScenario(time_interval=dt, region=region,
+    return MultiTargetScenario(transition_model, measurement_model, time_interval=dt,
+                               region=region,
                                clutter_density=clutter_rate / volume, **out)

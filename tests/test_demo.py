@@ -83,6 +83,28 @@ def test_resampling_plot_marks_sit_on_the_bars_of_the_particles_drawn(resampler)
     np.testing.assert_array_equal(np.sort(under), drawn)
 
 
+def test_multi_target_plot_draws_truths_clutter_detections_and_tracks():
+    from fasttrack.scenarios import grid_targets
+    scenario = grid_targets(n_targets=4, steps=12, clutter_rate=6.0, seed=1)
+    tracker = ft.MultiTargetTracker(scenario.transition_model, scenario.measurement_model,
+                                    np.zeros(4), np.diag([0.0, 1.0, 0.0, 1.0]))
+    tracks = tracker.run(scenario.detections)
+    ax = plotting.plot_multi_target(scenario, tracks)
+    labels = ax.get_legend_handles_labels()[1]
+    assert labels == ["ground truth", "clutter", "target detections", "tracks"]
+    clutter, detected = ax.collections
+    origins = np.concatenate(scenario.origins)
+    assert len(clutter.get_offsets()) == (origins < 0).sum()
+    np.testing.assert_allclose(detected.get_offsets(),
+                               np.concatenate(scenario.detections)[origins >= 0])
+    lines = ax.get_lines()
+    n_tracks = len({int(i) for t in tracks for i in t.ids})
+    assert len(lines) == 4 + n_tracks  # a dashed path per target, a line per track
+    first = lines[0].get_xydata()
+    np.testing.assert_allclose(first, [x[0, [0, 2]] for x in scenario.truths])
+    assert ax.get_xlabel() == "x = state[0] (m)"
+
+
 def test_plotting_errors():
     class Unknown:
         state_vector = np.zeros((1, 1))

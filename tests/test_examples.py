@@ -65,3 +65,13 @@ def test_guide_monte_carlo_runs():
     results = namespace["results"]
     assert not results.failures and len(namespace["rmse_by_step"]) == 21
     assert {s.metric for s in results.summary()} == {"rmse", "anees", "anis", "step_seconds"}
+
+
+def test_guide_multi_target_runs():
+    import re
+    guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()
+    code = re.search(r"## Multi-target tracking\n.*?```python\n(.*?)```", guide, re.S).group(1)
+    namespace = {}
+    exec(compile(code, "guide multi-target", "exec"), namespace)
+    tracks, scenario = namespace["tracks"], namespace["scenario"]
+    assert len(tracks) == 40 and 14 <= len(tracks[-1]) <= 20

@@ -14,7 +14,9 @@ from scipy import stats
 
 import fasttrack as ft
 from fasttrack import montecarlo as mc
-from fasttrack.scenarios import Scenario, adaptive_kernel_tutorial, particle_filter_tutorial
+from fasttrack.scenarios import (Scenario, adaptive_kernel_tutorial, grid_targets,
+                                 particle_filter_tutorial)
+from fasttrack.tracker import MultiTargetTracker
 
 START = datetime.datetime(2026, 1, 1)
 COLUMNS = ("run", "step", "time", "position_error", "nees", "nis", "ess")
@@ -297,6 +299,79 @@ def test_failing_runs_on_dask(dask_client):
                               progress=False)
     assert_same_results(local, remote)
     assert [f.error for f in local.failures] == [f.error for f in remote.failures]
+
+
+mt_scenario = functools.partial(grid_targets, n_targets=9, steps=12, clutter_rate=5.0)
+
+
+def make_tracker(scenario, rng):
+    return MultiTargetTracker(scenario.transition_model, scenario.measurement_model,
+                              np.zeros(4), np.diag([0.0, 1.0, 0.0, 1.0]), min_points=2)
+
+
+def _same_except_time(a, b):
+    names = [n for n in a.table.dtype.names if n != "step_seconds"]
+    for name in names:
+        np.testing.assert_array_equal(a.table[name], b.table[name])
+
+
+@pytest.fixture(scope="module")
+def serial_tracking():
+    return mc.run_trials(mt_scenario, make_tracker, 6, seed=3, processes=1, progress=False)
+
+
+def test_multi_target_runs_score_gospa_per_scan(serial_tracking):
+    results = serial_tracking
+    assert results.metrics == mc.MULTI_TARGET_METRICS and len(results.table) == 6 * 12
+    parts = (results.table["gospa_localisation"] + results.table["gospa_missed"]
+             + results.table["gospa_false"])
+    np.testing.assert_allclose(results.table["gospa"], parts)  # p = 1
+    first = results.table[results.table["step"] == 0]
+    np.testing.assert_allclose(first["gospa"], 9 * 10.0 / 2)  # no confirmed track yet
+    assert np.all(first["n_tracks"] == 0)
+    over_time = results.mean_over_time("gospa")
+    assert over_time[-1] < 0.5 * over_time[0]  # the tracker finds the targets
+    assert {s.metric for s in results.summary()} == {
+        "mean_gospa", "mean_localisation", "mean_missed", "mean_false", "mean_tracks",
+        "step_seconds"}
+    with pytest.raises(ValueError, match="rmse_over_time needs the metric 'position_error'"):
+        results.rmse_over_time()
+
+
+def test_a_multi_target_run_is_the_tracker_on_its_scenario(serial_tracking):
+    from fasttrack.metrics import gospa
+    seed = mc.run_seeds(3, 6)[2]
+    world = mt_scenario(seed=seed.spawn(2)[0])
+    tracker = make_tracker(world, None)
+    row = serial_tracking.table[serial_tracking.table["run"] == 2]
+    for t, scan in enumerate(world.detections):
+        tracks = tracker.step(scan, float(t))
+        want = gospa(world.truths[t][:, [0, 2]], tracks.means[:, [0, 2]], 10.0)
+        assert row["gospa"][t] == pytest.approx(want.distance, rel=1e-12)
+        assert row["n_tracks"][t] == len(tracks)
+
+
+def test_multi_target_results_do_not_depend_on_processes(serial_tracking):
+    results = mc.run_trials(mt_scenario, make_tracker, 6, seed=3, processes=2, batch_size=2,
+                            progress=False)
+    _same_except_time(serial_tracking, results)
+
+
+def test_multi_target_runs_on_dask(dask_client, serial_tracking):
+    results = mc.run_trials(mt_scenario, make_tracker, 6, seed=3, client=dask_client,
+                            progress=False)
+    _same_except_time(serial_tracking, results)
+
+
+def test_multi_target_metric_names_and_cutoff_are_checked():
+    with pytest.raises(ValueError, match="a multi-target scenario's gospa"):
+        mc.run_trials(mt_scenario, make_tracker, 2, metrics=("position_error",), processes=1)
+    with pytest.raises(ValueError, match="gospa_cutoff must be > 0"):
+        mc.run_trials(mt_scenario, make_tracker, 2, gospa_cutoff=0.0, processes=1)
+    results = mc.run_trials(mt_scenario, make_tracker, 2, seed=1, metrics=("gospa",),
+                            gospa_cutoff=4.0, processes=1, progress=False)
+    assert results.metrics == ("gospa",)
+    np.testing.assert_allclose(results.table["gospa"][results.table["step"] == 0], 9 * 2.0)
 
 
 def test_bad_arguments():

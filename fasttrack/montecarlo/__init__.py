@@ -12,11 +12,11 @@ Modules, one job each: :mod:`~fasttrack.montecarlo.runner` (``run_trials``),
 :mod:`~fasttrack.montecarlo.workers` (local processes and Dask); every public name is
 importable from here.
 """
-from .metrics import METRICS
+from .metrics import METRICS, MULTI_TARGET_METRICS
 from .results import MetricSummary, RunFailure, TrialResults
 from .runner import run_trials
 from .trial import run_seeds, run_trial
 from .workers import local_cluster
 
-__all__ = ["METRICS", "MetricSummary", "RunFailure", "TrialResults", "local_cluster",
+__all__ = ["METRICS", "MULTI_TARGET_METRICS", "MetricSummary", "RunFailure", "TrialResults", "local_cluster",
            "run_seeds", "run_trial", "run_trials"]

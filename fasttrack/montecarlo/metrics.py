@@ -1,5 +1,6 @@
 """What a Monte Carlo run records at each step: position error, NEES, NIS, ESS and step
-time, and the checks of the position mapping."""
+time of a filter; GOSPA and its parts, the track count and step time of a multi-target
+tracker; and the checks of the position mapping."""
 import math
 import numbers
 
@@ -8,10 +9,18 @@ import numpy as np
 from ..types import GaussianMeasurementPrediction, GaussianState
 
 
-#: The metrics a run can record per step.
+#: The metrics a run of a filter can record per step.
 METRICS = ("position_error", "nees", "nis", "ess", "step_seconds")
+#: The metrics a run of a multi-target tracker can record per scan: the GOSPA distance
+#: (p = 1, alpha = 2, cut-off ``gospa_cutoff``) between the true and the tracks' positions,
+#: its localisation, missed-target and false-track parts (they add up to it), the number of
+#: tracks, and the wall time of the scan.
+MULTI_TARGET_METRICS = ("gospa", "gospa_localisation", "gospa_missed", "gospa_false",
+                        "n_tracks", "step_seconds")
 _SUMMARIES = {"position_error": "rmse", "nees": "anees", "nis": "anis", "ess": "mean_ess",
-              "step_seconds": "step_seconds"}
+              "step_seconds": "step_seconds", "gospa": "mean_gospa",
+              "gospa_localisation": "mean_localisation", "gospa_missed": "mean_missed",
+              "gospa_false": "mean_false", "n_tracks": "mean_tracks"}
 
 
 def _check_mapping(mapping):
@@ -26,7 +35,8 @@ def _check_mapping(mapping):
 
 def _check_mapping_fits(world, mapping):
     """Raise if ``position_mapping`` indexes beyond the states of a run's scenario."""
-    ndim = getattr(world.prior, "ndim", None)
+    ndim = (world.transition_model.ndim_state if not hasattr(world, "prior")
+            else getattr(world.prior, "ndim", None))
     if ndim is not None and max(mapping) >= ndim:
         raise ValueError(f"position_mapping {tuple(mapping)} is outside the scenario's "
                          f"{ndim}-dimensional states")
@@ -37,12 +47,17 @@ def _row_dtype(metrics):
                     + [(name, np.float64) for name in metrics])
 
 
-def _check_metrics(metrics):
+def _check_metrics(metrics, multi_target=False):
+    """``metrics`` as a tuple of distinct known names (None: all of the kind's)."""
+    known = MULTI_TARGET_METRICS if multi_target else METRICS
+    if metrics is None:
+        return known
     metrics = tuple(metrics)
-    unknown = [m for m in metrics if m not in METRICS]
+    unknown = [m for m in metrics if m not in known]
     if unknown or not metrics or len(set(metrics)) != len(metrics):
-        raise ValueError(f"metrics must be distinct names among {', '.join(METRICS)}; "
-                         f"got {list(metrics)}")
+        kind = "a multi-target scenario's" if multi_target else "a filter's"
+        raise ValueError(f"metrics must be distinct names among {kind} "
+                         f"{', '.join(known)}; got {list(metrics)}")
     return metrics
 
 
@@ -74,3 +89,17 @@ def _score(metrics, posterior, truth, hypothesis, model, mapping, effective, sec
         else:
             out.append(effective if name == "ess" else seconds)
     return out
+
+
+def _score_scans(metrics, world, tracks, mapping, seconds, cutoff):
+    """The ``metrics`` of every scan of a multi-target run, (T, len(metrics)): GOSPA between
+    the truths' and the tracks' positions in one compiled call."""
+    from ..metrics import gospa_over_time
+    truths = [np.ascontiguousarray(x[:, mapping]) for x in world.truths]
+    estimates = [np.ascontiguousarray(t.means[:, mapping]) for t in tracks]
+    result = gospa_over_time(truths, estimates, cutoff)
+    columns = {"gospa": result.distance, "gospa_localisation": result.localisation,
+               "gospa_missed": result.missed, "gospa_false": result.false,
+               "n_tracks": np.array([len(t.means) for t in tracks], dtype=np.float64),
+               "step_seconds": np.asarray(seconds)}
+    return np.column_stack([columns[name] for name in metrics])

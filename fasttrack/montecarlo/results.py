@@ -47,7 +47,7 @@ class MetricSummary:
     ----------
     metric : str
         Name of the per-run statistic: a column of :meth:`TrialResults.per_run`
-        ('rmse', 'anees', 'anis', 'mean_ess' or 'step_seconds').
+        (e.g. 'rmse', 'anees', 'mean_gospa' or 'step_seconds').
     mean : float
         Mean over the runs.
     low, high : float
@@ -86,7 +86,10 @@ class TrialResults:
         truth, in state units), ``nees`` and ``nis`` (normalised estimation error and
         innovation squared, Gaussian filters), ``ess`` (effective sample size of the weights
         before resampling, particle filters), ``step_seconds`` (wall time of predict +
-        update). NaN where a metric does not apply. Failed runs have no rows.
+        update); for a multi-target tracker, per scan, ``gospa`` and its parts
+        ``gospa_localisation``, ``gospa_missed`` and ``gospa_false`` (position units,
+        p = 1), ``n_tracks`` and ``step_seconds``. NaN where a metric does not apply.
+        Failed runs have no rows.
     failures : list of RunFailure
     seed : numpy.random.SeedSequence
         The root seed; ``seed.entropy`` reproduces the whole evaluation.
@@ -106,8 +109,9 @@ class TrialResults:
 
     def per_run(self):
         """One row per completed run: ``run`` and each metric's per-run statistic (``rmse``
-        over steps of the position error, ``anees``, ``anis``, ``mean_ess`` and
-        ``step_seconds`` as means over steps)."""
+        over steps of the position error; the others, ``anees``, ``anis``, ``mean_ess``,
+        ``mean_gospa``, ``mean_localisation``, ``mean_missed``, ``mean_false``,
+        ``mean_tracks`` and ``step_seconds``, means over steps)."""
         runs, starts = np.unique(self.table["run"], return_index=True)
         out = np.zeros(len(runs), [("run", np.int64)]
                        + [(_SUMMARIES[m], np.float64) for m in self.metrics])
@@ -161,9 +165,33 @@ class TrialResults:
 
     def rmse_over_time(self):
         """Position RMSE over the completed runs at each step, (steps,)."""
+        if "position_error" not in self.metrics:
+            raise ValueError(f"rmse_over_time needs the metric 'position_error'; these results "
+                             f"have {list(self.metrics)} (see mean_over_time)")
         steps = self.table["step"]
         squared = np.bincount(steps, self.table["position_error"] ** 2)
         return np.sqrt(squared / np.bincount(steps))
+
+    def mean_over_time(self, metric):
+        """The mean of a metric over the completed runs at each step.
+
+        Parameters
+        ----------
+        metric : str
+            A metric column of :attr:`table`, e.g. 'gospa'.
+
+        Returns
+        -------
+        (steps,) float64 ndarray
+            NaN where no run defines the metric.
+        """
+        if metric not in self.metrics:
+            raise ValueError(f"metric must be one of {list(self.metrics)}, got {metric!r}")
+        values, steps = self.table[metric], self.table["step"]
+        defined = np.isfinite(values)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return (np.bincount(steps[defined], values[defined], minlength=steps.max() + 1)
+                    / np.bincount(steps[defined], minlength=steps.max() + 1))
 
     def to_dataframe(self):
         """:attr:`table` as a pandas DataFrame (needs pandas)."""
@@ -174,11 +202,13 @@ class TrialResults:
         return pandas.DataFrame(self.table)
 
     def __str__(self):
+        summaries = self.summary()
+        width = max([len(s.metric) for s in summaries] + [12]) + 2
         lines = [f"{self.n_runs - len(self.failures)} of {self.n_runs} runs completed "
                  f"(seed entropy {self.seed.entropy})",
-                 f"{'metric':<14}{'mean':>12}{'95% interval':>28}{'runs':>7}"]
-        for s in self.summary():
-            lines.append(f"{s.metric:<14}{s.mean:>12.5g}   [{s.low:>11.5g}, {s.high:>11.5g}]"
-                         f"{s.runs:>7}")
+                 f"{'metric':<{width}}{'mean':>12}{'95% interval':>28}{'runs':>7}"]
+        for s in summaries:
+            lines.append(f"{s.metric:<{width}}{s.mean:>12.5g}   [{s.low:>11.5g}, "
+                         f"{s.high:>11.5g}]{s.runs:>7}")
         lines += [f"run {f.run} failed: {f.error}" for f in self.failures]
         return "\n".join(lines)

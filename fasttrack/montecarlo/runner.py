@@ -8,7 +8,8 @@ import warnings
 import numpy as np
 
 from .._validate import count
-from .metrics import METRICS, _check_mapping, _check_mapping_fits, _check_metrics, _row_dtype
+from ..simulate import MultiTargetScenario
+from .metrics import _check_mapping, _check_mapping_fits, _check_metrics, _row_dtype
 from .workers import _client, _local_cores, _run_dask, _run_local, _serialise, check_main_guard
 from .trial import _children, _root_seed
 from .results import TrialResults
@@ -47,9 +48,9 @@ class _Progress:
             print(file=sys.stderr, flush=True)
 
 
-def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client=None,
+def run_trials(scenario, make_filter, n_runs, seed=None, metrics=None, client=None,
                batch_size=None, processes=None, position_mapping=(0, 2), progress=True,
-               max_retries=2):
+               max_retries=2, gospa_cutoff=10.0):
     """Track ``n_runs`` independent runs of a scenario and score them.
 
     Parameters
@@ -58,17 +59,24 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client
         ``scenario(seed=seed_sequence)`` returns a run's
         :class:`~fasttrack.scenarios.Scenario` (``truth``, time-ordered ``detections``, one
         per step at times of the truth, and the filter's ``prior``), drawing everything from
-        the seed, e.g. ``functools.partial(particle_filter_tutorial, n_particles=1000)``.
+        the seed, e.g. ``functools.partial(particle_filter_tutorial, n_particles=1000)``;
+        or a multi-target :class:`~fasttrack.simulate.MultiTargetScenario` (e.g.
+        :func:`~fasttrack.scenarios.grid_targets`).
     make_filter : callable
         ``make_filter(scenario, rng)`` returns ``(predictor, updater)`` for one run (any of
         fasttrack's particle, Kalman, extended Kalman or adaptive kernel filters), drawing
-        its randomness from the Generator ``rng``.
+        its randomness from the Generator ``rng``; for a multi-target scenario, a tracker
+        whose ``step(detections, time)`` returns the tracks (with ``means`` (K, d)), such as
+        :class:`~fasttrack.tracker.MultiTargetTracker`.
     n_runs : int
         Number of runs, >= 1.
     seed : None, int or numpy.random.SeedSequence
         Root seed (None: fresh entropy, kept in ``results.seed``).
-    metrics : sequence of str
-        Among ``METRICS``: 'position_error', 'nees', 'nis', 'ess', 'step_seconds'.
+    metrics : sequence of str, optional
+        Among ``METRICS`` ('position_error', 'nees', 'nis', 'ess', 'step_seconds') for a
+        filter, or ``MULTI_TARGET_METRICS`` ('gospa', 'gospa_localisation', 'gospa_missed',
+        'gospa_false', 'n_tracks', 'step_seconds') for a multi-target tracker (default:
+        all of the kind).
     client : distributed.Client or str, optional
         Run on this Dask cluster (or the scheduler at this address) instead of locally.
     batch_size : int, optional
@@ -87,6 +95,8 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client
     max_retries : int
         Times a batch whose local worker process died is rerun (Dask retries tasks of lost
         workers by its own ``allowed-failures`` setting).
+    gospa_cutoff : float
+        The GOSPA cut-off c of a multi-target scenario, in position units, > 0.
 
     Returns
     -------
@@ -103,27 +113,31 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=METRICS, client
         must do so under ``if __name__ == "__main__":``.
     """
     n_runs = count(n_runs, "n_runs")
-    metrics = _check_metrics(metrics)
     max_retries = count(max_retries, "max_retries", minimum=0)
     if client is not None and processes is not None:
         raise ValueError("processes is for local runs; with a client, the cluster's "
                          "workers run the tasks")
+    cutoff = float(gospa_cutoff)
+    if not cutoff > 0:
+        raise ValueError(f"gospa_cutoff must be > 0, got {gospa_cutoff}")
     root = _root_seed(seed)
     mapping = _check_mapping(position_mapping)
+    first = scenario(seed=_children(_children(root, 1)[0], 2)[0])
+    metrics = _check_metrics(metrics, isinstance(first, MultiTargetScenario))
+    _check_mapping_fits(first, mapping)
     if client is None:
-        _check_mapping_fits(scenario(seed=_children(_children(root, 1)[0], 2)[0]), mapping)
         processes = _local_cores() if processes is None else count(processes, "processes")
         batches = _batches(root, n_runs, batch_size, processes)
         if processes == 1:  # in this process: nothing to pickle
-            payload = (scenario, make_filter, metrics, mapping, None)
+            payload = (scenario, make_filter, metrics, mapping, cutoff, None)
         else:
             check_main_guard()
-            payload = _serialise(scenario, make_filter, metrics, mapping, 1)
+            payload = _serialise(scenario, make_filter, metrics, mapping, cutoff, 1)
         return _collect(_run_local(payload, batches, processes, max_retries), root, n_runs,
                         metrics, progress)
     with _client(client) as connected:
         batches = _batches(root, n_runs, batch_size, sum(connected.nthreads().values()))
-        payload = _serialise(scenario, make_filter, metrics, mapping, 1)
+        payload = _serialise(scenario, make_filter, metrics, mapping, cutoff, 1)
         return _collect(_run_dask(connected, payload, batches), root, n_runs, metrics,
                         progress)
 

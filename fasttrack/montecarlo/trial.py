@@ -10,8 +10,9 @@ import numpy as np
 
 from .._validate import count
 from ..types import SingleHypothesis, time_interval
-from .metrics import (METRICS, _check_mapping, _check_mapping_fits, _check_metrics, _row_dtype,
-                      _score)
+from ..simulate import MultiTargetScenario
+from .metrics import (_check_mapping, _check_mapping_fits, _check_metrics, _row_dtype, _score,
+                      _score_scans)
 from .results import RunFailure
 
 
@@ -51,7 +52,8 @@ def _children(seed, n):
                                    pool_size=seed.pool_size) for k in range(n)]
 
 
-def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping=(0, 2)):
+def run_trial(scenario, make_filter, run_seed, metrics=None, position_mapping=(0, 2),
+              gospa_cutoff=10.0):
     """Track one run and score every step: what :func:`run_trials` does for each run.
 
     Parameters
@@ -64,10 +66,12 @@ def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping
         :func:`run_trials`.
     run_seed : numpy.random.SeedSequence
         The run's seed, e.g. ``run_seeds(seed, n_runs)[i]`` or a failure's ``seed``.
-    metrics : sequence of str
+    metrics : sequence of str, optional
         As for :func:`run_trials`.
     position_mapping : sequence of int
         State components of the position, as for :func:`run_trials`.
+    gospa_cutoff : float
+        As for :func:`run_trials`.
 
     Returns
     -------
@@ -79,14 +83,18 @@ def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping
     Exception
         Whatever the scenario, the filter or the scoring raises.
     """
-    metrics = _check_metrics(metrics)
     mapping = _check_mapping(position_mapping)
     if not isinstance(run_seed, np.random.SeedSequence):
         raise TypeError(f"run_seed must be a numpy.random.SeedSequence (see run_seeds), "
                         f"got {type(run_seed).__name__}")
     scenario_seed, filter_seed = _children(run_seed, 2)
     world = scenario(seed=scenario_seed)
+    multi_target = isinstance(world, MultiTargetScenario)
+    metrics = _check_metrics(metrics, multi_target)
     _check_mapping_fits(world, mapping)
+    if multi_target:
+        tracker = make_filter(world, np.random.default_rng(filter_seed))
+        return _track_scans(world, tracker, metrics, mapping, gospa_cutoff)
     predictor, updater = make_filter(world, np.random.default_rng(filter_seed))
     truth = {state.timestamp: state for state in world.truth}
     rows = np.zeros(len(world.detections), _row_dtype(metrics))
@@ -112,6 +120,24 @@ def run_trial(scenario, make_filter, run_seed, metrics=METRICS, position_mapping
     return rows
 
 
+def _track_scans(world, tracker, metrics, mapping, cutoff):
+    """Run a multi-target ``tracker`` (``step(detections, time)`` returning the tracks, with
+    ``means`` (K, d)) over the scans of ``world`` and score them."""
+    tracks, seconds = [], []
+    for t, scan in enumerate(world.detections):
+        tic = time.perf_counter()
+        tracks.append(tracker.step(scan, t * world.time_interval))
+        seconds.append(time.perf_counter() - tic)
+    rows = np.zeros(len(world.detections), _row_dtype(metrics))
+    rows["run"] = -1
+    rows["step"] = np.arange(rows.size)
+    rows["time"] = rows["step"] * world.time_interval
+    scores = _score_scans(metrics, world, tracks, mapping, seconds, cutoff)
+    for column, name in enumerate(metrics):
+        rows[name] = scores[:, column]
+    return rows
+
+
 #: Payloads (digests of their pickles, or the ids of scenario and make_filter) warmed in this
 #: process.
 _WARMED = set()
@@ -120,7 +146,8 @@ _WARMED = set()
 def _run_batch(payload, runs):
     """Run ``runs`` (index, seed) pairs in this process: the task of a worker.
 
-    ``payload`` is (scenario, make_filter, metrics, position_mapping, threads), pickled for
+    ``payload`` is (scenario, make_filter, metrics, position_mapping, gospa_cutoff, threads),
+    pickled for
     another process. The first batch of a payload in a process is preceded by one untimed
     run of its first seed, so that compilation is not timed as a step.
     Returns the rows of the completed runs and the failures."""
@@ -128,7 +155,7 @@ def _run_batch(payload, runs):
         else tuple(map(id, payload[:2]))
     if isinstance(payload, bytes):
         payload = pickle.loads(payload)
-    scenario, make_filter, metrics, mapping, threads = payload
+    scenario, make_filter, metrics, mapping, cutoff, threads = payload
     if threads is not None:
         import numba
         from ..threads import set_threads
@@ -136,13 +163,13 @@ def _run_batch(payload, runs):
     if runs and key not in _WARMED:
         _WARMED.add(key)
         try:
-            run_trial(scenario, make_filter, runs[0][1], metrics, mapping)
+            run_trial(scenario, make_filter, runs[0][1], metrics, mapping, cutoff)
         except Exception:  # the timed run reports it
             pass
     tables, failures = [], []
     for run, run_seed in runs:
         try:
-            rows = run_trial(scenario, make_filter, run_seed, metrics, mapping)
+            rows = run_trial(scenario, make_filter, run_seed, metrics, mapping, cutoff)
         except Exception as error:  # a failing run is reported, the others go on
             failures.append(RunFailure(run, run_seed, f"{type(error).__name__}: {error}",
                                        traceback.format_exc()))

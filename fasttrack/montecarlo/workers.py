@@ -19,7 +19,7 @@ __all__ = ["local_cluster"]
 _INSTALL = "pip install 'fasttrack[distributed]'"
 
 
-def _serialise(scenario, make_filter, metrics, mapping, threads):
+def _serialise(scenario, make_filter, metrics, mapping, cutoff, threads):
     """The pickled payload of the tasks (cloudpickle when installed, so that lambdas and
     functions defined in ``__main__`` travel too)."""
     try:
@@ -27,7 +27,7 @@ def _serialise(scenario, make_filter, metrics, mapping, threads):
     except ImportError:
         pickler = pickle
     try:
-        return pickler.dumps((scenario, make_filter, metrics, mapping, threads))
+        return pickler.dumps((scenario, make_filter, metrics, mapping, cutoff, threads))
     except Exception as error:
         raise TypeError(f"scenario and make_filter must be picklable to run in other "
                         f"processes (define them at module level, install cloudpickle, or "
