@@ -6,6 +6,7 @@ from . import _errors
 from . import _validate
 from . import threads as _threads
 from ._jit import kalman as _kalman
+from ._jit import sensor as _sensor
 from ._jit import status as _status
 from .models.measurement import NonlinearGaussianMeasurement, MeasurementModel
 from .models.transition import LinearGaussianTransitionModel, TransitionModel
@@ -151,9 +152,20 @@ class BatchExtendedKalmanFilter:
         intervals = self._intervals(time_intervals, (k,))
         out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))
         status = np.zeros(k, dtype=np.int64)
-        if k:
+        model = self.measurement_model
+        if k and self._selects and np.all(intervals == intervals[0]):
+            dt = float(intervals[0])
+            fixed = (self.transition_model.matrix(time_interval=dt),
+                     self.transition_model.covar(time_interval=dt), model._mapping,
+                     model._noise_covar)
+
+            def run(lo, hi):
+                _kalman.linear_predict(*fixed, means[lo:hi], covars[lo:hi],
+                                       *[a[lo:hi] for a in out], status[lo:hi])
+
+            self._in_chunks(k, run)
+        elif k:
             spec = self._spec(intervals)
-            model = self.measurement_model
             measurement_spec = (model.kind, model._mapping, model._offset, model._rotation,
                                 model._noise_covar, self._method)
 
@@ -190,12 +202,29 @@ class BatchExtendedKalmanFilter:
         k, d = means.shape
         means_out, covars_out = np.empty_like(means), np.empty_like(covars)
         status = np.zeros(k, dtype=np.int64)
-        if k:  # a step through the identity (F = I, Q = 0: exact) is the update alone
+        if k and self._selects:
+            model = self.measurement_model
+
+            def run(lo, hi):
+                _kalman.linear_update(model._mapping, model._noise_covar, model._angles,
+                                      self.use_joseph_cov, means[lo:hi], covars[lo:hi],
+                                      measurements[lo:hi], means_out[lo:hi],
+                                      covars_out[lo:hi], status[lo:hi])
+
+            self._in_chunks(k, run)
+        elif k:  # a step through the identity (F = I, Q = 0: exact) is the update alone
             stay = (_kalman.FIXED, np.empty(0), np.eye(d), np.zeros((d, d)))
             self._step(stay, np.zeros(k), means, covars, measurements, means_out,
                        covars_out, status)
-        self._raise(np.array([_AS_PREDICTION.get(code, code) for code in status], np.int64))
+            status = np.array([_AS_PREDICTION.get(code, code) for code in status], np.int64)
+        self._raise(status)
         return means_out, covars_out
+
+    @property
+    def _selects(self):
+        """Whether the sensor measures state components (H selects rows): the lean kernels
+        of the linear case apply."""
+        return self.measurement_model.kind == _sensor.SELECT
 
     def step(self, means, covars, measurements, time_intervals):
         """One predict + update of every filter.

@@ -897,6 +897,29 @@ def pda_weight_matrix(means, covars, detections, angles, gate, prob_detect, prob
 
 # --- kalman batches of tracks (prediction with measurement, update) -------------------------
 
+def linear_predict(matrix, covar, mapping, noise, means, covariances, means_out,
+                   covariances_out, z_hats, innovation_covars, status):
+    for k in range(means.shape[0]):
+        status[k] = _covariance_status(covariances[k], PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+        means_out[k] = matrix @ means[k]
+        covariances_out[k] = matrix @ covariances[k] @ matrix.T + covar
+        z_hats[k] = means_out[k][mapping]
+        innovation_covars[k] = covariances_out[k][np.ix_(mapping, mapping)] + noise
+
+
+def linear_update(mapping, noise, angles, joseph, means, covariances, measurements, means_out,
+                  covariances_out, status):
+    d, m = means.shape[1], measurements.shape[1]
+    h = np.zeros((m, d))
+    h[np.arange(m), mapping] = 1.0
+    for k in range(means.shape[0]):
+        x_out = np.empty((d, 1))
+        status[k] = _kalman_update(means[k][:, None], covariances[k], measurements[k][:, None],
+                                   means[k][mapping][:, None], h, noise, angles, joseph, x_out,
+                                   covariances_out[k], np.empty((m, m)), np.empty((d, m)))
+        means_out[k] = x_out[:, 0]
+
+
 def batch_predict(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
                   rotation, noise, method, means, covariances, means_out, covariances_out,
                   z_hats, innovation_covars, status):
@@ -935,16 +958,13 @@ def _dense_gate(z_hats, covariances, detections, angles, threshold):
 
 
 def gate(z_hats, covariances, detections, order, sorted_keys, axes, angles, origin, cell,
-         shape, threshold, starts, status):
-    d2, _ = _dense_gate(z_hats, covariances, detections, angles, threshold)
-    starts[0] = 0
-    starts[1:] = np.cumsum(np.isfinite(d2).sum(axis=1))
-    status[:] = 0
-
-
-def gate_candidates(z_hats, covariances, detections, order, sorted_keys, axes, angles, origin,
-                    cell, shape, threshold, starts, candidates, distances2, log_likelihoods):
+         shape, threshold, write, starts, candidates, distances2, log_likelihoods, status):
     d2, ll = _dense_gate(z_hats, covariances, detections, angles, threshold)
+    if not write:
+        starts[0] = 0
+        starts[1:] = np.cumsum(np.isfinite(d2).sum(axis=1))
+        status[:] = 0
+        return
     rows, cols = np.nonzero(np.isfinite(d2))
     candidates[:], distances2[:], log_likelihoods[:] = cols, d2[rows, cols], ll[rows, cols]
 

@@ -69,17 +69,19 @@ def test_gate_kernels_match_their_mirrors():
     reference.cell_keys(detections, axes, origin, cell, shape, want)
     np.testing.assert_array_equal(keys, want)
     order = np.argsort(keys, kind="stable")
-    grid = (detections, order, keys[order].copy(), axes, angles, origin, cell, shape, 9.0)
+    grid = (z_hats, covars, detections, order, keys[order].copy(), axes, angles, origin, cell,
+            shape, 9.0)
+    none = np.empty(0, np.int64), np.empty(0), np.empty(0)
     starts, want_starts = np.empty(31, np.int64), np.empty(31, np.int64)
     status = np.empty(30, np.int64)
-    kernels.gate(z_hats, covars, *grid, starts, status)
-    reference.gate(z_hats, covars, *grid, want_starts, status)
+    kernels.gate(*grid, False, starts, *none, status)
+    reference.gate(*grid, False, want_starts, *none, status)
     np.testing.assert_array_equal(starts, want_starts)
     n = starts[-1]
     got = np.empty(n, np.int64), np.empty(n), np.empty(n)
     ref = np.empty(n, np.int64), np.empty(n), np.empty(n)
-    kernels.gate_candidates(z_hats, covars, *grid, starts, *got)
-    reference.gate_candidates(z_hats, covars, *grid, starts, *ref)
+    kernels.gate(*grid, True, starts, *got, status)
+    reference.gate(*grid, True, starts, *ref, status)
     np.testing.assert_array_equal(got[0], ref[0])
     np.testing.assert_allclose(got[1], ref[1], rtol=1e-12)
     np.testing.assert_allclose(got[2], ref[2], rtol=1e-12)
@@ -253,9 +255,57 @@ def test_batch_predict_kernel_matches_its_mirror():
         np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
 
 
-def test_batch_update_names_a_bad_prediction():
+@pytest.mark.parametrize("joseph", [True, False])
+def test_linear_kernels_match_their_mirrors(joseph):
+    from fasttrack._jit import kalman
+    rng = np.random.default_rng(2)
+    batch = _cv_batch()
+    means = rng.normal(0, 10, (7, 4))
+    roots = rng.normal(0, 1, (7, 4, 4))
+    covars = roots @ roots.transpose(0, 2, 1) + np.eye(4)
+    model = batch.measurement_model
+    f = batch.transition_model.matrix(time_interval=1.5)
+    q = batch.transition_model.covar(time_interval=1.5)
+    outs = [(np.empty((7, 4)), np.empty((7, 4, 4)), np.empty((7, 2)), np.empty((7, 2, 2)),
+             np.zeros(7, np.int64)) for _ in range(2)]
+    kalman.linear_predict(f, q, model._mapping, model._noise_covar, means, covars, *outs[0])
+    reference.linear_predict(f, q, model._mapping, model._noise_covar, means, covars,
+                             *outs[1])
+    for a, b in zip(*outs):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
+    z = rng.normal(0, 10, (7, 2))
+    updated = [(np.empty((7, 4)), np.empty((7, 4, 4)), np.zeros(7, np.int64)) for _ in range(2)]
+    args = (model._mapping, model._noise_covar, model._angles, joseph, outs[0][0], outs[0][1],
+            z)
+    kalman.linear_update(*args, *updated[0])
+    reference.linear_update(*args, *updated[1])
+    for a, b in zip(*updated):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+
+
+def test_batch_update_of_a_nonlinear_sensor_equals_step():
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    batch = ft.BatchExtendedKalmanFilter(
+        transition, ft.CartesianToBearingRange(4, (0, 2), np.diag([1e-4, 1.0])))
+    rng = np.random.default_rng(3)
+    means = rng.normal(0, 10, (20, 4)) + np.array([40.0, 0, 40, 0])
+    covars = np.broadcast_to(np.eye(4), (20, 4, 4)).copy()
+    measurements = np.column_stack([rng.uniform(0.6, 0.9, 20), rng.uniform(50, 60, 20)])
+    x, p, _, _ = batch.predict(means, covars, 1.0)
+    for got, want in zip(batch.update(x, p, measurements),
+                         batch.step(means, covars, measurements, 1.0)):
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+
+def test_batch_predict_and_update_name_a_bad_filter():
     batch = _cv_batch()
     covars = np.broadcast_to(np.eye(4), (3, 4, 4)).copy()
     covars[2, 0, 0] = -1.0
-    with pytest.raises(ValueError, match="filter 2: .*predict"):
+    with pytest.raises(ValueError, match="filter 2: .*prior"):
+        batch.predict(np.zeros((3, 4)), covars, 1.0)
+    covars[2, 0, 0], covars[2, 2, 2] = 1.0, -2.0  # S = P[mapping, mapping] + R = -1
+    with pytest.raises(ValueError, match="filter 2: .*innovation"):
         batch.update(np.zeros((3, 4)), covars, np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="measurements contains NaN"):
+        batch.update(np.zeros((3, 4)), np.broadcast_to(np.eye(4), (3, 4, 4)),
+                     np.full((3, 2), np.nan))

@@ -8,7 +8,8 @@ so on up to two *grid axes* (non-angle measurement rows) the detections are buck
 square cells, sorted by cell, and each track tests only the detections of the cells its box
 meets: one binary search per cell row, O((K + M) log M) at a fixed density of targets.
 Candidates come out track by track (CSR: ``starts`` (K + 1,), then detection index, squared
-distance and log-likelihood per candidate), detections in ascending order per track.
+distance and log-likelihood per candidate), detections in ascending order per track: a
+first pass counts them, a second writes them.
 """
 import numpy as np
 from numba import prange
@@ -135,44 +136,38 @@ def _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles, 
                     distances2[first + count] = d2
                     log_likelihoods[first + count] = -0.5 * d2 - log_norm
                 count += 1
-    if write and count > 1:  # cells come row by row: restore ascending detection order
-        picked = candidates[first:first + count].copy()
-        d2s = distances2[first:first + count].copy()
-        lls = log_likelihoods[first:first + count].copy()
-        index = np.argsort(picked, kind="mergesort")
-        for q in range(count):
-            candidates[first + q] = picked[index[q]]
-            distances2[first + q] = d2s[index[q]]
-            log_likelihoods[first + q] = lls[index[q]]
+    if write:  # cells come row by row: restore ascending detection order (a few each)
+        for q in range(first + 1, first + count):
+            j, d2, ll = candidates[q], distances2[q], log_likelihoods[q]
+            p = q
+            while p > first and candidates[p - 1] > j:
+                candidates[p] = candidates[p - 1]
+                distances2[p] = distances2[p - 1]
+                log_likelihoods[p] = log_likelihoods[p - 1]
+                p -= 1
+            candidates[p], distances2[p], log_likelihoods[p] = j, d2, ll
     return count
 
 
 @jit(parallel=True, size=0)
 def gate(z_hats, covariances, detections, order, sorted_keys, axes, angles, origin, cell,
-         shape, threshold, starts, status):
-    """Count each track's candidates into ``starts[1:]`` and cumulate (``starts[0] = 0``);
-    ``status[k]`` = 1 where S_k is not positive definite (no candidates)."""
+         shape, threshold, write, starts, candidates, distances2, log_likelihoods, status):
+    """Without ``write``: count each track's candidates into ``starts[1:]`` and cumulate
+    (``starts[0] = 0``), ``status[k]`` = 1 where S_k is not positive definite (no
+    candidates). With ``write``: store the candidates so counted (one kernel for both
+    passes, so that it compiles once)."""
     k_tracks = z_hats.shape[0]
-    none_i = np.empty(0, dtype=np.int64)
-    none_f = np.empty(0)
     for k in prange(k_tracks):
         count = _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles,
-                      origin, cell, shape, threshold, False, 0, none_i, none_f, none_f)
-        status[k] = np.int64(count < 0)
-        starts[k + 1] = max(count, 0)
-    starts[0] = 0
-    for k in range(k_tracks):
-        starts[k + 1] += starts[k]
-
-
-@jit(parallel=True, size=0)
-def gate_candidates(z_hats, covariances, detections, order, sorted_keys, axes, angles, origin,
-                    cell, shape, threshold, starts, candidates, distances2, log_likelihoods):
-    """Write the candidates counted by :func:`gate`."""
-    for k in prange(z_hats.shape[0]):
-        _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles, origin,
-              cell, shape, threshold, True, starts[k], candidates, distances2,
-              log_likelihoods)
+                      origin, cell, shape, threshold, write, starts[k] if write else 0,
+                      candidates, distances2, log_likelihoods)
+        if not write:
+            status[k] = np.int64(count < 0)
+            starts[k + 1] = max(count, 0)
+    if not write:
+        starts[0] = 0
+        for k in range(k_tracks):
+            starts[k + 1] += starts[k]
 
 
 @jit()

@@ -395,8 +395,7 @@ def batch_predict(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping
     covariances ``S = H P H^T + R`` (K, m, m), for gating and association."""
     k_filters, d = means.shape
     m = z_hats.shape[1]
-    for block in range((k_filters + FILTERS_PER_BLOCK - 1) // FILTERS_PER_BLOCK):
-        lo = block * FILTERS_PER_BLOCK
+    for lo in range(0, k_filters, FILTERS_PER_BLOCK):
         hi = min(lo + FILTERS_PER_BLOCK, k_filters)
         nb = hi - lo
         x, covariance = np.empty((d, nb)), np.empty((d, d, nb))
@@ -419,6 +418,123 @@ def batch_predict(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping
         _from_block(innovation_covar, lo, hi, innovation_covars)
         for b in range(nb):
             status[lo + b] = block_status[b]
+
+
+# --- tracks of a linear-Gaussian model, one row each: lean kernels that compile fast ------
+
+
+@jit()
+def linear_predict(matrix, covar, mapping, noise, means, covariances, means_out,
+                   covariances_out, z_hats, innovation_covars, status):
+    """Kalman prediction of K tracks (means (K, d), covariances (K, d, d)) through one F
+    and Q (d, d), and their measurements by a sensor of the ``mapping`` rows with noise R:
+    ``z_hats`` (K, m) and ``S = P[mapping, mapping] + R`` (K, m, m). ``status[k]`` says
+    whether track k's covariance is symmetric positive semi-definite."""
+    k_tracks, d = means.shape
+    m = mapping.size
+    product = np.empty((d, d))
+    for t in range(k_tracks):
+        status[t] = OK
+        _check_covariance(covariances[t].reshape((d, d, 1)), status[t:t + 1],
+                          PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+        for r in range(d):
+            s = 0.0
+            for c in range(d):
+                s += matrix[r, c] * means[t, c]
+            means_out[t, r] = s
+            for c in range(d):
+                s = 0.0
+                for q in range(d):
+                    s += matrix[r, q] * covariances[t, q, c]
+                product[r, c] = s
+        for r in range(d):
+            for c in range(r + 1):
+                s = covar[r, c]
+                for q in range(d):
+                    s += product[r, q] * matrix[c, q]
+                covariances_out[t, r, c] = s
+                covariances_out[t, c, r] = s
+        for i in range(m):
+            z_hats[t, i] = means_out[t, mapping[i]]
+            for j in range(m):
+                innovation_covars[t, i, j] = (covariances_out[t, mapping[i], mapping[j]]
+                                              + noise[i, j])
+
+
+@jit()
+def linear_update(mapping, noise, angles, joseph, means, covariances, measurements, means_out,
+                  covariances_out, status):
+    """Kalman update of K predicted tracks with measurements (K, m) of their ``mapping``
+    rows: ``S = P[mapping, mapping] + R`` by Cholesky, gain ``K = P[:, mapping] S^-1``,
+    innovation with angle rows wrapped, and ``(I - K H) P`` or with ``joseph``
+    ``(I - K H) P (I - K H)^T + K R K^T`` (lower triangles, mirrored). ``status[k]`` =
+    INNOVATION_NOT_PD where S is not positive definite, MEASUREMENT_NOT_FINITE for a
+    non-finite measurement (else OK)."""
+    k_tracks, d = means.shape
+    m = mapping.size
+    lower = np.empty((m, m))
+    gain = np.empty((d, m))
+    square = np.empty((d, d))
+    work = np.empty((d, d))
+    for t in range(k_tracks):
+        status[t] = OK
+        for j in range(m):
+            if not np.isfinite(measurements[t, j]):
+                status[t] = MEASUREMENT_NOT_FINITE
+        for j in range(m):
+            s = covariances[t, mapping[j], mapping[j]] + noise[j, j]
+            for q in range(j):
+                s -= lower[j, q] * lower[j, q]
+            if not s > 0.0:
+                status[t] = INNOVATION_NOT_PD
+                s = 1.0
+            lower[j, j] = np.sqrt(s)
+            for i in range(j + 1, m):
+                s = covariances[t, mapping[i], mapping[j]] + noise[i, j]
+                for q in range(j):
+                    s -= lower[i, q] * lower[j, q]
+                lower[i, j] = s / lower[j, j]
+        for r in range(d):  # gain row r: solve L L^T g = P[r, mapping]
+            for j in range(m):
+                s = covariances[t, r, mapping[j]]
+                for q in range(j):
+                    s -= lower[j, q] * gain[r, q]
+                gain[r, j] = s / lower[j, j]
+            for j in range(m - 1, -1, -1):
+                s = gain[r, j]
+                for q in range(j + 1, m):
+                    s -= lower[q, j] * gain[r, q]
+                gain[r, j] = s / lower[j, j]
+        for r in range(d):
+            s = means[t, r]
+            for j in range(m):
+                v = measurements[t, j] - means[t, mapping[j]]
+                s += gain[r, j] * (wrap_angle(v) if angles[j] else v)
+            means_out[t, r] = s
+        for r in range(d):  # I - K H
+            for c in range(d):
+                square[r, c] = 1.0 if r == c else 0.0
+            for j in range(m):
+                square[r, mapping[j]] -= gain[r, j]
+        for r in range(d):
+            for c in range(d):
+                s = 0.0
+                for q in range(d):
+                    s += square[r, q] * covariances[t, q, c]
+                work[r, c] = s
+        for r in range(d):
+            for c in range(r + 1):
+                s = 0.0
+                if joseph:
+                    for q in range(d):
+                        s += work[r, q] * square[c, q]
+                    for i in range(m):
+                        for j in range(m):
+                            s += gain[r, i] * noise[i, j] * gain[c, j]
+                else:
+                    s = work[r, c]
+                covariances_out[t, r, c] = s
+                covariances_out[t, c, r] = s
 
 
 # --- one filter: a state's (d, 1) column, its (d, d) covariance (a block of one) -----------

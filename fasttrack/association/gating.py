@@ -133,17 +133,17 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
     sorted_keys = np.ascontiguousarray(keys[order])
     starts = np.empty(k + 1, dtype=np.int64)
     status = np.empty(k, dtype=np.int64)
-    grid = (detections, order, sorted_keys, axes, angles, origin, cell, shape, threshold)
-    _kernels.gate(z_hats, covars, *grid, starts, status)
+    grid = (z_hats, covars, detections, order, sorted_keys, axes, angles, origin, cell, shape,
+            threshold)
+    none = np.empty(0, dtype=np.int64), np.empty(0), np.empty(0)
+    _kernels.gate(*grid, False, starts, *none, status)
     if status.any():
         bad = int(np.flatnonzero(status)[0])
         raise ValueError(f"innovation_covars[{bad}] is not positive definite")
     n = int(starts[-1])
-    candidates, distances2, log_likelihoods = (np.empty(n, dtype=np.int64), np.empty(n),
-                                               np.empty(n))
-    _kernels.gate_candidates(z_hats, covars, *grid, starts, candidates, distances2,
-                             log_likelihoods)
-    return Gate(starts, candidates, distances2, log_likelihoods, detections.shape[0])
+    found = np.empty(n, dtype=np.int64), np.empty(n), np.empty(n)
+    _kernels.gate(*grid, True, starts, *found, status)
+    return Gate(starts, *found, detections.shape[0])
 
 
 @dataclasses.dataclass(frozen=True)
