@@ -16,19 +16,31 @@ except ImportError as error:  # pragma: no cover - depends on the environment
     raise ImportError("fasttrack.stonesoup needs Stone Soup: pip install 'fasttrack[stonesoup]'"
                       ) from error
 
+from .association import (JPDA, PDA, DistanceGater, DistanceHypothesiser, GlobalNearestNeighbour,
+                          GNNWith2DAssignment, JPDAwithEHM, Mahalanobis, NearestNeighbour,
+                          PDAHypothesiser)
 from .kernel import (GaussianKernel, LinearKernel, PolynomialKernel, QuadraticKernel,
                      QuarticKernel)
+from .metrics import GOSPAMetric, OSPAMetric
 from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
                         ParticlePredictor)
 from .resampler import (ESSResampler, MultinomialResampler, ResidualMethod, ResidualResampler,
                         StratifiedResampler, SystematicResampler)
+from .tracking import (CovarianceBasedDeleter, MultiMeasurementInitiator,
+                       MultiTargetMixtureTracker, MultiTargetTracker,
+                       SimpleMeasurementInitiator, UpdateTimeStepsDeleter)
 from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, KalmanUpdater,
                       ParticleUpdater)
 
 __all__ = [
-    "AdaptiveKernelKalmanPredictor", "AdaptiveKernelKalmanUpdater", "ESSResampler",
-    "ExtendedKalmanPredictor", "ExtendedKalmanUpdater", "GaussianKernel", "KalmanPredictor",
-    "KalmanUpdater", "LinearKernel", "MultinomialResampler", "ParticlePredictor",
-    "ParticleUpdater", "PolynomialKernel", "QuadraticKernel", "QuarticKernel",
-    "ResidualMethod", "ResidualResampler", "StratifiedResampler", "SystematicResampler",
+    "AdaptiveKernelKalmanPredictor", "AdaptiveKernelKalmanUpdater", "CovarianceBasedDeleter",
+    "DistanceGater", "DistanceHypothesiser", "ESSResampler", "ExtendedKalmanPredictor",
+    "ExtendedKalmanUpdater", "GaussianKernel", "GlobalNearestNeighbour", "GNNWith2DAssignment",
+    "GOSPAMetric", "JPDA", "JPDAwithEHM", "KalmanPredictor", "KalmanUpdater", "LinearKernel",
+    "Mahalanobis", "MultiMeasurementInitiator", "MultinomialResampler",
+    "MultiTargetMixtureTracker", "MultiTargetTracker", "NearestNeighbour", "OSPAMetric",
+    "ParticlePredictor", "ParticleUpdater", "PDA", "PDAHypothesiser", "PolynomialKernel",
+    "QuadraticKernel", "QuarticKernel", "ResidualMethod", "ResidualResampler",
+    "SimpleMeasurementInitiator", "StratifiedResampler", "SystematicResampler",
+    "UpdateTimeStepsDeleter",
 ]

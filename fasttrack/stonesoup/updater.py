@@ -1,13 +1,16 @@
 """Stone Soup's updaters, with fasttrack's kernels.
 
 The fast paths cover Stone Soup's built-in measurement models (see ``_convert``); anything
-else (another model, a regulariser, a constraint, keywords, a measurement prediction given
-on the hypothesis) goes through Stone Soup's own code. Unlike Stone Soup, a measurement for
-which every particle weight is zero or NaN is an error rather than NaN weights.
+else (another model, a regulariser, a constraint, keywords) goes through Stone Soup's own
+code. A Kalman update whose hypothesis carries a measurement prediction (as the
+associators' hypotheses do) uses it, with Stone Soup's formulas. Unlike Stone Soup, a
+measurement for which every particle weight is zero or NaN is an error rather than NaN
+weights.
 """
 from functools import lru_cache
 
 import numpy as np
+from stonesoup.types.angle import Bearing
 from stonesoup.types.array import StateVectors
 from stonesoup.types.prediction import MeasurementPrediction
 from stonesoup.types.update import Update
@@ -20,8 +23,8 @@ from ..core import kalman as ft_kalman
 from ..core import particle as ft_particle
 from ..models import LinearGaussian
 from ..types import dense_kernel_covar
-from ._convert import (fast_kernel, fast_model, floats, global_rng, plain_particles,
-                       typed_measurement, uncached)
+from ._convert import (angle_rows, fast_kernel, fast_model, floats, global_rng,
+                       plain_particles, typed_measurement, uncached)
 from .state import kernel_factors, remember_factors
 
 
@@ -84,11 +87,56 @@ class _Kalman:
         return MeasurementPrediction.from_state(predicted_state, typed_measurement(z_hat, fast),
                                                 s, cross_covar=cross)
 
+    def _update_given(self, model, fast, hypothesis):
+        """Stone Soup's update from the hypothesis's own measurement prediction (its mean,
+        innovation and cross covariances), or None where Stone Soup's code must run (a
+        measurement prediction without cross covariance, angles other than bearings, the
+        Joseph form with a nonlinear model)."""
+        prediction, measurement = hypothesis.prediction, hypothesis.measurement
+        measurement_prediction = hypothesis.measurement_prediction
+        cross = getattr(measurement_prediction, "cross_covar", None)
+        covar = getattr(measurement_prediction, "covar", None)
+        if cross is None or covar is None or (self.use_joseph_cov
+                                              and not isinstance(fast, LinearGaussian)):
+            return None
+        z_sv, z_hat_sv = measurement.state_vector, measurement_prediction.state_vector
+        m, d = fast.ndim_meas, fast.ndim_state
+        if np.shape(z_sv) != (m, 1) or np.shape(z_hat_sv) != (m, 1) \
+                or np.shape(covar) != (m, m) or np.shape(cross) != (d, m) \
+                or np.shape(prediction.state_vector) != (d, 1):
+            return None
+        wrapped = set()
+        for vector in (z_sv, z_hat_sv):
+            for row in angle_rows(np.asarray(vector)):
+                if type(vector[row, 0]) is not Bearing:
+                    return None
+                wrapped.add(row)
+        innovation = floats(z_sv) - floats(z_hat_sv)
+        for row in wrapped:  # Stone Soup's Bearing arithmetic wraps the difference
+            innovation[row, 0] = Bearing(innovation[row, 0])
+        gain = floats(cross) @ np.linalg.inv(floats(covar))
+        x = floats(prediction.state_vector) + gain @ innovation
+        prior_covar = floats(prediction.covar)
+        if self.use_joseph_cov:
+            i_kh = np.identity(d) - gain @ floats(model.matrix())
+            covar_out = i_kh @ prior_covar @ i_kh.T + gain @ floats(model.covar()) @ gain.T
+        else:
+            covar_out = prior_covar - gain @ floats(covar) @ gain.T
+        if self.force_symmetric_covariance:
+            covar_out = (covar_out + covar_out.T) / 2
+        return Update.from_state(prediction, x, covar_out, timestamp=measurement.timestamp,
+                                 hypothesis=hypothesis)
+
     def update(self, hypothesis, **kwargs):
         model = self._check_measurement_model(hypothesis.measurement.measurement_model)
         fast = self._fast(model)
-        if fast is None or kwargs or hypothesis.measurement_prediction is not None:
+        if fast is None or kwargs:
             return self._stonesoup.update(self, hypothesis, **kwargs)
+        if hypothesis.measurement_prediction is not None:
+            update = self._update_given(model, fast, hypothesis)
+            if update is None:
+                return self._stonesoup.update(self, hypothesis, **kwargs)
+            return update
         prediction = hypothesis.prediction
         z = fast.measurement_column(hypothesis.measurement, "hypothesis.measurement")
         x, covar, z_hat, s, cross = self._update(fast, prediction, z)
