@@ -71,9 +71,13 @@ def in_worker():
 
 
 def killing_scenario(marker, seed):
-    """The PF scenario, but the first call in a worker kills its process (SIGKILL)."""
-    if in_worker() and not os.path.exists(marker):
-        open(marker, "w").close()
+    """The PF scenario, but the first call in any worker kills its process (SIGKILL): the
+    marker is created atomically, so of two workers starting together only one dies."""
+    if in_worker():
+        try:
+            os.close(os.open(marker, os.O_CREAT | os.O_EXCL))
+        except FileExistsError:
+            return pf_scenario(seed)
         os.kill(os.getpid(), signal.SIGKILL)
     return pf_scenario(seed)
 
