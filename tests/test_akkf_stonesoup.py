@@ -150,6 +150,7 @@ def _rmse_pair(name, seed, m):
     return theirs, position_rmse(track, truth)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("m", [30, 300])
 @pytest.mark.parametrize("name", ["quadratic", "quartic"])
 def test_tutorial_rmse_not_worse_than_stone_soup(name, m):

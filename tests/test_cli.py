@@ -2,6 +2,8 @@
 import subprocess
 import sys
 
+import pytest
+
 import fasttrack
 
 _NO_MATPLOTLIB = "import sys; sys.modules['matplotlib'] = None; "
@@ -29,6 +31,7 @@ def test_a_mistyped_option_gets_a_suggestion():
     assert "(did you mean --families?)" in done.stderr
 
 
+@pytest.mark.slow
 def test_the_demo_runs_without_matplotlib_and_says_how_to_get_plots(tmp_path):
     out = tmp_path / "plots"
     done = _cli("demo", "--quick", "--out", str(out), prelude=_NO_MATPLOTLIB)

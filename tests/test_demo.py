@@ -14,6 +14,7 @@ from matplotlib import image  # noqa: E402
 from fasttrack import plotting  # noqa: E402
 
 
+@pytest.mark.slow
 def test_quick_demo_runs_and_writes_plots(tmp_path):
     done = subprocess.run([sys.executable, "-m", "fasttrack", "demo", "--quick", "--out",
                            str(tmp_path)], capture_output=True, text=True, check=True,

@@ -36,6 +36,7 @@ def test_guide_quick_start_runs():
     assert len(namespace["track"]) == 21
 
 
+@pytest.mark.slow
 def test_docs_build_without_warnings_one_api_page_per_domain_and_a_gallery(tmp_path):
     pytest.importorskip("sphinx_gallery")
     docs = EXAMPLES[0].parents[1]

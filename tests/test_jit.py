@@ -95,6 +95,7 @@ def _run_with_threads(threads, *args):
     return json.loads(done.stdout)
 
 
+@pytest.mark.slow
 def test_results_do_not_depend_on_the_thread_count_or_the_serial_builds():
     one, two, serial = _run_with_threads(1), _run_with_threads(2), _run_with_threads(2, "serial")
     assert one.keys() == two.keys() == serial.keys()
@@ -136,6 +137,7 @@ def _python(code, **env):
                           timeout=600)
 
 
+@pytest.mark.slow
 def test_a_damaged_cache_entry_is_compiled_again_and_replaced(tmp_path):
     env = {"NUMBA_CACHE_DIR": str(tmp_path)}
     first = _python(_SMALL_KERNEL, **env)
@@ -263,6 +265,7 @@ print(update.mean.ravel()[0])
 """
 
 
+@pytest.mark.slow
 def test_kernels_compiled_for_user_functions_do_not_pile_up_in_the_cache(tmp_path):
     script = tmp_path / "model.py"
     script.write_text(_USER_MODEL_STEP)
@@ -277,6 +280,7 @@ def test_kernels_compiled_for_user_functions_do_not_pile_up_in_the_cache(tmp_pat
     assert not [name for name in listings[0] if "_function" in name]
 
 
+@pytest.mark.slow
 def test_with_nothing_writable_fasttrack_still_runs_and_warns_once(tmp_path):
     blocked = tmp_path / "a-file"
     blocked.write_text("")  # a directory below a file can never be created, even by root
@@ -340,6 +344,7 @@ def test_small_work_runs_a_serial_build_and_the_limit_holds():
         fasttrack.set_threads(1.5)
 
 
+@pytest.mark.slow
 def test_the_warmup_command_fills_the_named_cache_with_a_line_per_family(tmp_path):
     done = subprocess.run([sys.executable, "-m", "fasttrack", "warmup", "--cache-dir",
                            str(tmp_path), "--families", "resamplers", "--processes", "1"],
@@ -428,6 +433,7 @@ json.dump({k: [np.asarray(v).dtype.kind, np.asarray(v).tolist()] for k, v in out
 """
 
 
+@pytest.mark.slow
 def test_every_kernel_runs_uncompiled_with_the_compiled_results():
     runs = {}
     for jit_off in ("0", "1"):

@@ -234,6 +234,7 @@ ROW_CASES = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_any_number_of_rows_never_crashes():
     """Functions returning 0..4 rows against a 2x2 noise, through every entry point, in a
     subprocess (a crash there cannot take the test run down)."""
