@@ -27,6 +27,8 @@ class TrackSet:
         Number of detections each track has been updated with (its first one included).
     misses : (K,) int64 ndarray
         Scans since each track's last detection.
+    ages : (K,) int64 ndarray
+        Scans since each track's first detection.
     """
 
     ids: np.ndarray
@@ -34,20 +36,21 @@ class TrackSet:
     covars: np.ndarray
     updates: np.ndarray
     misses: np.ndarray
+    ages: np.ndarray
 
     @classmethod
     def empty(cls, d):
         """No tracks of dimension ``d``."""
         none = np.empty(0, dtype=np.int64)
-        return cls(none, np.empty((0, d)), np.empty((0, d, d)), none.copy(), none.copy())
+        return cls(none, np.empty((0, d)), np.empty((0, d, d)), none.copy(), none.copy(),
+                   none.copy())
 
     def __len__(self):
         return self.ids.size
 
     def take(self, keep):
         """The tracks selected by a boolean mask or index array."""
-        return TrackSet(self.ids[keep], self.means[keep], self.covars[keep],
-                        self.updates[keep], self.misses[keep])
+        return TrackSet(*[field[keep] for field in dataclasses.astuple(self)])
 
     @staticmethod
     def concatenate(first, second):
@@ -66,8 +69,10 @@ class MultiTargetTracker:
     (global nearest neighbour per cluster, or greedy nearest neighbour), updated, and deleted
     after ``delete_after_misses`` scans without a detection or when the trace of their
     covariance exceeds ``max_covar_trace``; then the tentative tracks do the same with the
-    detections left, and become confirmed after ``min_points`` detections; every detection
-    still left starts a tentative track.
+    detections left, and become confirmed after ``min_points`` detections (M-of-N with
+    ``confirm_within``: within their first N scans, else they are deleted), or are deleted
+    after ``tentative_misses`` scans without one; every detection still left starts a
+    tentative track.
 
     Parameters
     ----------
@@ -81,7 +86,11 @@ class MultiTargetTracker:
     missed_distance : float
         Mahalanobis distance of the gate and of the missed-detection option, > 0.
     min_points : int
-        Detections that confirm a tentative track (the first included), >= 1.
+        Detections that confirm a tentative track (the first included), >= 1: M.
+    confirm_within : int, optional
+        N of M-of-N confirmation: the scans (the first included) in which a tentative track
+        must reach ``min_points`` detections, >= ``min_points``; None (the default, as
+        Stone Soup's ``MultiMeasurementInitiator``) for no limit.
     delete_after_misses : int
         Scans without a detection that delete a confirmed track, >= 1.
     tentative_misses : int
@@ -94,7 +103,7 @@ class MultiTargetTracker:
 
     def __init__(self, transition_model, measurement_model, prior_mean, prior_covar,
                  missed_distance=3.0, min_points=2, delete_after_misses=3, tentative_misses=1,
-                 max_covar_trace=None, association="gnn"):
+                 max_covar_trace=None, association="gnn", confirm_within=None):
         if not isinstance(measurement_model, LinearGaussian):
             raise TypeError(f"measurement_model must be a LinearGaussian (tracks start from "
                             f"its inverse), got {type(measurement_model).__name__}")
@@ -111,6 +120,8 @@ class MultiTargetTracker:
         self.min_points = _validate.count(min_points, "min_points")
         self.delete_after_misses = _validate.count(delete_after_misses, "delete_after_misses")
         self.tentative_misses = _validate.count(tentative_misses, "tentative_misses")
+        self.confirm_within = (None if confirm_within is None else _validate.count(
+            confirm_within, "confirm_within", minimum=self.min_points))
         self.max_covar_trace = None if max_covar_trace is None else float(max_covar_trace)
         if association not in _ASSOCIATORS:
             raise ValueError(f"association must be one of {sorted(_ASSOCIATORS)}, "
@@ -150,7 +161,7 @@ class MultiTargetTracker:
                                                         detections[pool[chosen[hit]]])
             taken[pool[chosen[hit]]] = True
         return TrackSet(tracks.ids, means, covars, tracks.updates + hit,
-                        np.where(hit, 0, tracks.misses + 1)), taken
+                        np.where(hit, 0, tracks.misses + 1), tracks.ages + 1), taken
 
     def _start_tracks(self, detections):
         x0, gain, p0 = self._start
@@ -158,7 +169,8 @@ class MultiTargetTracker:
         ids = np.arange(self._next_id, self._next_id + n)
         self._next_id += n
         return TrackSet(ids, x0 + detections @ gain.T, np.broadcast_to(p0, (n,) + p0.shape).copy(),
-                        np.ones(n, dtype=np.int64), np.zeros(n, dtype=np.int64))
+                        np.ones(n, dtype=np.int64), np.zeros(n, dtype=np.int64),
+                        np.zeros(n, dtype=np.int64))
 
     def step(self, detections, time):
         """Process one scan.
@@ -195,7 +207,10 @@ class MultiTargetTracker:
         sure = self.tentative.updates >= self.min_points
         self.confirmed = TrackSet.concatenate(self.confirmed, self.tentative.take(sure))
         self.tentative = self.tentative.take(~sure)
-        self.tentative = self.tentative.take(self.tentative.misses < self.tentative_misses)
+        keep = self.tentative.misses < self.tentative_misses
+        if self.confirm_within is not None:  # M of N: out of time to be confirmed
+            keep &= self.tentative.ages < self.confirm_within - 1
+        self.tentative = self.tentative.take(keep)
         self.tentative = TrackSet.concatenate(self.tentative,
                                               self._start_tracks(detections[free]))
         return self.confirmed

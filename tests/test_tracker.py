@@ -150,3 +150,21 @@ def test_tracker_rejects_bad_input():
         tracker.step(np.full((1, 2), np.nan), 2.0)
     with pytest.raises(ValueError, match="region must be"):
         multi_target(TRANSITION, SENSOR, np.zeros((2, 4)), 3, [[0, 0], [-1, 1]])
+
+
+@pytest.mark.parametrize("window, confirmed", [(None, True), (3, True), (2, False)])
+def test_m_of_n_confirmation(window, confirmed):
+    """One target detected at scans 0 and 2, missed at 1: 2 of 3 confirms it; with N = 2
+    the track runs out of time after scan 1 (and scan 2's detection starts a new one)."""
+    tracker = _tracker(min_points=2, tentative_misses=2, confirm_within=window)
+    for t, scan in enumerate([[[0.0, 0.0]], [], [[0.0, 0.0]]]):
+        tracks = tracker.step(np.array(scan).reshape(-1, 2), float(t))
+    assert (len(tracks) == 1) is confirmed
+    assert len(tracker.tentative) == (0 if confirmed else 1)
+    if confirmed:
+        assert tracks.ids[0] == 0 and tracks.updates[0] == 2 and tracks.ages[0] == 2
+
+
+def test_m_of_n_window_must_allow_m_detections():
+    with pytest.raises(ValueError, match="confirm_within must be >= 3"):
+        _tracker(confirm_within=2)
