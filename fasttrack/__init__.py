@@ -25,8 +25,9 @@ from .montecarlo import (MetricSummary, RunFailure, TrialResults, local_cluster,
 from .kernel import (GaussianKernel, Kernel, LinearKernel, PolynomialKernel, QuadraticKernel,
                      QuarticKernel)
 from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
-                        ParticlePredictor)
+                        ParticlePredictor, UnscentedKalmanPredictor)
 from .simulate import detections, ground_truth
+from .smoother import ExtendedKalmanSmoother, KalmanSmoother, ffbs
 from .tracker import MultiTargetTracker
 from .types import (Detection, GaussianMeasurementPrediction, GaussianState,
                     GaussianStatePrediction, GaussianStateUpdate, GroundTruthPath,
@@ -36,16 +37,17 @@ from .types import (Detection, GaussianMeasurementPrediction, GaussianState,
                     ParticleStateUpdate, SingleHypothesis, State, Track)
 from ._warmup import warmup
 from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, KalmanUpdater,
-                      ParticleUpdater)
+                      ParticleUpdater, UnscentedKalmanUpdater)
 
 
 __all__ = [
     "AdaptiveKernelKalmanPredictor", "AdaptiveKernelKalmanUpdater", "BatchExtendedKalmanFilter",
     "Cartesian2DToBearing", "CartesianToBearingRange", "CombinedLinearGaussianTransitionModel",
     "ConstantVelocity", "Detection", "ESSResampler", "ExtendedKalmanPredictor",
-    "ExtendedKalmanUpdater", "GaussianKernel", "GaussianMeasurementPrediction", "GaussianState",
+    "ExtendedKalmanSmoother", "ExtendedKalmanUpdater", "GaussianKernel",
+    "GaussianMeasurementPrediction", "GaussianState",
     "GaussianStatePrediction", "GaussianStateUpdate", "GroundTruthPath", "GroundTruthState",
-    "KalmanPredictor", "KalmanUpdater", "Kernel", "KernelParticleState",
+    "KalmanPredictor", "KalmanSmoother", "KalmanUpdater", "Kernel", "KernelParticleState",
     "KernelParticleStateMeasurementPrediction", "KernelParticleStatePrediction",
     "KernelParticleStateUpdate", "LinearGaussian", "LinearGaussianTransitionModel",
     "LinearKernel", "MeasurementModel", "MetricSummary", "MultiTargetTracker",
@@ -54,7 +56,8 @@ __all__ = [
     "ParticleStateUpdate", "ParticleUpdater", "PolynomialKernel", "QuadraticKernel",
     "QuarticKernel", "Resampler", "ResidualMethod", "ResidualResampler", "RunFailure",
     "SingleHypothesis", "State", "StratifiedResampler", "SystematicResampler", "Track",
-    "TransitionModel", "TrialResults", "detections", "ess", "get_threads", "ground_truth",
+    "TransitionModel", "TrialResults", "UnscentedKalmanPredictor",
+    "UnscentedKalmanUpdater", "detections", "ess", "ffbs", "get_threads", "ground_truth",
     "local_cluster", "multinomial", "normalise", "position_rmse", "resampling_points", "residual",
     "run_filter", "run_seeds", "run_trial", "run_trials", "seed", "set_threads", "stratified",
     "systematic", "tune_allocator", "warmup",

@@ -39,6 +39,8 @@ def _kalman():
     scenario = extended_kalman_tutorial(steps=2)
     _step(ft.ExtendedKalmanPredictor(scenario.transition_model),
           ft.ExtendedKalmanUpdater(scenario.measurement_model), scenario)
+    _step(ft.UnscentedKalmanPredictor(scenario.transition_model),
+          ft.UnscentedKalmanUpdater(scenario.measurement_model), scenario)
 
 
 def _batch():

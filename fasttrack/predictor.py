@@ -5,6 +5,7 @@ from . import random as _random
 from .core import akkf as _akkf
 from .core import kalman as _kalman
 from .core import particle as _particle
+from .core import unscented as _unscented
 from .kernel import as_kernel
 from .models.base import check_model
 from .models.transition import TransitionModel
@@ -144,6 +145,64 @@ class ExtendedKalmanPredictor(KalmanPredictor):
 
     def _check_model(self, model):
         pass
+
+
+class UnscentedKalmanPredictor:
+    """Unscented Kalman prediction: the prior's sigma points moved through the transition
+    model, their weighted mean and covariance plus the process noise Q (Stone Soup's
+    ``UnscentedKalmanPredictor``, in one compiled kernel).
+
+    Parameters
+    ----------
+    transition_model : TransitionModel
+        A built-in linear-Gaussian transition model (``ConstantVelocity`` blocks or any
+        model with ``matrix``).
+    alpha : float
+        Primary spread of the sigma points, > 0.
+    beta : float
+        Prior knowledge of the distribution (2 is optimal for a Gaussian).
+    kappa : float, optional
+        Secondary spread; None means ``3 - ndim_state``. ``alpha**2 * (ndim_state + kappa)``
+        must be > 0.
+    """
+
+    def __init__(self, transition_model, alpha=0.5, beta=2.0, kappa=None):
+        check_model(transition_model, TransitionModel, "transition_model")
+        _unscented.check_transition(transition_model)
+        self.transition_model = transition_model
+        self.alpha, self.beta, self.kappa = _unscented.check_parameters(alpha, beta, kappa)
+        # a transition model keeps its dimension (a combined model refuses a new model_list
+        # of another size), and summing the parts' dimensions costs more than the kernel
+        self._ndim = transition_model.ndim_state
+        self._kappa = _unscented.scaling(self.alpha, self.kappa, self._ndim)
+
+    def predict(self, prior, timestamp):
+        """Predict ``prior`` to ``timestamp`` by the unscented transform.
+
+        Parameters
+        ----------
+        prior : GaussianState
+        timestamp : datetime.datetime or float seconds
+            Of the same kind as the prior's timestamp.
+
+        Returns
+        -------
+        GaussianStatePrediction
+            With ``transition_model``, ``prior`` (a weak link: see :mod:`fasttrack.types`)
+            and ``timestamp``.
+
+        Raises
+        ------
+        ValueError
+            If the prior's covariance is not symmetric positive semi-definite.
+        """
+        model = self.transition_model
+        _gaussian_prior(prior, self._ndim)
+        dt = _interval(prior, timestamp)
+        x_out, covar_out = _unscented.predict(model, float(dt), prior.state_vector,
+                                              prior.covar, self.alpha, self.beta, self._kappa)
+        return GaussianStatePrediction._trusted(
+            x_out, covar_out, timestamp, {"transition_model": model, "_prior": weak(prior)})
 
 
 class AdaptiveKernelKalmanPredictor:

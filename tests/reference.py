@@ -1035,3 +1035,137 @@ def greedy_assignments(starts, candidates, costs, missed, n_detections, assigned
             decided.add(k)
             taken.add(candidates[q])
             assigned[k] = candidates[q]
+
+
+def rts(x, covar, x_pred, covar_pred, recompute, matrix, noise, step, x_out, covar_out):
+    n_tracks, n_times, d = x.shape
+    for k in range(n_tracks):
+        x_out[k, -1] = x[k, -1]
+        covar_out[k, -1] = covar[k, -1]
+        for t in range(n_times - 2, -1, -1):
+            f, q = matrix[step[t]], noise[step[t]]
+            if recompute[t + 1] == 1:
+                xp = f @ x[k, t]
+                pp = f @ covar[k, t] @ f.T + q
+            elif recompute[t + 1] == 2:
+                xp, pp = x_out[k, t + 1], covar_out[k, t + 1]
+            else:
+                xp, pp = x_pred[k, t + 1], covar_pred[k, t + 1]
+            if np.any(np.linalg.eigvalsh(pp) <= 0):
+                return 1 + k * n_times + t + 1
+            gain = covar[k, t] @ f.T @ np.linalg.inv(pp)
+            x_out[k, t] = x[k, t] + gain @ (x_out[k, t + 1] - xp)
+            c = covar[k, t] + gain @ (covar_out[k, t + 1] - pp) @ gain.T
+            covar_out[k, t] = (c + c.T) / 2
+    return 0
+
+
+# --- unscented Kalman (fasttrack._jit.unscented) ---------------------------------------------
+
+def _cholesky_eps(a):
+    """NumPy's Cholesky, else Stone Soup's ``cholesky_eps`` rule (pivots <= eps -> sqrt(eps))."""
+    try:
+        return np.linalg.cholesky(a)
+    except np.linalg.LinAlgError:
+        eps = np.spacing(np.max(np.diag(a)))
+        lower = np.zeros(a.shape)
+        for i in range(a.shape[0]):
+            for j in range(i):
+                lower[i, j] = (a[i, j] - lower[i, :] @ lower[j, :]) / lower[j, j]
+            v = a[i, i] - lower[i, :] @ lower[i, :]
+            lower[i, i] = np.sqrt(v) if v > eps else np.sqrt(eps)
+        return lower
+
+
+def sigma_points(x, covariance, alpha, beta, kappa, lower, points, mean_weights,
+                 covar_weights):
+    d = x.shape[0]
+    lower[:] = _cholesky_eps(covariance)
+    lamda = alpha ** 2 * (d + kappa) - d
+    c = d + lamda
+    points[:] = np.hstack([x, x + lower * np.sqrt(c), x - lower * np.sqrt(c)])
+    mean_weights[:] = 0.5 / c
+    covar_weights[:] = 0.5 / c
+    mean_weights[0] = lamda / c
+    covar_weights[0] = lamda / c + 1 - alpha ** 2 + beta
+
+
+def unscented_moments(points, transformed, mean_weights, covar_weights, angles, noise, mean,
+                      covar, cross):
+    for r in range(transformed.shape[0]):
+        row = transformed[r]
+        if angles[r]:
+            mean[r, 0] = wrap_angle(np.arctan2(np.sum(np.sin(row) * mean_weights),
+                                               np.sum(np.cos(row) * mean_weights)))
+        else:
+            mean[r, 0] = np.average(row, weights=mean_weights)
+    diff = transformed - mean
+    diff[angles] = wrap_angle(diff[angles])
+    covar[:] = diff @ np.diag(covar_weights) @ diff.T + noise
+    cross[:] = (points - points[:, :1]) @ np.diag(covar_weights) @ diff.T
+
+
+def _sigma(x, covariance, alpha, beta, kappa):
+    d = x.shape[0]
+    lower, points = np.empty((d, d)), np.empty((d, 2 * d + 1))
+    wm, wc = np.empty(2 * d + 1), np.empty(2 * d + 1)
+    sigma_points(x, covariance, alpha, beta, kappa, lower, points, wm, wc)
+    return lower, points, wm, wc
+
+
+def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, kappa, x,
+                      covariance, x_out, covariance_out):
+    status = _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    if status != OK:
+        return status
+    d = x.shape[0]
+    f, q = _transition(kind, rates, fixed_matrix, fixed_covar, dt, d)
+    _, points, wm, wc = _sigma(x, covariance, alpha, beta, kappa)
+    unscented_moments(points, f @ points, wm, wc, np.zeros(d, bool), q, x_out,
+                      covariance_out, np.empty((d, d)))
+    return OK
+
+
+def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta, kappa,
+                     joseph, x, covariance, z, x_out, covariance_out, z_hat,
+                     innovation_covar, cross):
+    status = _covariance_status(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    if status != OK:
+        return status
+    lower, points, wm, wc = _sigma(x, covariance, alpha, beta, kappa)
+    transformed = np.empty((z.shape[0], points.shape[1]))
+    measure(kind, points, mapping, offset, rotation, transformed)
+    unscented_moments(points, transformed, wm, wc, angles, noise, z_hat, innovation_covar,
+                      cross)
+    if not _positive_definite(innovation_covar):
+        return INNOVATION_NOT_PD
+    if not np.all(np.isfinite(z)):
+        return MEASUREMENT_NOT_FINITE
+    gain = cross @ np.linalg.inv(innovation_covar)
+    v = z - z_hat
+    v[angles] = wrap_angle(v[angles])
+    x_out[:] = x + gain @ v
+    if joseph:
+        h = np.linalg.solve(covariance, cross).T
+        square = np.eye(x.shape[0]) - gain @ h
+        covariance_out[:] = square @ covariance @ square.T + gain @ noise @ gain.T
+    else:
+        covariance_out[:] = covariance - gain @ innovation_covar @ gain.T
+    return OK
+
+
+def ffbs(states, log_weights, mean_next, precision_root, uniforms, out_index):
+    n_times, d, n = states.shape
+    for m in range(uniforms.shape[1]):
+        for t in range(n_times - 1, -1, -1):
+            logw = log_weights[t].copy()
+            if t < n_times - 1:
+                diff = states[t + 1][:, [out_index[t + 1, m]]] - mean_next[t]
+                z = np.tril(precision_root[t]) @ diff
+                alive = np.isfinite(logw)
+                logw[alive] -= 0.5 * (z[:, alive] ** 2).sum(axis=0)
+            w = np.exp(logw - logw.max())
+            cumulative = np.cumsum(w)
+            above = np.flatnonzero(cumulative > uniforms[t, m] * cumulative[-1])
+            out_index[t, m] = above[0] if above.size else np.flatnonzero(w > 0)[-1]
+    return 0

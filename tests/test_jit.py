@@ -119,8 +119,8 @@ def test_public_names_are_importable_from_the_package_and_their_module():
     import importlib
     domains = [importlib.import_module(f"fasttrack.{name}") for name in (
         "batch", "filtering", "kernel", "memory", "metrics", "models", "montecarlo",
-        "predictor", "random", "resampler", "resampling", "simulate", "threads", "tracker",
-        "types", "updater")]
+        "predictor", "random", "resampler", "resampling", "simulate", "smoother", "threads",
+        "tracker", "types", "updater")]
     for name in fasttrack.__all__:
         obj = getattr(fasttrack, name)
         if name == "warmup":

@@ -1,0 +1,83 @@
+"""The Rauch-Tung-Striebel smoother over a 1000-step CV 4-D track (linear position sensor),
+fasttrack's KalmanSmoother.smooth(track) against Stone Soup 1.9.1's in the same run (the
+track built by each library's Kalman predictor and updater from the same detections, as in
+stonesoup_mtt_baseline.ss_rts); plus the batched array entry for 100 such tracks."""
+import datetime
+
+import numpy as np
+import pytest
+
+import fasttrack as ft
+
+START = datetime.datetime(2025, 1, 1)
+STEP = datetime.timedelta(seconds=1)
+STEPS = 1000
+
+
+def _measurements(n=STEPS):
+    rng = np.random.default_rng(0)
+    return [np.array([[k + rng.normal()], [k + rng.normal()]]) for k in range(1, n + 1)]
+
+
+def _ft_track():
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    sensor = ft.LinearGaussian(4, (0, 2), np.eye(2))
+    prior = ft.GaussianState([0.0, 1.0, 0.0, 1.0], np.eye(4), timestamp=START)
+    detections = [ft.Detection(z, timestamp=START + (k + 1) * STEP)
+                  for k, z in enumerate(_measurements())]
+    track = ft.run_filter(ft.KalmanPredictor(transition), ft.KalmanUpdater(sensor), prior,
+                          detections)
+    return transition, track
+
+
+def test_rts_1000_fasttrack(benchmark):
+    benchmark.group = "rts-smoother T=1000"
+    transition, track = _ft_track()
+    smoother = ft.KalmanSmoother(transition)
+    smoother.smooth(track)  # compile / load the kernel
+    result = benchmark.pedantic(smoother.smooth, args=(track,), rounds=200, iterations=5,
+                                warmup_rounds=5)
+    assert len(result) == STEPS
+
+
+def test_rts_1000_stonesoup(benchmark):
+    pytest.importorskip("stonesoup")
+    from stonesoup.models.measurement.linear import LinearGaussian
+    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                    ConstantVelocity)
+    from stonesoup.predictor.kalman import KalmanPredictor
+    from stonesoup.smoother.kalman import KalmanSmoother
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.state import GaussianState
+    from stonesoup.types.track import Track
+    from stonesoup.updater.kalman import KalmanUpdater
+
+    benchmark.group = "rts-smoother T=1000"
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05),
+                                                        ConstantVelocity(0.05)])
+    sensor = LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=np.eye(2))
+    predictor, updater = KalmanPredictor(transition), KalmanUpdater(sensor)
+    track = Track([GaussianState(np.array([[0.], [1.], [0.], [1.]]), np.eye(4),
+                                 timestamp=START)])
+    for k, z in enumerate(_measurements()):
+        detection = Detection(z, timestamp=START + (k + 1) * STEP, measurement_model=sensor)
+        track.append(updater.update(SingleHypothesis(
+            predictor.predict(track[-1], timestamp=detection.timestamp), detection)))
+    smoother = KalmanSmoother(transition)
+    result = benchmark.pedantic(smoother.smooth, args=(track,), rounds=5, iterations=1,
+                                warmup_rounds=1)
+    assert len(result) == STEPS + 1
+
+
+def test_rts_arrays_100_tracks_fasttrack(benchmark):
+    benchmark.group = "rts-smoother arrays K=100 T=1000"
+    transition, track = _ft_track()
+    means = np.array([s.state_vector[:, 0] for s in track])
+    covars = np.array([s.covar for s in track])
+    means, covars = np.repeat(means[None], 100, 0), np.repeat(covars[None], 100, 0)
+    smoother = ft.KalmanSmoother(transition)
+    smoother.smooth_arrays(means, covars, STEP)
+    xs, _ = benchmark.pedantic(smoother.smooth_arrays, args=(means, covars, STEP), rounds=30,
+                               iterations=1, warmup_rounds=2)
+    assert xs.shape == (100, STEPS, 4)

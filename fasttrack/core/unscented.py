@@ -1,0 +1,87 @@
+"""Unscented Kalman steps of one Gaussian state (over :mod:`fasttrack._jit.unscented`)."""
+import numbers
+
+import numpy as np
+
+from .. import _errors
+from .._jit import unscented as _unscented
+from ..models.measurement import NonlinearGaussianMeasurement
+
+
+def check_parameters(alpha, beta, kappa):
+    """``(alpha, beta, kappa)`` as floats (``kappa`` None stays None), or an error naming
+    the argument: ``alpha`` must be a finite real > 0, ``beta`` and ``kappa`` finite reals."""
+    values = []
+    for name, value in (("alpha", alpha), ("beta", beta), ("kappa", kappa)):
+        if value is None and name == "kappa":
+            values.append(None)
+            continue
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+            raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+        value = float(value)
+        if not np.isfinite(value):
+            raise ValueError(f"{name} must be finite, got {value}")
+        values.append(value)
+    if values[0] <= 0.0:
+        raise ValueError(f"alpha must be > 0, got {values[0]}")
+    return tuple(values)
+
+
+def scaling(alpha, kappa, d):
+    """``kappa`` for ``d`` state dimensions (None: ``3 - d``), checked so that the sigma
+    points are defined: ``c = alpha^2 (d + kappa)`` must be > 0."""
+    kappa = 3.0 - d if kappa is None else kappa
+    if not alpha * alpha * (d + kappa) > 0.0:
+        raise ValueError(f"kappa must make alpha**2 * (ndim + kappa) > 0 (the sigma-point "
+                         f"spread), got kappa={kappa} with alpha={alpha} and ndim={d}")
+    return kappa
+
+
+def check_transition(model):
+    """A TypeError unless ``model`` is a built-in linear transition (the kinds the kernel
+    knows)."""
+    if not hasattr(model, "_kalman_spec"):
+        raise TypeError(f"transition_model: the unscented Kalman filter supports the built-in "
+                        f"linear transition models, got {type(model).__name__}")
+
+
+def check_measurement(model):
+    """A TypeError unless ``model`` is a built-in measurement model (LinearGaussian or a
+    polar sensor; not a NonlinearGaussianMeasurement of a user function)."""
+    if isinstance(model, NonlinearGaussianMeasurement) or not hasattr(model, "_kalman_args"):
+        raise TypeError(f"the unscented Kalman filter supports the built-in measurement "
+                        f"models (LinearGaussian and the polar sensors), got "
+                        f"{type(model).__name__}")
+
+
+def predict(model, dt, x, covar, alpha, beta, kappa):
+    """``(x, P)`` predicted ``dt`` seconds ahead by the unscented transform of ``model``
+    (a built-in linear transition, see :func:`check_transition`): the sigma points of
+    ``(x, covar)`` moved by F, their weighted mean and covariance plus Q. ``kappa`` is
+    resolved (a float, see :func:`scaling`). Raises ValueError if ``covar`` is not
+    symmetric positive semi-definite."""
+    d = x.shape[0]
+    x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
+    kind, rates, matrix, noise = model._kalman_spec(dt)
+    status = _unscented.unscented_predict(kind, rates, matrix, noise, dt, alpha, beta,
+                                          kappa, x, covar, x_out, covar_out)
+    if status:
+        _errors.check(status)
+    return x_out, covar_out
+
+
+def update(model, x, covar, z, alpha, beta, kappa, joseph=False):
+    """``(x, P, z_hat, S, cross)`` of one unscented update with measurement ``z`` (m, 1) by a
+    built-in measurement ``model`` (see :func:`check_measurement`); ``kappa`` is resolved
+    (a float, see :func:`scaling`). Raises ValueError when the step is undefined (see
+    :mod:`fasttrack._errors`)."""
+    m, d = model._ndim_meas, model._ndim_state
+    x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
+    z_hat, s, cross = np.empty((m, 1)), np.empty((m, m)), np.empty((d, m))
+    kind, mapping, offset, rotation, noise, angles = model._kalman_args
+    status = _unscented.unscented_update(kind, mapping, offset, rotation, noise, angles,
+                                         alpha, beta, kappa, joseph, x, covar, z,
+                                         x_out, covar_out, z_hat, s, cross)
+    if status:
+        _errors.check(status)
+    return x_out, covar_out, z_hat, s, cross

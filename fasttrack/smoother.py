@@ -1,0 +1,494 @@
+"""Smoothers: ``smoother.smooth(track)`` returns the track's states given all its
+measurements (the Rauch-Tung-Striebel backward pass), as Stone Soup's smoothers do.
+
+The backward pass needs, for each state after the first, the prediction it was updated
+from. Stone Soup reads it from ``state.hypothesis.prediction``; fasttrack filters hold that
+link weakly (see :mod:`fasttrack.types`), so in a track from :func:`~fasttrack.run_filter`
+the predictions are usually gone. Where a prediction is missing, the smoother recomputes it
+from the previous state of the track with its transition model, which is what the filter
+did (``run_filter`` predicts each state from the one before it); where it is present, it
+is used as given, with its own ``transition_model`` if it has one (Stone Soup's rule).
+
+A prediction in the track itself (a missed detection) is both the filtered state and the
+prediction at its time, and is smoothed like any other state. Stone Soup 1.9.1 instead reads
+the prediction of such a state after smoothing it, so the correction of the state before it
+is zero (that state keeps its filtered mean and covariance, and the states before it differ
+from the exact smoother's); ``predictions="stonesoup"`` reproduces that.
+"""
+import datetime
+
+import numpy as np
+
+from . import _validate
+from ._jit import jacobian as _jacobian
+from ._jit import smooth as _smooth
+from .core import kalman as _kalman
+from .models.base import check_model
+from .models.transition import TransitionModel
+from .types import (GaussianState, GaussianStatePrediction, GaussianStateUpdate,
+                    StateSequence, seconds, time_interval)
+
+__all__ = ["KalmanSmoother", "ExtendedKalmanSmoother", "ffbs"]
+
+
+_STEP_TYPES = (GaussianStatePrediction, GaussianStateUpdate)
+_MICROSECOND = datetime.timedelta(microseconds=1)
+
+
+def _track_intervals(states, offset):
+    """(n - 1,) seconds between consecutive states' timestamps (all datetimes or all
+    numbers), or a TypeError naming the first bad timestamp."""
+    stamps = [state.timestamp for state in states]
+    first = type(stamps[0])
+    if first is datetime.datetime:
+        origin = stamps[0]
+        try:  # whole microseconds from the first: exact, as timedelta.total_seconds()
+            micro = [(t - origin) // _MICROSECOND for t in stamps]
+        except TypeError:  # not all datetimes, or naive and aware mixed: named below
+            micro = None
+        if micro is not None:
+            return np.diff(np.array(micro, dtype=np.int64)).astype(np.float64) / 1e6
+    elif first in (int, float) and all(type(t) in (int, float) for t in stamps):
+        return np.diff(np.array(stamps, dtype=np.float64))
+    out = np.empty(len(stamps) - 1)
+    for t in range(len(stamps) - 1):
+        earlier, later = stamps[t], stamps[t + 1]
+        if earlier is None or later is None:
+            where = t if earlier is None else t + 1
+            raise TypeError(f"track[{offset + where}].timestamp must be a datetime or "
+                            f"seconds to smooth, got None")
+        try:
+            out[t] = time_interval(later, earlier, f"track[{offset + t + 1}].timestamp")
+        except TypeError as error:
+            raise TypeError(str(error).replace("the prior's timestamp",
+                                               f"track[{offset + t}].timestamp")) from None
+    return out
+
+
+def _is_gaussian_step(state):
+    """Whether ``state`` is a Gaussian prediction or update (a state that has, or had, a
+    prediction)."""
+    return isinstance(state, (GaussianStatePrediction, GaussianStateUpdate))
+
+
+def _prediction_of(state):
+    """The prediction a state came from: itself for a prediction, the hypothesis'
+    prediction for an update (None when the link is gone)."""
+    if isinstance(state, GaussianStatePrediction):
+        return state
+    hypothesis = getattr(state, "hypothesis", None)
+    return None if hypothesis is None else hypothesis.prediction
+
+
+def _stack(states, attribute, shape, offset):
+    """The ``attribute`` arrays of ``states`` stacked (n, *shape), or a ValueError naming
+    the first state whose array has another shape."""
+    arrays = [getattr(state, attribute) for state in states]
+    try:
+        out = np.array(arrays, dtype=np.float64)
+    except ValueError:
+        out = None
+    if out is None or out.shape[1:] != shape:
+        for k, a in enumerate(arrays):
+            if np.shape(a) != shape:
+                raise ValueError(f"track[{offset + k}].{attribute} must have shape {shape} "
+                                 f"(the transition model's ndim_state), got {np.shape(a)}")
+    return out
+
+
+class KalmanSmoother:
+    """The Rauch-Tung-Striebel (Kalman) smoother for a linear-Gaussian transition model.
+
+    From the last state back, with the prediction ``x_{k+1|k}, P_{k+1|k}`` of the next
+    state and the transition matrix ``F`` between them::
+
+        G_k   = P_k F^T P_{k+1|k}^{-1}
+        x^s_k = x_k + G_k (x^s_{k+1} - x_{k+1|k})
+        P^s_k = P_k + G_k (P^s_{k+1} - P_{k+1|k}) G_k^T
+
+    with ``x^s, P^s`` of the last state its filtered values. The whole pass runs in one
+    compiled kernel.
+
+    Parameters
+    ----------
+    transition_model : TransitionModel
+        A linear-Gaussian fasttrack transition model (with ``matrix``): gives ``F(dt)`` (and
+        ``Q(dt)`` for predictions that must be recomputed) unless a prediction carries its
+        own ``transition_model``.
+    predictions : {'exact', 'stonesoup'}
+        How a prediction in the track (a missed step) is read: 'exact' (the RTS smoother:
+        it is the prediction of its time) or 'stonesoup' (Stone Soup 1.9.1's result: its
+        smoothed value is used as the prediction, so the state before it is not smoothed;
+        see the module's notes). Tracks without predictions give the same result either way.
+    """
+
+    def __init__(self, transition_model, predictions="exact"):
+        check_model(transition_model, TransitionModel, "transition_model")
+        self._check_model(transition_model)
+        self.transition_model = transition_model
+        if predictions not in ("exact", "stonesoup"):
+            raise ValueError(f"predictions must be 'exact' or 'stonesoup', got {predictions!r}")
+        self.predictions = predictions
+
+    def _check_model(self, model):
+        if not hasattr(model, "matrix"):
+            raise TypeError(f"{type(self).__name__} needs a linear transition_model (with "
+                            f"matrix); use ExtendedKalmanSmoother for "
+                            f"{type(model).__name__}")
+
+    # -- the per-step linearisation ----------------------------------------------------
+
+    def _linearise(self, model, dt, x, covar, need_prediction):
+        """``(F, Q, prediction)`` of one step from the state ``(x, covar)`` over ``dt``
+        seconds: a linear model's matrix and noise (the kernel recomputes the prediction),
+        so ``prediction`` is None."""
+        if not hasattr(model, "matrix"):
+            raise TypeError(f"{type(self).__name__} needs linear transition models (with "
+                            f"matrix), got a prediction's {type(model).__name__}; use "
+                            f"ExtendedKalmanSmoother")
+        return (np.ascontiguousarray(model.matrix(dt), dtype=np.float64),
+                np.ascontiguousarray(model.covar(dt), dtype=np.float64), None)
+
+    # -- public API -------------------------------------------------------------------
+
+    def smooth(self, track):
+        """Smooth ``track`` backwards (Stone Soup's ``smooth(track)``).
+
+        Parameters
+        ----------
+        track : Track
+            Gaussian predictions and updates in time order (for example from
+            :func:`~fasttrack.run_filter`), all of the transition model's dimension, with
+            timestamps. A first state that is neither a prediction nor an update (a prior
+            :class:`~fasttrack.GaussianState`) is kept unchanged, as Stone Soup does.
+
+        Returns
+        -------
+        Track
+            A shallow copy of ``track`` (same ``id``) whose states are new states of the
+            same types (and attributes: hypothesis, timestamp) holding the smoothed means
+            and covariances; the last state (and a kept first state) is the input's own
+            object.
+
+        Raises
+        ------
+        TypeError
+            If ``track`` is not a Track, or a state is not a Gaussian prediction or update,
+            or timestamps are missing or of mixed kinds.
+        ValueError
+            If ``track`` is empty, a state has the wrong dimension, or a predicted
+            covariance is not positive definite.
+        """
+        if not isinstance(track, StateSequence):
+            raise TypeError(f"track must be a Track, got {type(track).__name__}")
+        states = track.states
+        if not states:
+            raise ValueError("track must hold at least one state, got an empty track")
+        start = 0 if _is_gaussian_step(states[0]) else 1
+        body = states[start:]
+        smoothed = self._smooth_states(body, start) if body else []
+        result = object.__new__(type(track))
+        result.__dict__ = dict(track.__dict__)
+        result.states = states[:start] + smoothed
+        return result
+
+    def _smooth_states(self, body, offset):
+        n = len(body)
+        if not all(isinstance(state, _STEP_TYPES) for state in body):
+            k = next(k for k, state in enumerate(body) if not isinstance(state, _STEP_TYPES))
+            raise TypeError(f"track[{offset + k}] must be a GaussianStatePrediction or "
+                            f"GaussianStateUpdate, got {type(body[k]).__name__}")
+        if n == 1:
+            return [body[0]]
+        model = self.transition_model
+        d = model.ndim_state
+        x = _stack(body, "state_vector", (d, 1), offset).reshape(1, n, d)
+        covar = _stack(body, "covar", (d, d), offset).reshape(1, n, d, d)
+        intervals = _track_intervals(body, offset)
+        x_pred = np.empty((1, n, d))
+        covar_pred = np.empty((1, n, d, d))
+        recompute = np.ones(n, dtype=np.uint8)
+        models = {}  # steps whose prediction names another transition model
+        predictions = [state if isinstance(state, GaussianStatePrediction) else
+                       _prediction_of(state) for state in body]
+        for t in range(1, n):
+            prediction = predictions[t]
+            if prediction is None:
+                continue
+            if prediction.state_vector.shape != (d, 1) or prediction.covar.shape != (d, d):
+                raise ValueError(f"the prediction of track[{offset + t}] must have dimension "
+                                 f"{d}, got {prediction.state_vector.shape[0]}")
+            x_pred[0, t] = prediction.state_vector[:, 0]
+            covar_pred[0, t] = prediction.covar
+            recompute[t] = 0
+            own = getattr(prediction, "transition_model", None)
+            if own is not None and own is not model:
+                models[t] = own
+        if self.predictions == "stonesoup":
+            for t in range(1, n):
+                if isinstance(body[t], GaussianStatePrediction):
+                    recompute[t] = 2
+        if not models and hasattr(model, "matrix"):
+            values, inverse = np.unique(intervals, return_inverse=True)
+            matrices = [self._linearise(model, dt, None, None, False)[:2] for dt in values]
+            step = np.zeros(n, dtype=np.int64)
+            step[:n - 1] = inverse
+        else:
+            matrices, table = [], {}
+            step = np.zeros(n, dtype=np.int64)
+            for t in range(n - 1):
+                step_model = models.get(t + 1, model)
+                key = (id(step_model), intervals[t])
+                index = table.get(key)
+                if index is None or not hasattr(step_model, "matrix"):
+                    f, q, prediction = self._linearise(
+                        step_model, intervals[t], x[0, t].reshape(d, 1), covar[0, t],
+                        recompute[t + 1] == 1)
+                    if prediction is not None:
+                        x_pred[0, t + 1] = prediction[0][:, 0]
+                        covar_pred[0, t + 1] = prediction[1]
+                        recompute[t + 1] = 0
+                    index = len(matrices)
+                    matrices.append((f, q))
+                    table[key] = index
+                step[t] = index
+        x_out, covar_out = np.empty_like(x), np.empty_like(covar)
+        status = _smooth.rts(x, covar, x_pred, covar_pred, recompute,
+                             np.array([m[0] for m in matrices]),
+                             np.array([m[1] for m in matrices]), step, x_out, covar_out)
+        if status:
+            t = (status - 1) % n
+            raise ValueError(f"the predicted covariance of track[{offset + t}] is not "
+                             f"positive definite: cannot form the smoothing gain")
+        new = object.__new__
+        out = []
+        for state, mean, matrix in zip(body[:-1], x_out.reshape(n, d, 1), covar_out[0]):
+            # Stone Soup's from_state: same type and attributes, the smoothed moments
+            attributes = state.__dict__.copy()
+            attributes["state_vector"] = mean
+            attributes["covar"] = matrix
+            smoothed = new(type(state))
+            smoothed.__dict__ = attributes
+            out.append(smoothed)
+        out.append(body[-1])
+        return out
+
+    def smooth_arrays(self, means, covars, time_intervals, predicted_means=None,
+                      predicted_covars=None):
+        """Smooth one track, or K tracks of equal length on the same time steps, given as
+        arrays of filtered states (the batched entry: one kernel call for all K).
+
+        Parameters
+        ----------
+        means : (T, d) or (K, T, d) array_like
+            Filtered means, in time order.
+        covars : (T, d, d) or (K, T, d, d) array_like
+            Filtered covariances.
+        time_intervals : float, datetime.timedelta or (T - 1,) array_like
+            The interval from each state to the next, in seconds (one value: every step).
+        predicted_means : (T, d) or (K, T, d) array_like, optional
+            The prediction at each time from the previous one (index 0 unused). Default:
+            recomputed with the transition model, ``F x``.
+        predicted_covars : (T, d, d) or (K, T, d, d) array_like, optional
+            With ``predicted_means``: ``F P F^T + Q`` if not given.
+
+        Returns
+        -------
+        means : ndarray
+            Smoothed means, the shape of ``means``.
+        covars : ndarray
+            Smoothed covariances, the shape of ``covars``.
+
+        Raises
+        ------
+        TypeError
+            If the transition model is not linear, or an argument is not numeric.
+        ValueError
+            If a shape does not match, a value is not finite, or a predicted covariance is
+            not positive definite.
+        """
+        model = self.transition_model
+        if not hasattr(model, "matrix"):
+            raise TypeError(f"smooth_arrays needs a linear transition_model (with matrix), "
+                            f"got {type(model).__name__}")
+        d = model.ndim_state
+        x = _validate.finite_array(means, "means")
+        shape = x.shape
+        single = x.ndim == 2
+        if x.ndim not in (2, 3) or x.shape[-1] != d or x.shape[-2] < 1:
+            raise ValueError(f"means must have shape (T, {d}) or (K, T, {d}), got {x.shape}")
+        x = x.reshape((1,) + x.shape) if single else x
+        k_tracks, n = x.shape[:2]
+        covar = _validate.finite_array(covars, "covars")
+        if covar.shape != shape + (d,):
+            raise ValueError(f"covars must have shape {shape + (d,)}, got {covar.shape}")
+        covar = covar.reshape(x.shape + (d,))
+        if (predicted_means is None) != (predicted_covars is None):
+            raise ValueError("predicted_means and predicted_covars must be given together")
+        if predicted_means is None:
+            x_pred, covar_pred = np.empty_like(x), np.empty_like(covar)
+            recompute = np.ones(n, dtype=np.uint8)
+        else:
+            x_pred = _validate.finite_array(predicted_means, "predicted_means")
+            if x_pred.shape != shape:
+                raise ValueError(f"predicted_means must have the shape of means "
+                                 f"{shape}, got {x_pred.shape}")
+            covar_pred = _validate.finite_array(predicted_covars, "predicted_covars")
+            if covar_pred.shape != shape + (d,):
+                raise ValueError(f"predicted_covars must have the shape of covars "
+                                 f"{shape + (d,)}, got {covar_pred.shape}")
+            x_pred, covar_pred = x_pred.reshape(x.shape), covar_pred.reshape(covar.shape)
+            recompute = np.zeros(n, dtype=np.uint8)
+        intervals = self._intervals(time_intervals, n)
+        values, step = np.unique(intervals, return_inverse=True)
+        if values.size == 0:
+            values = np.zeros(1)
+        matrices = np.array([np.asarray(model.matrix(dt), dtype=np.float64) for dt in values])
+        noises = np.array([np.asarray(model.covar(dt), dtype=np.float64) for dt in values])
+        step = np.ascontiguousarray(np.append(step, 0), dtype=np.int64)
+        x_out, covar_out = np.empty_like(x), np.empty_like(covar)
+        status = _smooth.rts(x, covar, x_pred, covar_pred, recompute, matrices, noises, step,
+                             x_out, covar_out)
+        if status:
+            k, t = divmod(status - 1, n)
+            where = f"time {t}" if single else f"track {k}, time {t}"
+            raise ValueError(f"the predicted covariance at {where} is not positive definite: "
+                             f"cannot form the smoothing gain")
+        if single:
+            return x_out[0], covar_out[0]
+        return x_out, covar_out
+
+    @staticmethod
+    def _intervals(time_intervals, n):
+        """(n - 1,) float seconds from a scalar, a timedelta or a sequence of either."""
+        if np.ndim(time_intervals) == 0:
+            return np.full(n - 1, seconds(time_intervals, "time_intervals"))
+        values = list(time_intervals)
+        if len(values) != n - 1:
+            raise ValueError(f"time_intervals must hold T - 1 = {n - 1} intervals, "
+                             f"got {len(values)}")
+        return np.array([seconds(v, f"time_intervals[{k}]") for k, v in enumerate(values)],
+                        dtype=np.float64)
+
+
+class ExtendedKalmanSmoother(KalmanSmoother):
+    """The extended Kalman (Rauch-Tung-Striebel) smoother: as :class:`KalmanSmoother`, with
+    ``F`` the transition's Jacobian at each filtered state for a nonlinear model (a
+    linear model's matrix otherwise). A missing prediction is recomputed as the extended
+    Kalman predictor does, ``f(x)`` and ``J P J^T + Q``.
+
+    Parameters
+    ----------
+    transition_model : TransitionModel
+        Any fasttrack transition model: linear (its matrix) or built from a Numba function
+        (finite-difference Jacobian).
+    jacobian : {'forward', 'central'}
+        Finite differences for function-built models (forward: Stone Soup's rule, and the
+        :class:`~fasttrack.ExtendedKalmanPredictor` default).
+    predictions : {'exact', 'stonesoup'}
+        How a prediction in the track is read (see :class:`KalmanSmoother`).
+    """
+
+    def __init__(self, transition_model, jacobian="forward", predictions="exact"):
+        super().__init__(transition_model, predictions)
+        self.jacobian = _kalman.check_jacobian(jacobian, ("forward", "central"))
+
+    def _check_model(self, model):
+        pass
+
+    def _linearise(self, model, dt, x, covar, need_prediction):
+        """A linear model as :class:`KalmanSmoother`; for a function-built one the
+        finite-difference Jacobian at ``x``, and the prediction ``(f(x), J P J^T + Q)``
+        when ``need_prediction``."""
+        if hasattr(model, "matrix"):
+            return super()._linearise(model, dt, x, covar, need_prediction)
+        d = x.shape[0]
+        f = np.empty((d, d))
+        code = _jacobian.transition_jacobian_function(
+            model.transition_function, dt, np.ascontiguousarray(x[:, 0]),
+            self.jacobian == "central", f)
+        if code:
+            from . import _errors
+            _errors.check(code, model._function, x, dt)
+        prediction = None
+        if need_prediction:
+            prediction = _kalman.predict(model, dt, x, covar, self.jacobian)
+        return f, np.zeros((d, d)), prediction
+
+
+def ffbs(particle_states, transition_model, n_paths, rng=None):
+    """Forward-filter backward-simulation particle smoother: trajectories drawn from the
+    smoothing distribution that a particle filter's posteriors approximate.
+
+    A path ends at a particle of the last posterior drawn by weight; going back, the
+    particle at time t is drawn with weight ``w_t^i p(x_{t+1} | x_t^i)`` (the transition
+    density of the model's Gaussian noise), one compiled pass for all paths.
+
+    Parameters
+    ----------
+    particle_states : sequence of ParticleState
+        The filter's posteriors in time order (for example a :class:`~fasttrack.Track`
+        from :func:`~fasttrack.run_filter` with a particle filter), all with the same
+        number of particles N and dimension d, with timestamps.
+    transition_model : TransitionModel
+        The model the filter predicted with (linear or built from a Numba function); its
+        noise covariance must be positive definite.
+    n_paths : int
+        Number of trajectories M to draw (>= 1).
+    rng : None, int or numpy.random.Generator
+        Source of the uniforms (``None``: the package generator, see :func:`fasttrack.seed`).
+
+    Returns
+    -------
+    ndarray
+        (T, d, M) float64: trajectory m is ``paths[:, :, m]``; ``paths[t]`` is a (d, M)
+        equally weighted sample of the smoothing marginal at time t.
+
+    Raises
+    ------
+    TypeError
+        If an argument has the wrong type.
+    ValueError
+        If ``particle_states`` is empty or its states differ in shape, ``n_paths < 1``, or
+        the noise covariance is not positive definite.
+    """
+    from . import random as _random
+
+    check_model(transition_model, TransitionModel, "transition_model")
+    m = _validate.count(n_paths, "n_paths")
+    states = list(particle_states.states if isinstance(particle_states, StateSequence)
+                  else particle_states)
+    if not states:
+        raise ValueError("particle_states must hold at least one state, got none")
+    for k, state in enumerate(states):
+        if not (hasattr(state, "state_vector") and hasattr(state, "log_weight")):
+            raise TypeError(f"particle_states[{k}] must be a ParticleState, "
+                            f"got {type(state).__name__}")
+    d = transition_model.ndim_state
+    shape = np.shape(states[0].state_vector)
+    if len(shape) != 2 or shape[0] != d:
+        raise ValueError(f"particle_states[0].state_vector must have shape ({d}, N), got {shape}")
+    for k, state in enumerate(states):
+        if np.shape(state.state_vector) != shape:
+            raise ValueError(f"particle_states[{k}].state_vector must have shape {shape}, "
+                             f"got {np.shape(state.state_vector)}")
+    n_times = len(states)
+    x = np.ascontiguousarray([state.state_vector for state in states], dtype=np.float64)
+    log_weights = np.ascontiguousarray([state.log_weight for state in states],
+                                       dtype=np.float64)
+    intervals = _track_intervals(states, 0) if n_times > 1 else np.empty(0)
+    mean_next = np.empty((max(n_times - 1, 0), d, shape[1]))
+    roots = np.empty((max(n_times - 1, 0), d, d))
+    for t in range(n_times - 1):
+        mean_next[t] = transition_model._mean(x[t], intervals[t])
+        q = np.asarray(transition_model.covar(intervals[t]), dtype=np.float64)
+        try:
+            lower = np.linalg.cholesky(q)
+        except np.linalg.LinAlgError:
+            raise ValueError(f"transition_model.covar({intervals[t]}) must be positive "
+                             f"definite for the transition density") from None
+        roots[t] = np.linalg.inv(lower)
+    uniforms = _random.generator(rng).random((n_times, m))
+    index = np.empty((n_times, m), dtype=np.int64)
+    _smooth.ffbs(x, log_weights, mean_next, roots, uniforms, index)
+    return np.take_along_axis(x, index[:, None, :], axis=2)

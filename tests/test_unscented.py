@@ -1,0 +1,323 @@
+"""Unscented Kalman filter: kernels against their NumPy mirrors, parity with Stone Soup 1.9.1's
+UnscentedKalmanPredictor/Updater (bearing-range tutorial, bearings across +-pi), UKF = KF for
+a linear sensor, and bad input."""
+import datetime
+
+import numpy as np
+import pytest
+
+import fasttrack as ft
+from fasttrack._jit import kalman as kalman_kernels
+from fasttrack._jit import unscented as kernels
+from fasttrack.scenarios import extended_kalman_tutorial
+
+import reference
+
+START = datetime.datetime(2026, 1, 1)
+SECOND = datetime.timedelta(seconds=1)
+NOISE = np.diag([np.radians(0.2), 1.0])
+PRIOR_COVAR = np.diag([1.5, 0.5, 1.5, 0.5])
+
+
+def _stonesoup(transition_q=0.05, sensor="bearing-range", noise=NOISE, **parameters):
+    """Stone Soup's models, UKF predictor and updater."""
+    from stonesoup.models.measurement.linear import LinearGaussian
+    from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
+    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                    ConstantVelocity)
+    from stonesoup.predictor.kalman import UnscentedKalmanPredictor
+    from stonesoup.updater.kalman import UnscentedKalmanUpdater
+
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(transition_q)] * 2)
+    if sensor == "bearing-range":
+        model = CartesianToBearingRange(ndim_state=4, mapping=(0, 2), noise_covar=noise,
+                                        translation_offset=np.array([[50], [0]]))
+    else:
+        model = LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=noise)
+    return (UnscentedKalmanPredictor(transition, **parameters),
+            UnscentedKalmanUpdater(model, **parameters), model)
+
+
+def _stonesoup_detection(z, timestamp, model, bearing=True):
+    from stonesoup.types.angle import Bearing
+    from stonesoup.types.array import StateVector
+    from stonesoup.types.detection import Detection
+    z = np.asarray(z, float).ravel()
+    vector = StateVector([Bearing(z[0]), z[1]]) if bearing else StateVector(z)
+    return Detection(vector, timestamp=timestamp, measurement_model=model)
+
+
+def _run_stonesoup(predictor, updater, model, prior_mean, measurements, bearing=True):
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.state import GaussianState
+    state = GaussianState(np.reshape(prior_mean, (-1, 1)), PRIOR_COVAR, timestamp=START)
+    states = []
+    for k, z in enumerate(measurements):
+        detection = _stonesoup_detection(z, START + k * SECOND, model, bearing)
+        hypothesis = SingleHypothesis(predictor.predict(state, timestamp=detection.timestamp),
+                                      detection)
+        state = updater.update(hypothesis)
+        states.append((state, hypothesis))
+    return states
+
+
+def _run_fasttrack(predictor, updater, prior_mean, measurements):
+    state = ft.GaussianState(prior_mean, PRIOR_COVAR, timestamp=START)
+    states = []
+    for k, z in enumerate(measurements):
+        detection = ft.Detection(z, timestamp=START + k * SECOND)
+        hypothesis = ft.SingleHypothesis(predictor.predict(state, detection.timestamp), detection)
+        state = updater.update(hypothesis)
+        states.append((state, hypothesis))
+    return states
+
+
+def _relative(mine, theirs):
+    theirs = np.asarray(theirs, float)
+    difference = np.abs(np.asarray(mine, float) - theirs).max()
+    scale = np.abs(theirs).max()
+    return difference / scale if scale > 0 else difference
+
+
+def _worst(ours, theirs):
+    worst = 0.0
+    for (a, ha), (b, hb) in zip(ours, theirs):
+        ma, mb = ha.measurement_prediction, hb.measurement_prediction
+        for mine, their in ((a.state_vector, b.state_vector), (a.covar, b.covar),
+                            (ma.state_vector, mb.state_vector), (ma.covar, mb.covar),
+                            (ma.cross_covar, mb.cross_covar)):
+            worst = max(worst, _relative(mine, their))
+    return worst
+
+
+def _measurements(scenario):
+    return [d.state_vector.reshape(-1, 1).copy() for d in scenario.detections]
+
+
+# --- kernels against their mirrors ---------------------------------------------------------
+
+def _random_covariance(rng, d):
+    a = rng.normal(size=(d, d))
+    return a @ a.T + 0.1 * np.eye(d)
+
+
+@pytest.mark.parametrize("singular", [False, True])
+def test_sigma_points_match_the_mirror(singular):
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(4, 1))
+    covariance = np.diag([2.0, 0.0, 1.0, 0.0]) if singular else _random_covariance(rng, 4)
+    outs = [(np.empty((4, 4)), np.empty((4, 9)), np.empty(9), np.empty(9)) for _ in range(2)]
+    kernels.sigma_points(x, covariance, 0.5, 2.0, -1.0, *outs[0])
+    reference.sigma_points(x, covariance, 0.5, 2.0, -1.0, *outs[1])
+    for a, b in zip(*outs):
+        np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-15)
+    assert outs[0][2].sum() == pytest.approx(1.0)
+
+
+def test_moments_match_the_mirror_with_an_angle_row():
+    rng = np.random.default_rng(2)
+    points = rng.normal(size=(4, 9))
+    transformed = np.vstack([reference.wrap_angle(np.pi + 0.3 * rng.normal(size=9)),
+                             rng.normal(10.0, 1.0, 9)])
+    wm, wc = np.full(9, 0.1), np.full(9, 0.1)
+    wm[0], wc[0] = 0.2, 1.95
+    angles = np.array([True, False])
+    outs = [(np.empty((2, 1)), np.empty((2, 2)), np.empty((4, 2))) for _ in range(2)]
+    kernels.unscented_moments(points, transformed, wm, wc, angles, NOISE, *outs[0])
+    reference.unscented_moments(points, transformed, wm, wc, angles, NOISE, *outs[1])
+    for a, b in zip(*outs):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
+    assert abs(outs[0][0][0, 0]) > 3.0  # the circular mean, near +-pi, not near 0
+
+
+@pytest.mark.parametrize("cv", [True, False])
+def test_predict_kernel_matches_the_mirror(cv):
+    rng = np.random.default_rng(3)
+    x, covariance = rng.normal(size=(4, 1)), _random_covariance(rng, 4)
+    model = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    kind, rates, matrix, noise = model._kalman_spec(1.5)
+    if not cv:
+        kind, matrix, noise = kalman_kernels.FIXED, model.matrix(1.5), model.covar(1.5)
+    outs = [(np.empty((4, 1)), np.empty((4, 4))) for _ in range(2)]
+    args = (kind, rates, matrix, noise, 1.5, 0.5, 2.0, -1.0, x, covariance)
+    assert kernels.unscented_predict(*args, *outs[0]) == 0
+    assert reference.unscented_predict(*args, *outs[1]) == 0
+    for a, b in zip(*outs):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-13)
+
+
+@pytest.mark.parametrize("joseph", [False, True])
+@pytest.mark.parametrize("sensor", ["bearing-range", "bearing", "linear"])
+def test_update_kernel_matches_the_mirror(sensor, joseph):
+    rng = np.random.default_rng(4)
+    x = np.array([[10.0], [1.0], [-0.5], [1.0]])
+    covariance = _random_covariance(rng, 4)
+    model = {"bearing-range": ft.CartesianToBearingRange(4, (0, 2), NOISE,
+                                                         translation_offset=[50, 0]),
+             "bearing": ft.Cartesian2DToBearing(4, (0, 2), NOISE[:1, :1]),
+             "linear": ft.LinearGaussian(4, (0, 2), np.eye(2))}[sensor]
+    m = model.ndim_meas
+    z = np.array([[3.1], [40.0]])[:m] if sensor != "linear" else np.array([[9.0], [0.0]])
+    outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((m, 1)), np.empty((m, m)),
+             np.empty((4, m))) for _ in range(2)]
+    args = (*model._kalman_args, 0.5, 2.0, -1.0, joseph, x, covariance, z)
+    assert kernels.unscented_update(*args, *outs[0]) == 0
+    assert reference.unscented_update(*args, *outs[1]) == 0
+    for a, b in zip(*outs):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
+
+
+# --- parity with Stone Soup ------------------------------------------------------------------
+
+def test_ekf_tutorial_scenario_equals_stone_soup():
+    """The bearing-range tutorial (the sensor at (50, 0) sees the target near bearing pi,
+    so sigma-point bearings straddle the wrap): every posterior, predicted measurement,
+    innovation and cross covariance equal to 1e-9."""
+    pytest.importorskip("stonesoup")
+    scenario = extended_kalman_tutorial()
+    measurements = _measurements(scenario)
+    theirs = _run_stonesoup(*_stonesoup(), [0, 1, 0, 1], measurements)
+    predictor = ft.UnscentedKalmanPredictor(scenario.transition_model)
+    updater = ft.UnscentedKalmanUpdater(scenario.measurement_model)
+    ours = _run_fasttrack(predictor, updater, [0, 1, 0, 1], measurements)
+    assert _worst(ours, theirs) < 1e-9
+    assert isinstance(ours[0][0], ft.GaussianStateUpdate)
+    assert ours[-1][0].timestamp == START + 20 * SECOND
+
+
+@pytest.mark.parametrize("parameters", [dict(alpha=1.0, beta=0.0, kappa=0.0),
+                                        dict(alpha=0.1, beta=2.0, kappa=1.0),
+                                        dict(alpha=1.3, beta=1.0)])
+def test_other_sigma_point_parameters_equal_stone_soup(parameters):
+    pytest.importorskip("stonesoup")
+    scenario = extended_kalman_tutorial()
+    measurements = _measurements(scenario)
+    theirs = _run_stonesoup(*_stonesoup(**parameters), [0, 1, 0, 1], measurements)
+    ours = _run_fasttrack(ft.UnscentedKalmanPredictor(scenario.transition_model, **parameters),
+                          ft.UnscentedKalmanUpdater(scenario.measurement_model, **parameters),
+                          [0, 1, 0, 1], measurements)
+    assert _worst(ours, theirs) < 1e-9
+
+
+def test_measurement_prediction_across_pi_equals_stone_soup():
+    """A spread prediction behind the sensor: Stone Soup averages Bearing rows circularly;
+    a plain average of the wrapped bearings would be near 0."""
+    pytest.importorskip("stonesoup")
+    from stonesoup.types.state import GaussianState
+    _, updater, _ = _stonesoup()
+    mean, covar = np.array([[30.0], [1.0], [0.0], [1.0]]), np.diag([4.0, 1.0, 25.0, 1.0])
+    theirs = updater.predict_measurement(GaussianState(mean, covar, timestamp=START))
+    sensor = ft.CartesianToBearingRange(4, (0, 2), NOISE, translation_offset=[50, 0])
+    ours = ft.UnscentedKalmanUpdater(sensor).predict_measurement(
+        ft.GaussianState(mean, covar, timestamp=START))
+    for mine, their in ((ours.state_vector, theirs.state_vector), (ours.covar, theirs.covar),
+                        (ours.cross_covar, theirs.cross_covar)):
+        assert _relative(mine, their) < 1e-12
+    assert abs(ours.state_vector[0, 0]) > 3.0
+    assert isinstance(ours, ft.GaussianMeasurementPrediction)
+
+
+def test_linear_sensor_equals_stone_soup_and_the_kalman_filter():
+    """With a LinearGaussian sensor and a linear transition the unscented transform is exact:
+    the UKF equals fasttrack's KalmanPredictor/KalmanUpdater (both covariance forms) and
+    Stone Soup's UKF to 1e-9."""
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.1)] * 2)
+    sensor = ft.LinearGaussian(4, (0, 2), [[0.5, 0.1], [0.1, 0.8]])
+    truth = ft.ground_truth(transition, [0, 1, 0, 1], 30, start_time=START, rng=5)
+    measurements = [d.state_vector.reshape(-1, 1).copy()
+                    for d in ft.detections(truth, sensor, rng=6)]
+    kf = _run_fasttrack(ft.KalmanPredictor(transition), ft.KalmanUpdater(sensor),
+                        [0, 1, 0, 1], measurements)
+    for joseph in (False, True):
+        ukf = _run_fasttrack(ft.UnscentedKalmanPredictor(transition),
+                             ft.UnscentedKalmanUpdater(sensor, use_joseph_cov=joseph),
+                             [0, 1, 0, 1], measurements)
+        assert _worst(ukf, kf) < 1e-9
+    pytest.importorskip("stonesoup")
+    theirs = _run_stonesoup(*_stonesoup(0.1, "linear", np.array([[0.5, 0.1], [0.1, 0.8]])),
+                            [0, 1, 0, 1], measurements, bearing=False)
+    assert _worst(ukf, theirs) < 1e-9
+
+
+def test_predictions_equal_stone_soup_and_keep_their_links():
+    pytest.importorskip("stonesoup")
+    from stonesoup.types.state import GaussianState
+    predictor, _, _ = _stonesoup()
+    mean = np.array([[1.0], [2.0], [-3.0], [0.5]])
+    theirs = predictor.predict(GaussianState(mean, PRIOR_COVAR, timestamp=START),
+                               timestamp=START + 2.5 * SECOND)
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    prior = ft.GaussianState(mean, PRIOR_COVAR, timestamp=START)
+    ours = ft.UnscentedKalmanPredictor(transition).predict(prior, START + 2.5 * SECOND)
+    assert _relative(ours.state_vector, theirs.state_vector) < 1e-12
+    assert _relative(ours.covar, theirs.covar) < 1e-12
+    assert isinstance(ours, ft.GaussianStatePrediction) and ours.prior is prior
+    assert ours.transition_model is transition
+    np.testing.assert_array_equal(ours.covar, ours.covar.T)
+
+
+# --- bad input ---------------------------------------------------------------------------------
+
+def _transition():
+    return ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+
+
+def _sensor():
+    return ft.CartesianToBearingRange(4, (0, 2), NOISE, translation_offset=[50, 0])
+
+
+@pytest.mark.parametrize("cls, model", [(ft.UnscentedKalmanPredictor, _transition),
+                                        (ft.UnscentedKalmanUpdater, _sensor)])
+@pytest.mark.parametrize("kwargs, error, name", [
+    (dict(alpha=0.0), ValueError, "alpha"), (dict(alpha=-0.5), ValueError, "alpha"),
+    (dict(alpha=np.nan), ValueError, "alpha"), (dict(alpha="0.5"), TypeError, "alpha"),
+    (dict(alpha=True), TypeError, "alpha"), (dict(beta=np.inf), ValueError, "beta"),
+    (dict(beta=None), TypeError, "beta"), (dict(kappa=np.nan), ValueError, "kappa"),
+    (dict(kappa=[1.0]), TypeError, "kappa")])
+def test_bad_parameters_name_the_argument(cls, model, kwargs, error, name):
+    with pytest.raises(error, match=name):
+        cls(model(), **kwargs)
+
+
+def test_a_kappa_without_sigma_point_spread_is_refused():
+    """alpha**2 (d + kappa) must be > 0: checked when the state dimension is known (at
+    construction, or for an updater without a model at the first use of one)."""
+    prior = ft.GaussianState([0, 1, 0, 1], PRIOR_COVAR, timestamp=0.0)
+    with pytest.raises(ValueError, match="kappa"):
+        ft.UnscentedKalmanPredictor(_transition(), kappa=-4.0)
+    with pytest.raises(ValueError, match="kappa"):
+        ft.UnscentedKalmanUpdater(_sensor(), kappa=-5.0)
+    with pytest.raises(ValueError, match="kappa"):
+        ft.UnscentedKalmanUpdater(kappa=-4.0).predict_measurement(prior, _sensor())
+
+
+def test_bad_states_models_and_measurements_are_refused():
+    bad = np.diag([1.0, -1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match="prior.covar is not positive semi-definite"):
+        ft.UnscentedKalmanPredictor(_transition()).predict(
+            ft.GaussianState([0, 1, 0, 1], bad, timestamp=0.0), 1.0)
+    updater = ft.UnscentedKalmanUpdater(_sensor())
+    with pytest.raises(ValueError, match="prediction's covariance"):
+        updater.predict_measurement(ft.GaussianState([0, 1, 0, 1], bad, timestamp=0.0))
+    prediction = ft.GaussianState([0, 1, 0, 1], PRIOR_COVAR, timestamp=1.0)
+    sensor = _sensor()  # a NaN detection is refused by Detection; the kernel checks too
+    outs = (np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
+            np.empty((4, 2)))
+    assert kernels.unscented_update(*sensor._kalman_args, 0.5, 2.0, -1.0, False,
+                                    prediction.state_vector, prediction.covar,
+                                    np.array([[np.nan], [40.0]]), *outs) == 4
+    with pytest.raises(TypeError, match="transition_model"):
+        ft.UnscentedKalmanPredictor("not a model")
+    with pytest.raises(TypeError, match="prior must be a GaussianState"):
+        ft.UnscentedKalmanPredictor(_transition()).predict("x", 1.0)
+    with pytest.raises(ValueError, match="timestamp"):
+        ft.UnscentedKalmanPredictor(_transition()).predict(prediction, None)
+    with pytest.raises(ValueError, match="no measurement model"):
+        ft.UnscentedKalmanUpdater().update(
+            ft.SingleHypothesis(prediction, ft.Detection([[0.1], [40.0]], timestamp=1.0)))
+    with pytest.raises(ValueError, match="state dimensions"):
+        updater.predict_measurement(ft.GaussianState([0, 1], np.eye(2), timestamp=1.0))
+
+
+def test_exported():
+    assert {"UnscentedKalmanPredictor", "UnscentedKalmanUpdater"} <= set(ft.__all__)
