@@ -31,7 +31,7 @@ def _ft_track():
 
 
 def test_rts_1000_fasttrack(benchmark):
-    benchmark.group = "rts-smoother T=1000"
+    benchmark.group = "rts-smoother N=1000"
     transition, track = _ft_track()
     smoother = ft.KalmanSmoother(transition)
     smoother.smooth(track)  # compile / load the kernel
@@ -53,7 +53,7 @@ def test_rts_1000_stonesoup(benchmark):
     from stonesoup.types.track import Track
     from stonesoup.updater.kalman import KalmanUpdater
 
-    benchmark.group = "rts-smoother T=1000"
+    benchmark.group = "rts-smoother N=1000"
     transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05),
                                                         ConstantVelocity(0.05)])
     sensor = LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=np.eye(2))
@@ -71,7 +71,7 @@ def test_rts_1000_stonesoup(benchmark):
 
 
 def test_rts_arrays_100_tracks_fasttrack(benchmark):
-    benchmark.group = "rts-smoother arrays K=100 T=1000"
+    benchmark.group = "rts-smoother-100-tracks N=1000"
     transition, track = _ft_track()
     means = np.array([s.state_vector[:, 0] for s in track])
     covars = np.array([s.covar for s in track])
