@@ -51,6 +51,14 @@ def wrap_angle(a):
     return np.mod(a + np.pi, 2 * np.pi) - np.pi
 
 
+def cholesky(a, lower):
+    try:
+        lower[:] = np.linalg.cholesky(a)
+    except np.linalg.LinAlgError:
+        return False
+    return True
+
+
 def fill(out, value):
     out[...] = value
 

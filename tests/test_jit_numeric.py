@@ -114,3 +114,13 @@ def test_fill_normals_matches_mirror_and_is_standard_normal():
     assert abs(out.mean()) < 0.01 and abs(out.var() - 1) < 0.01
     half = out.size // 2
     assert abs(np.corrcoef(out[:half], out[half:])[0, 1]) < 0.01  # cos and sin partners
+
+
+def test_cholesky_matches_mirror_and_refuses_what_is_not_positive_definite():
+    rng = np.random.default_rng(4)
+    root = rng.normal(size=(5, 5))
+    a = root @ root.T + 0.1 * np.eye(5)
+    got, want = np.full((5, 5), 7.0), np.empty((5, 5))
+    assert numeric.cholesky(a, got) and reference.cholesky(a, want)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-14)
+    assert not numeric.cholesky(-a, got) and not reference.cholesky(-a, want)

@@ -15,7 +15,7 @@ import numpy as np
 from numba import prange
 
 from . import jit
-from .numeric import wrap_angle
+from .numeric import cholesky, wrap_angle
 
 _LOG_2PI = np.log(2.0 * np.pi)
 
@@ -37,26 +37,6 @@ def cell_keys(detections, axes, origin, cell, shape, keys):
             if axes.size > 1:
                 key = key * shape[1] + _cell(detections[j, axes[1]], origin[1], cell)
         keys[j] = key
-
-
-@jit()
-def _factor(covariance, lower):
-    """Lower Cholesky factor of the (m, m) ``covariance``; False if not positive
-    definite."""
-    m = covariance.shape[0]
-    for j in range(m):
-        s = covariance[j, j]
-        for k in range(j):
-            s -= lower[j, k] * lower[j, k]
-        if not s > 0.0:
-            return False
-        lower[j, j] = np.sqrt(s)
-        for i in range(j + 1, m):
-            t = covariance[i, j]
-            for k in range(j):
-                t -= lower[i, k] * lower[j, k]
-            lower[i, j] = t / lower[j, j]
-    return True
 
 
 @jit()
@@ -113,7 +93,7 @@ def _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles, 
     definite."""
     m = z_hats.shape[1]
     lower = np.zeros((m, m))
-    if not _factor(covariances[k], lower):
+    if not cholesky(covariances[k], lower):
         return np.int64(-1)
     log_norm = 0.5 * m * _LOG_2PI
     for r in range(m):

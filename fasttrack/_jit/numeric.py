@@ -206,6 +206,29 @@ def wrap_angle(a):
 
 
 @jit()
+def cholesky(a, lower):
+    """The lower Cholesky factor of the symmetric (m, m) ``a`` into ``lower`` (its upper
+    triangle zeroed); False, leaving ``lower`` partly written, if ``a`` is not positive
+    definite."""
+    m = a.shape[0]
+    for j in range(m):
+        for i in range(j):
+            lower[i, j] = 0.0
+        s = a[j, j]
+        for k in range(j):
+            s -= lower[j, k] * lower[j, k]
+        if not s > 0.0:
+            return False
+        lower[j, j] = np.sqrt(s)
+        for i in range(j + 1, m):
+            t = a[i, j]
+            for k in range(j):
+                t -= lower[i, k] * lower[j, k]
+            lower[i, j] = t / lower[j, j]
+    return True
+
+
+@jit()
 def fill(out, value):
     """Every entry of a C-contiguous array set to ``value`` (a loop: Numba compiles a
     slice assignment far more slowly)."""

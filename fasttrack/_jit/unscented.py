@@ -18,7 +18,7 @@ import numpy as np
 
 from . import jit
 from .kalman import _check_covariance, _sandwich, _transition
-from .numeric import fill, wrap_angle
+from .numeric import cholesky, fill, wrap_angle
 from .sensor import _predict_block
 from .status import (INNOVATION_NOT_PD, MEASUREMENT_NOT_FINITE, OK, PREDICTION_NOT_PSD,
                      PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC)
@@ -217,20 +217,8 @@ def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta
                    transformed, np.int64(0))
     _moments(points, transformed, mean_weights, covar_weights, angles, noise, z_hat,
              innovation_covar, cross, diff)
-    for j in range(m):
-        for i in range(m):
-            chol[i, j] = 0.0
-        s = innovation_covar[j, j]
-        for k in range(j):
-            s -= chol[j, k] * chol[j, k]
-        if not s > 0.0:
-            return INNOVATION_NOT_PD
-        chol[j, j] = np.sqrt(s)
-        for i in range(j + 1, m):
-            s = innovation_covar[i, j]
-            for k in range(j):
-                s -= chol[i, k] * chol[j, k]
-            chol[i, j] = s / chol[j, j]
+    if not cholesky(innovation_covar, chol):
+        return INNOVATION_NOT_PD
     for c in range(d):
         for r in range(m):
             s = cross[c, r]
