@@ -1,7 +1,9 @@
 """The Rauch-Tung-Striebel smoother over a 1000-step CV 4-D track (linear position sensor),
 fasttrack's KalmanSmoother.smooth(track) against Stone Soup 1.9.1's in the same run (the
 track built by each library's Kalman predictor and updater from the same detections, as in
-stonesoup_mtt_baseline.ss_rts); plus the batched array entry for 100 such tracks."""
+stonesoup_mtt_baseline.ss_rts); plus the batched array entry for 100 such tracks, and the
+forward-filter backward-simulation smoother (100 paths through a 100-step particle filter of
+N = 1000 on the same model), by rejection (the default) and by the exact draw."""
 import datetime
 
 import numpy as np
@@ -81,3 +83,40 @@ def test_rts_arrays_100_tracks_fasttrack(benchmark):
     xs, _ = benchmark.pedantic(smoother.smooth_arrays, args=(means, covars, STEP), rounds=30,
                                iterations=1, warmup_rounds=2)
     assert xs.shape == (100, STEPS, 4)
+
+
+FFBS_STEPS, FFBS_PARTICLES, FFBS_PATHS = 100, 1000, 100
+
+
+def _pf_track():
+    """A bootstrap particle filter's posteriors over the first 100 detections."""
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    sensor = ft.LinearGaussian(4, (0, 2), np.eye(2))
+    rng = np.random.default_rng(1)
+    prior = ft.ParticleState(np.array([[0.0], [1.0], [0.0], [1.0]])
+                             + rng.normal(size=(4, FFBS_PARTICLES)), timestamp=START)
+    detections = [ft.Detection(z, timestamp=START + (k + 1) * STEP)
+                  for k, z in enumerate(_measurements(FFBS_STEPS))]
+    track = ft.run_filter(ft.ParticlePredictor(transition, rng=2),
+                          ft.ParticleUpdater(sensor, ft.SystematicResampler(rng=3)), prior,
+                          detections)
+    return transition, track
+
+
+def _time_ffbs(benchmark, method, rounds):
+    benchmark.group = f"ffbs N={FFBS_PARTICLES}"
+    transition, track = _pf_track()
+    ft.ffbs(track, transition, FFBS_PATHS, rng=4, method=method)  # compile / load the kernel
+    paths = benchmark.pedantic(ft.ffbs, args=(track, transition, FFBS_PATHS),
+                               kwargs={"rng": 4, "method": method}, rounds=rounds,
+                               iterations=1, warmup_rounds=1)
+    assert paths.shape == (FFBS_STEPS, 4, FFBS_PATHS)
+
+
+def test_ffbs_1000_fasttrack(benchmark):
+    """The default, rejection with the exact draw as fallback (report.py's target)."""
+    _time_ffbs(benchmark, "rejection", rounds=30)
+
+
+def test_ffbs_1000_exact(benchmark):
+    _time_ffbs(benchmark, "exact", rounds=5)

@@ -416,13 +416,26 @@ class ExtendedKalmanSmoother(KalmanSmoother):
         return f, np.zeros((d, d)), prediction
 
 
-def ffbs(particle_states, transition_model, n_paths, rng=None):
+def ffbs(particle_states, transition_model, n_paths, rng=None, method="rejection"):
     """Forward-filter backward-simulation particle smoother: trajectories drawn from the
     smoothing distribution that a particle filter's posteriors approximate.
 
     A path ends at a particle of the last posterior drawn by weight; going back, the
     particle at time t is drawn with weight ``w_t^i p(x_{t+1} | x_t^i)`` (the transition
     density of the model's Gaussian noise), one compiled pass for all paths.
+
+    The exact draw weighs all N particles, O(N) per path and step. The rejection draw
+    (Douc, Garivier, Moulines and Olsson, 2011) proposes a particle by filter weight
+    ``w_t^i`` (a bisection of the cumulative weights, computed once per step) and accepts it
+    with probability ``exp(-|L^{-1} (x_{t+1} - f(x_t^i))|^2 / 2)``, the density over its
+    maximum (``Q = L L^T``), so it costs O(1) expected proposals per path and step where the
+    transition density overlaps the filter's particles: about O(N T + M T log N) in all
+    instead of O(N M T). After 32 rejections a path makes the exact draw, which bounds the
+    cost of a path in the tail of the density; and once a step's acceptance rate falls below
+    64 / N (a proposal costs about as much as 64 particles' terms of an exact draw), as when
+    the noise is small against the spread of the particles, the remaining paths of that step
+    draw exactly. Each index has the same distribution either way; for the same seed the two
+    methods draw different paths.
 
     Parameters
     ----------
@@ -436,7 +449,12 @@ def ffbs(particle_states, transition_model, n_paths, rng=None):
     n_paths : int
         Number of trajectories M to draw (>= 1).
     rng : None, int or numpy.random.Generator
-        Source of the uniforms (``None``: the package generator, see :func:`fasttrack.seed`).
+        Source of the uniforms (``None``: the package generator, see :func:`fasttrack.seed`):
+        one integer is drawn from it to seed the generator the compiled pass draws from, so
+        the same seed gives the same paths.
+    method : {"rejection", "exact"}
+        How each backward index is drawn: by rejection with the exact draw as fallback
+        (the default), or always exactly.
 
     Returns
     -------
@@ -449,11 +467,13 @@ def ffbs(particle_states, transition_model, n_paths, rng=None):
     TypeError
         If an argument has the wrong type.
     ValueError
-        If ``particle_states`` is empty or its states differ in shape, ``n_paths < 1``, or
-        the noise covariance is not positive definite.
+        If ``particle_states`` is empty or its states differ in shape, ``n_paths < 1``,
+        ``method`` is not one of the two, or the noise covariance is not positive definite.
     """
     from . import random as _random
 
+    if not (isinstance(method, str) and method in ("rejection", "exact")):
+        raise ValueError(f"method must be 'rejection' or 'exact', got {method!r}")
     check_model(transition_model, TransitionModel, "transition_model")
     m = _validate.count(n_paths, "n_paths")
     states = list(particle_states.states if isinstance(particle_states, StateSequence)
@@ -478,17 +498,22 @@ def ffbs(particle_states, transition_model, n_paths, rng=None):
                                        dtype=np.float64)
     intervals = _track_intervals(states, 0) if n_times > 1 else np.empty(0)
     mean_next = np.empty((max(n_times - 1, 0), d, shape[1]))
-    roots = np.empty((max(n_times - 1, 0), d, d))
     for t in range(n_times - 1):
         mean_next[t] = transition_model._mean(x[t], intervals[t])
-        q = np.asarray(transition_model.covar(intervals[t]), dtype=np.float64)
+    durations, step = np.unique(intervals, return_inverse=True)
+    roots = np.empty((durations.size, d, d))
+    for k, dt in enumerate(durations):
+        q = np.asarray(transition_model.covar(dt), dtype=np.float64)
         try:
             lower = np.linalg.cholesky(q)
         except np.linalg.LinAlgError:
-            raise ValueError(f"transition_model.covar({intervals[t]}) must be positive "
+            raise ValueError(f"transition_model.covar({dt}) must be positive "
                              f"definite for the transition density") from None
-        roots[t] = np.linalg.inv(lower)
-    uniforms = _random.generator(rng).random((n_times, m))
+        roots[k] = np.linalg.inv(lower)
+    roots = np.ascontiguousarray(roots[step.reshape(-1)])
+    source = np.random.default_rng(_random.stream_key(rng))
+    max_proposals = _smooth.MAX_PROPOSALS if method == "rejection" else 0
     index = np.empty((n_times, m), dtype=np.int64)
-    _smooth.ffbs(x, log_weights, mean_next, roots, uniforms, index)
+    _smooth.ffbs(x, log_weights, mean_next, roots, source, max_proposals,
+                 _smooth.PROPOSAL_COST / shape[1], index)
     return np.take_along_axis(x, index[:, None, :], axis=2)

@@ -1134,15 +1134,37 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
     return OK
 
 
+
+def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covariance,
+                               x_out, covariance_out):
+    status = _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    if status != OK:
+        return status
+    d = x.shape[0]
+    _, points, wm, wc = _sigma(x, covariance, alpha, beta, kappa)
+    moved = function(np.ascontiguousarray(points), dt)
+    status = output_status(moved, d, points.shape[1])
+    if status == OK:
+        unscented_moments(points, moved, wm, wc, np.zeros(d, bool), covar, x_out,
+                          covariance_out, np.empty((d, d)))
+    return status
+
 def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta, kappa,
                      joseph, x, covariance, z, x_out, covariance_out, z_hat,
                      innovation_covar, cross):
     status = _covariance_status(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
     if status != OK:
         return status
-    lower, points, wm, wc = _sigma(x, covariance, alpha, beta, kappa)
+    _, points, wm, wc = _sigma(x, covariance, alpha, beta, kappa)
     transformed = np.empty((z.shape[0], points.shape[1]))
     measure(kind, points, mapping, offset, rotation, transformed)
+    return _unscented_correct(points, transformed, wm, wc, noise, angles, joseph, x,
+                              covariance, z, x_out, covariance_out, z_hat, innovation_covar,
+                              cross)
+
+
+def _unscented_correct(points, transformed, wm, wc, noise, angles, joseph, x, covariance, z,
+                       x_out, covariance_out, z_hat, innovation_covar, cross):
     unscented_moments(points, transformed, wm, wc, angles, noise, z_hat, innovation_covar,
                       cross)
     if not _positive_definite(innovation_covar):
@@ -1162,18 +1184,78 @@ def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta
     return OK
 
 
-def ffbs(states, log_weights, mean_next, precision_root, uniforms, out_index):
-    n_times, d, n = states.shape
-    for m in range(uniforms.shape[1]):
-        for t in range(n_times - 1, -1, -1):
-            logw = log_weights[t].copy()
-            if t < n_times - 1:
-                diff = states[t + 1][:, [out_index[t + 1, m]]] - mean_next[t]
-                z = np.tril(precision_root[t]) @ diff
-                alive = np.isfinite(logw)
-                logw[alive] -= 0.5 * (z[:, alive] ** 2).sum(axis=0)
-            w = np.exp(logw - logw.max())
-            cumulative = np.cumsum(w)
-            above = np.flatnonzero(cumulative > uniforms[t, m] * cumulative[-1])
-            out_index[t, m] = above[0] if above.size else np.flatnonzero(w > 0)[-1]
+def unscented_update_function(function, noise, angles, alpha, beta, kappa, joseph, x,
+                              covariance, z, x_out, covariance_out, z_hat, innovation_covar,
+                              cross):
+    status = _covariance_status(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    if status != OK:
+        return status
+    _, points, wm, wc = _sigma(x, covariance, alpha, beta, kappa)
+    transformed = function(np.ascontiguousarray(points))
+    status = output_status(transformed, z.shape[0], points.shape[1])
+    if status != OK:
+        return status
+    return _unscented_correct(points, transformed, wm, wc, noise, angles, joseph, x,
+                              covariance, z, x_out, covariance_out, z_hat, innovation_covar,
+                              cross)
+
+
+PREDICT, MEASURE, UPDATE = 1, 2, 4
+
+
+def batch_unscented(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
+                    rotation, noise, angles, alpha, beta, kappa, joseph, stages, means,
+                    covars, measurements, means_out, covars_out, z_hats, innovation_covars,
+                    status):
+    d, m = means.shape[1], noise.shape[0]
+    for k in range(means.shape[0]):
+        x, p = means[k].reshape(d, 1).copy(), covars[k].copy()
+        status[k] = OK
+        if stages & PREDICT:
+            status[k] = unscented_predict(t_kind, rates, fixed_matrix, fixed_covar, dts[k],
+                                          alpha, beta, kappa, means[k].reshape(d, 1),
+                                          covars[k], x, p)
+        outs = (np.empty((d, 1)), np.empty((d, d)), np.empty((m, 1)), np.empty((m, m)),
+                np.empty((d, m)))
+        if status[k] == OK and stages & (MEASURE | UPDATE):
+            z = measurements[k].reshape(m, 1) if stages & UPDATE else np.zeros((m, 1))
+            code = unscented_update(m_kind, mapping, offset, rotation, noise, angles, alpha,
+                                    beta, kappa, joseph, x, p, z, *outs)
+            if stages & MEASURE:
+                z_hats[k], innovation_covars[k] = outs[2][:, 0], outs[3]
+            if stages & UPDATE:
+                status[k] = code
+                x, p = outs[0], outs[1]
+        means_out[k], covars_out[k] = x[:, 0], p
+
+def _ffbs_categorical(logw, u):
+    """The first index whose cumulative weight ``exp(logw - max)`` exceeds ``u`` times the
+    total, or the last of positive weight."""
+    w = np.exp(logw - logw.max())
+    cumulative = np.cumsum(w)
+    i = np.searchsorted(cumulative, u * cumulative[-1], side="right")
+    return i if i < logw.size else np.flatnonzero(w > 0)[-1]
+
+
+
+def ffbs(states, log_weights, mean_next, precision_root, rng, max_proposals,
+         min_acceptance, out_index):
+    n_times, n_paths = out_index.shape
+    for m in range(n_paths):
+        out_index[-1, m] = _ffbs_categorical(log_weights[-1], rng.random())
+    for t in range(n_times - 2, -1, -1):
+        accepted = proposed = 0
+        for m in range(n_paths):
+            diff = states[t + 1][:, [out_index[t + 1, m]]] - mean_next[t]
+            quad = ((np.tril(precision_root[t]) @ diff) ** 2).sum(axis=0)
+            i = None
+            for _ in range(max_proposals if accepted + 1 >= proposed * min_acceptance else 0):
+                proposed += 1
+                proposal = _ffbs_categorical(log_weights[t], rng.random())
+                if rng.random() < np.exp(-0.5 * quad[proposal]):
+                    accepted, i = accepted + 1, proposal
+                    break
+            if i is None:
+                i = _ffbs_categorical(log_weights[t] - 0.5 * quad, rng.random())
+            out_index[t, m] = i
     return 0

@@ -408,7 +408,13 @@ def test_bad_input_names_the_argument():
 
 # --- forward-filter backward-simulation ------------------------------------------------------
 
-def test_ffbs_kernel_matches_mirror():
+@pytest.mark.parametrize("max_proposals, min_acceptance",
+                         [(0, 0.0), (3, 0.0), (kernels.MAX_PROPOSALS, 0.0), (3, 0.4)])
+def test_ffbs_kernel_matches_mirror(max_proposals, min_acceptance):
+    """Equally seeded generators: the kernel and its mirror draw the same uniforms in the
+    same order, so they choose the same indices, with exact draws only (0 proposals),
+    rejections falling back to them (3), the default, and rejection stopping within a step
+    (an acceptance rate of 0.4 required)."""
     rng = np.random.default_rng(3)
     t_len, d, n, m = 5, 2, 40, 30
     states = rng.normal(size=(t_len, d, n))
@@ -416,18 +422,33 @@ def test_ffbs_kernel_matches_mirror():
     log_weights[2, :5] = -np.inf
     mean_next = states[:-1] * 0.9
     roots = np.linalg.inv(np.linalg.cholesky(np.eye(d) * 0.5 + 0.1))[None].repeat(t_len - 1, 0)
-    uniforms = rng.random((t_len, m))
-    uniforms[0, 0] = np.nextafter(1.0, 0.0)  # the last cumulative bin
     a, b = np.empty((t_len, m), np.int64), np.empty((t_len, m), np.int64)
-    kernels.ffbs(states, log_weights, mean_next, roots, uniforms, a)
-    reference.ffbs(states, log_weights, mean_next, roots, uniforms, b)
+    for mirror, out in ((kernels.ffbs, a), (reference.ffbs, b)):
+        mirror(states, log_weights, mean_next, roots, np.random.default_rng(4), max_proposals,
+               min_acceptance, out)
     np.testing.assert_array_equal(a, b)
     assert (a[2] >= 5).all() and a.max() < n
 
 
-def test_ffbs_agrees_with_rts_on_linear_model():
+def test_ffbs_search_takes_the_last_positive_weight_beyond_the_total():
+    cumulative = np.array([0.0, 1.0, 2.0, 2.0])
+    assert kernels._search(cumulative, 2, 0.0) == 1
+    assert kernels._search(cumulative, 2, 0.75) == 2
+    assert kernels._search(cumulative, 2, 1.0) == 2  # rounding up to the total
+    assert reference._ffbs_categorical(np.array([-np.inf, 0.0, 0.0, -np.inf]), 1.0) == 2
+    weights = np.zeros(40)
+    weights[[3, 20, 33]] = 1.0
+    sums = np.empty(3)
+    assert kernels._block_sums(weights, sums) == 3.0
+    assert [kernels._block_search(weights, sums, target) for target in (0.0, 1.5, 2.0, 3.0)] \
+        == [3, 20, 33, 33]
+
+
+@pytest.mark.parametrize("method", ["rejection", "exact"])
+def test_ffbs_agrees_with_rts_on_linear_model(method):
     """A bootstrap particle filter on a 1-D random walk (N = 4000): the FFBS paths' mean and
-    variance at each time agree with the exact (RTS) smoother within Monte Carlo error."""
+    variance at each time agree with the exact (RTS) smoother within Monte Carlo error, for
+    the rejection draw (the default) and the exact one."""
     q, r, n_times, n, m = 1.0, 1.0, 8, 4000, 2000
     transition = ft.LinearGaussianTransitionModel([[1.0]], [[q]])
     sensor = ft.LinearGaussian(1, (0,), [[r]])
@@ -442,14 +463,29 @@ def test_ffbs_agrees_with_rts_on_linear_model():
     particles = ft.run_filter(ft.ParticlePredictor(transition, rng=1),
                               ft.ParticleUpdater(sensor, resampler=ft.SystematicResampler()),
                               prior, detections)
-    paths = ft.ffbs(particles, transition, m, rng=2)
+    paths = ft.ffbs(particles, transition, m, rng=2, method=method)
     assert paths.shape == (n_times, 1, m)
     mean, var = paths[:, 0].mean(axis=1), paths[:, 0].var(axis=1)
     sd = np.sqrt(p_rts[:, 0, 0])
     np.testing.assert_array_less(np.abs(mean - x_rts[:, 0]), 5 * sd / np.sqrt(m) + 0.05 * sd)
     np.testing.assert_allclose(var, p_rts[:, 0, 0], rtol=0.2)
     # reproducible from the seed
-    np.testing.assert_array_equal(ft.ffbs(particles, transition, m, rng=2), paths)
+    np.testing.assert_array_equal(ft.ffbs(particles, transition, m, rng=2, method=method),
+                                  paths)
+
+
+def test_ffbs_tiny_noise_falls_back_to_the_exact_draw():
+    """With noise of standard deviation 0.01 and each particle moved by 0.2, a proposal is
+    accepted with probability exp(-200): every draw falls back to the exact one, which takes
+    the particle each one came from (the next nearest is 0.8 away)."""
+    transition = ft.LinearGaussianTransitionModel([[1.0]], [[1e-4]])
+    start = np.random.default_rng(5).permutation(np.arange(50.0))[None]
+    weights = np.log(np.linspace(1.0, 2.0, 50))
+    states = [ft.ParticleState(start, log_weight=weights, timestamp=0.0),
+              ft.ParticleState(start + 0.2, log_weight=weights, timestamp=1.0)]
+    paths = ft.ffbs(states, transition, 500, rng=6)
+    np.testing.assert_allclose(paths[1] - paths[0], 0.2)
+    assert len(np.unique(paths[1])) > 40
 
 
 def test_ffbs_bad_input():
@@ -457,6 +493,9 @@ def test_ffbs_bad_input():
     states = [ft.ParticleState(np.zeros((1, 5)), timestamp=float(t)) for t in range(3)]
     with pytest.raises(ValueError, match="n_paths"):
         ft.ffbs(states, transition, 0)
+    for method in ("mcmc", None, np.array(["exact"])):
+        with pytest.raises(ValueError, match="method"):
+            ft.ffbs(states, transition, 5, method=method)
     with pytest.raises(TypeError, match="transition_model"):
         ft.ffbs(states, "rw", 5)
     with pytest.raises(ValueError, match="particle_states"):
