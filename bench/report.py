@@ -38,7 +38,7 @@ TARGETS = [
     ("ukf-step", 1, "stonesoup", 50.0),
 ]
 # (workload, N, most microseconds per item): batches timed as one call over N items
-PER_ITEM_TARGETS = [("ekf-batch", 10**4, 0.5)]
+PER_ITEM_TARGETS = [("ekf-batch", 10**4, 0.5), ("ukf-batch", 10**4, 1.0)]
 #: (workload, N, seconds): the most a whole call may take (multi-target tracking).
 TIME_TARGETS = [("gnn-associate", 1000, 10e-3), ("gnn-associate", 10**4, 150e-3),
                 ("jpda-ehm", 100, 10e-3), ("gospa-50-tracks", 100, 5e-3),

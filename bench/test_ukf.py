@@ -60,3 +60,21 @@ def test_ukf_step_stonesoup(benchmark):
         return updater.update(SingleHypothesis(prediction, detection))
 
     benchmark.pedantic(step, rounds=200, iterations=5, warmup_rounds=2)
+
+
+@pytest.mark.parametrize("k", [10**4])
+def test_ukf_batch_fasttrack(benchmark, k):
+    """10^4 unscented filters, each with its own interval and measurement, one predict +
+    update (the EKF batch's workload)."""
+    benchmark.group = f"ukf-batch N={k}"
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    sensor = ft.CartesianToBearingRange(4, (0, 2), NOISE, translation_offset=[50, 0])
+    batch = ft.BatchUnscentedKalmanFilter(transition, sensor)
+    rng = np.random.default_rng(0)
+    means = PRIOR_MEAN + rng.normal(0, 1, (k, 4))
+    covars = np.broadcast_to(PRIOR_COVAR, (k, 4, 4)).copy()
+    measurements = np.column_stack([rng.normal(0.0, 0.1, k), rng.normal(49.0, 1.0, k)])
+    intervals = rng.uniform(0.5, 1.5, k)
+    benchmark.extra_info["filters"] = k
+    benchmark.pedantic(lambda: batch.step(means, covars, measurements, intervals), rounds=50,
+                       iterations=1, warmup_rounds=1)

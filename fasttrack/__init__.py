@@ -16,7 +16,7 @@ from .models import (Cartesian2DToBearing, CartesianToBearingRange,
                      LinearGaussianTransitionModel, MeasurementModel,
                      NonlinearGaussianMeasurement, NonlinearGaussianTransitionModel,
                      TransitionModel)
-from .batch import BatchExtendedKalmanFilter
+from .batch import BatchExtendedKalmanFilter, BatchUnscentedKalmanFilter
 from .filtering import run_filter
 from .memory import tune_allocator
 from .metrics import position_rmse
@@ -42,6 +42,7 @@ from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, Kalman
 
 __all__ = [
     "AdaptiveKernelKalmanPredictor", "AdaptiveKernelKalmanUpdater", "BatchExtendedKalmanFilter",
+    "BatchUnscentedKalmanFilter",
     "Cartesian2DToBearing", "CartesianToBearingRange", "CombinedLinearGaussianTransitionModel",
     "ConstantVelocity", "Detection", "ESSResampler", "ExtendedKalmanPredictor",
     "ExtendedKalmanSmoother", "ExtendedKalmanUpdater", "GaussianKernel",

@@ -8,8 +8,8 @@ MESSAGES = {
     _status.PREDICTION_NOT_PSD: "the prediction's covariance is not positive semi-definite",
     _status.PRIOR_NOT_SYMMETRIC: "prior.covar is not symmetric",
     _status.PREDICTION_NOT_SYMMETRIC: "the prediction's covariance is not symmetric",
-    _status.INNOVATION_NOT_PD: "the innovation covariance H P H^T + R is not positive "
-                               "definite (singular)",
+    _status.INNOVATION_NOT_PD: "the innovation covariance S (of the predicted measurement, "
+                               "plus R) is not positive definite (singular)",
     _status.JACOBIAN_UNDEFINED: "the measurement Jacobian is undefined at the predicted "
                                 "state (for a polar sensor: the target is at the sensor)",
     _status.MEASUREMENT_NOT_FINITE: "hypothesis.measurement contains NaN or infinite values",

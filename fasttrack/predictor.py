@@ -156,7 +156,8 @@ class UnscentedKalmanPredictor:
     ----------
     transition_model : TransitionModel
         A built-in linear-Gaussian transition model (``ConstantVelocity`` blocks or any
-        model with ``matrix``).
+        model with ``matrix``) or a :class:`~fasttrack.NonlinearGaussianTransitionModel`
+        (the sigma points go through its function).
     alpha : float
         Primary spread of the sigma points, > 0.
     beta : float
@@ -194,7 +195,8 @@ class UnscentedKalmanPredictor:
         Raises
         ------
         ValueError
-            If the prior's covariance is not symmetric positive semi-definite.
+            If the prior's covariance is not symmetric positive semi-definite, or the
+            user's transition function returns a wrong shape or non-finite values.
         """
         model = self.transition_model
         _gaussian_prior(prior, self._ndim)

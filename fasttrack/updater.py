@@ -260,7 +260,9 @@ class UnscentedKalmanUpdater(KalmanUpdater):
     ----------
     measurement_model : MeasurementModel, optional
         Used when the detection has none of its own: a built-in model
-        (:class:`~fasttrack.LinearGaussian` or a polar sensor).
+        (:class:`~fasttrack.LinearGaussian` or a polar sensor) or a
+        :class:`~fasttrack.NonlinearGaussianMeasurement` (the sigma points go through its
+        function).
     alpha : float
         Primary spread of the sigma points, > 0.
     beta : float

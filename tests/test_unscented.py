@@ -5,6 +5,7 @@ import datetime
 
 import numpy as np
 import pytest
+from numba import njit
 
 import fasttrack as ft
 from fasttrack._jit import kalman as kalman_kernels
@@ -12,6 +13,7 @@ from fasttrack._jit import unscented as kernels
 from fasttrack.scenarios import extended_kalman_tutorial
 
 import reference
+from user_models import bearing_range_from_50_0, coordinated_turn
 
 START = datetime.datetime(2026, 1, 1)
 SECOND = datetime.timedelta(seconds=1)
@@ -320,4 +322,195 @@ def test_bad_states_models_and_measurements_are_refused():
 
 
 def test_exported():
-    assert {"UnscentedKalmanPredictor", "UnscentedKalmanUpdater"} <= set(ft.__all__)
+    assert {"UnscentedKalmanPredictor", "UnscentedKalmanUpdater",
+            "BatchUnscentedKalmanFilter"} <= set(ft.__all__)
+
+
+# --- user models ---------------------------------------------------------------------------
+
+def _user_models(q=0.05):
+    """fasttrack's models from the user functions of tests/user_models.py and the Stone Soup
+    models they equal: a turn at 0.05 rad/s (Stone Soup's KnownTurnRate, whose Q the user
+    model takes) and bearing-range from (50, 0)."""
+    from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
+    from stonesoup.models.transition.linear import KnownTurnRate
+    turn = KnownTurnRate(turn_noise_diff_coeffs=[q, q], turn_rate=0.05)
+    theirs = (turn, CartesianToBearingRange(ndim_state=4, mapping=(0, 2), noise_covar=NOISE,
+                                            translation_offset=np.array([[50], [0]])))
+    ours = (ft.NonlinearGaussianTransitionModel(
+                coordinated_turn, lambda dt: turn.covar(time_interval=SECOND * dt), 4),
+            ft.NonlinearGaussianMeasurement(bearing_range_from_50_0, 4, NOISE,
+                                            angle_components=(0,)))
+    return ours, theirs
+
+
+def test_user_function_models_equal_stone_soup():
+    """Sigma points through the user's own functions (a turning target, bearing-range):
+    every posterior and measurement prediction equal to Stone Soup's UKF with its models."""
+    pytest.importorskip("stonesoup")
+    from stonesoup.predictor.kalman import UnscentedKalmanPredictor
+    from stonesoup.updater.kalman import UnscentedKalmanUpdater
+    (transition, sensor), (turn, their_sensor) = _user_models()
+    measurements = _measurements(extended_kalman_tutorial())
+    theirs = _run_stonesoup(UnscentedKalmanPredictor(turn), UnscentedKalmanUpdater(their_sensor),
+                            their_sensor, [0, 1, 0, 1], measurements)
+    ours = _run_fasttrack(ft.UnscentedKalmanPredictor(transition),
+                          ft.UnscentedKalmanUpdater(sensor), [0, 1, 0, 1], measurements)
+    assert _worst(ours, theirs) < 1e-9
+
+
+def test_user_function_kernels_match_their_mirrors():
+    rng = np.random.default_rng(11)
+    x = np.array([[30.0], [1.0], [-5.0], [0.5]])
+    covariance = _random_covariance(rng, 4)
+    q = _random_covariance(rng, 4) * 0.1
+    outs = [(np.empty((4, 1)), np.empty((4, 4))) for _ in range(2)]
+    args = (coordinated_turn, 2.0, q, 0.5, 2.0, -1.0, x, covariance)
+    assert kernels.unscented_predict_function(*args, *outs[0]) == 0
+    assert reference.unscented_predict_function(*args, *outs[1]) == 0
+    for a, b in zip(*outs):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
+    for joseph in (False, True):
+        outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
+                 np.empty((4, 2))) for _ in range(2)]
+        args = (bearing_range_from_50_0, NOISE, np.array([True, False]), 0.5, 2.0, -1.0,
+                joseph, x, covariance, np.array([[3.1], [25.0]]))
+        assert kernels.unscented_update_function(*args, *outs[0]) == 0
+        assert reference.unscented_update_function(*args, *outs[1]) == 0
+        for a, b in zip(*outs):
+            np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
+
+
+def test_bad_user_function_outputs_name_the_function():
+    @njit(cache=False)
+    def blows_up(states, dt):  # finite at the construction probe, infinite far away
+        out = states.copy()
+        out[0] = np.where(np.abs(states[0]) > 100.0, np.inf, states[0])
+        return out
+
+    @njit(cache=False)
+    def right_at_probe(states):  # 2 rows for the probe's 3 states, 1 for 9 sigma points
+        return np.zeros((2 if states.shape[1] == 3 else 1, states.shape[1]))
+
+    far = ft.GaussianState([500.0, 1.0, 0.0, 1.0], PRIOR_COVAR, timestamp=0.0)
+    transition = ft.NonlinearGaussianTransitionModel(blows_up, np.eye(4) * 0.01, 4)
+    with pytest.raises(ValueError, match="transition function 'blows_up' returned NaN or "
+                                         r"infinite values for states of shape \(4, 9\)"):
+        ft.UnscentedKalmanPredictor(transition).predict(far, 1.0)
+    sensor = ft.NonlinearGaussianMeasurement(right_at_probe, 4, NOISE)
+    with pytest.raises(ValueError, match=r"'right_at_probe' returned an array of shape \(1, 9\) "
+                                         r"for states of shape \(4, 9\); expected \(2, 9\)"):
+        ft.UnscentedKalmanUpdater(sensor).predict_measurement(far)
+
+
+# --- many filters at once ----------------------------------------------------------------------
+
+def _batch_inputs(k, rng):
+    means = rng.normal(size=(k, 4)) * [20.0, 1.0, 20.0, 1.0]
+    covars = np.array([_random_covariance(rng, 4) for _ in range(k)])
+    bearing = np.arctan2(means[:, 2], means[:, 0] - 50.0)
+    ranges = np.hypot(means[:, 0] - 50.0, means[:, 2])
+    z = np.stack([wrap(bearing + 0.01), ranges + 0.5], axis=1)
+    return means, covars, z
+
+
+def wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+@pytest.mark.parametrize("stages", [kernels.PREDICT | kernels.UPDATE,
+                                    kernels.PREDICT | kernels.MEASURE, kernels.UPDATE])
+@pytest.mark.parametrize("sensor", ["bearing-range", "linear"])
+def test_batch_kernel_matches_the_mirror(stages, sensor):
+    """300 filters (three blocks, the last partial), a CV transition with an interval per
+    filter, two bad covariances: outputs of the good filters and every status equal."""
+    rng = np.random.default_rng(5)
+    k = 300
+    means, covars, z = _batch_inputs(k, rng)
+    covars[17, 0, 1] += 1.0  # not symmetric
+    covars[250] = np.diag([1.0, -1.0, 1.0, 1.0])  # indefinite
+    model = _sensor() if sensor == "bearing-range" else ft.LinearGaussian(4, (0, 2), NOISE)
+    spec = _transition()._kalman_spec(1.0)
+    dts = rng.uniform(0.5, 2.0, k)
+    outs = [(np.empty((k, 4)), np.empty((k, 4, 4)), np.empty((k, 2)), np.empty((k, 2, 2)),
+             np.zeros(k, np.int64)) for _ in range(2)]
+    args = (*spec, dts, *model._kalman_args, 0.5, 2.0, -1.0, False, stages, means, covars, z)
+    kernels.batch_unscented(*args, *outs[0])
+    reference.batch_unscented(*args, *outs[1])
+    np.testing.assert_array_equal(outs[0][4], outs[1][4])
+    good = outs[1][4] == 0
+    assert good.sum() == k - 2
+    written = (0, 1, 2, 3) if stages & kernels.MEASURE else (0, 1)
+    for i in written:
+        np.testing.assert_allclose(outs[0][i][good], outs[1][i][good], rtol=1e-9, atol=1e-10)
+
+
+def _batch(**kwargs):
+    return ft.BatchUnscentedKalmanFilter(_transition(), _sensor(), **kwargs)
+
+
+@pytest.mark.parametrize("kwargs", [{}, dict(alpha=1.0, beta=0.0, kappa=0.0),
+                                    dict(use_joseph_cov=True)])
+def test_batch_filter_equals_one_filter_at_a_time(kwargs):
+    """``run`` over 12 steps of 200 filters with per-filter intervals equals each filter
+    through UnscentedKalmanPredictor/Updater; ``predict`` gives their measurement
+    predictions and ``update`` their posteriors."""
+    rng = np.random.default_rng(8)
+    k, steps = 200, 12
+    means, covars, _ = _batch_inputs(k, rng)
+    intervals = rng.uniform(0.5, 1.5, (steps, k))
+    truth = means[None] + np.cumsum(intervals, 0)[..., None] * means[None, :, [1, 1, 3, 3]] \
+        * [1, 0, 1, 0]
+    z = np.stack([wrap(np.arctan2(truth[..., 2], truth[..., 0] - 50.0) + 0.01),
+                  np.hypot(truth[..., 0] - 50.0, truth[..., 2]) + 0.3], axis=-1)
+    batch = _batch(**kwargs)
+    run_means, run_covars = batch.run(means, covars, z, intervals)
+    joseph = kwargs.get("use_joseph_cov", False)
+    sigma = {key: value for key, value in kwargs.items() if key != "use_joseph_cov"}
+    predictor = ft.UnscentedKalmanPredictor(_transition(), **sigma)
+    updater = ft.UnscentedKalmanUpdater(_sensor(), use_joseph_cov=joseph, **sigma)
+    for f in (0, 77, 199):
+        state = ft.GaussianState(means[f], covars[f], timestamp=0.0)
+        for t in range(steps):
+            prediction = predictor.predict(state, state.timestamp + intervals[t, f])
+            detection = ft.Detection(z[t, f], timestamp=prediction.timestamp)
+            state = updater.update(ft.SingleHypothesis(prediction, detection))
+            np.testing.assert_allclose(run_means[t, f], state.state_vector[:, 0],
+                                       rtol=1e-10, atol=1e-10)
+            np.testing.assert_allclose(run_covars[t, f], state.covar, rtol=1e-10, atol=1e-12)
+    predicted = batch.predict(means, covars, intervals[0])
+    posterior = batch.update(predicted[0], predicted[1], z[0])
+    np.testing.assert_allclose(posterior[0], run_means[0], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(posterior[1], run_covars[0], rtol=1e-12, atol=1e-12)
+    prior = ft.GaussianState(means[5], covars[5], timestamp=0.0)
+    one = updater.predict_measurement(predictor.predict(prior, intervals[0, 5]))
+    np.testing.assert_allclose(predicted[2][5], one.state_vector[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(predicted[3][5], one.covar, rtol=1e-12)
+
+
+def test_batch_filter_names_the_failing_filter_and_bad_arguments():
+    rng = np.random.default_rng(9)
+    means, covars, z = _batch_inputs(50, rng)
+    covars[31] = -np.eye(4)
+    batch = _batch()
+    with pytest.raises(ValueError, match="1 of 50 filters failed; filter 31: prior.covar is not positive"):
+        batch.step(means, covars, z, 1.0)
+    with pytest.raises(ValueError, match="filter 31 at step 0"):
+        batch.run(means, covars, z[None], 1.0)
+    with pytest.raises(ValueError, match="filter 31: the prediction.s covariance"):
+        batch.update(means, covars, z)
+    with pytest.raises(ValueError, match=r"means must have shape \(K, 4\)"):
+        batch.step(means[:, :3], covars, z, 1.0)
+    with pytest.raises(ValueError, match="measurements must have shape"):
+        batch.step(means, covars, z[:, :1], 1.0)
+    with pytest.raises(ValueError, match="time_intervals"):
+        batch.predict(means, covars, np.ones(7))
+    with pytest.raises(TypeError, match="measurement_model"):
+        ft.BatchUnscentedKalmanFilter(_transition(), ft.NonlinearGaussianMeasurement(
+            bearing_range_from_50_0, 4, NOISE))
+    with pytest.raises(ValueError, match="alpha"):
+        _batch(alpha=0.0)
+    with pytest.raises(ValueError, match="kappa"):
+        _batch(kappa=-4.0)
+    empty = batch.step(np.empty((0, 4)), np.empty((0, 4, 4)), np.empty((0, 2)), 1.0)
+    assert empty[0].shape == (0, 4) and empty[1].shape == (0, 4, 4)

@@ -222,6 +222,8 @@ ROW_CASES = textwrap.dedent("""
                      lambda: ft.ParticleUpdater(model).update(
                          ft.SingleHypothesis(prediction, ft.Detection([0.1, 1.0]))),
                      lambda: ft.ExtendedKalmanUpdater(model).update(
+                         ft.SingleHypothesis(gaussian, ft.Detection([0.1, 1.0]))),
+                     lambda: ft.UnscentedKalmanUpdater(model).update(
                          ft.SingleHypothesis(gaussian, ft.Detection([0.1, 1.0])))]
             for call in calls:
                 try:

@@ -253,9 +253,18 @@ def _update(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, cov
     ``(I - K H) P (I - K H)^T + K R K^T``. Filters whose S is not positive definite get
     INNOVATION_NOT_PD, non-finite measurements MEASUREMENT_NOT_FINITE.
     """
+    _innovation_covar(covariance, jacobian, noise, cross, innovation_covar)
+    _correct(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, covariance_out,
+             innovation_covar, cross, status)
+
+
+@jit()
+def _correct(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, covariance_out,
+             innovation_covar, cross, status):
+    """The gain step of :func:`_update` given each filter's ``cross`` (d, m, B) and
+    ``innovation_covar`` (m, m, B) (the Jacobian is read only by the Joseph form)."""
     d, nb = x.shape
     m = z.shape[0]
-    _innovation_covar(covariance, jacobian, noise, cross, innovation_covar)
     lower = np.empty((m, m, nb))
     _cholesky(innovation_covar, lower, status, INNOVATION_NOT_PD)
     whitened = np.empty((m, d, nb))  # L^-1 cross^T

@@ -1,4 +1,4 @@
-"""Unscented Kalman kernels of one Gaussian state (Stone Soup's ``gauss2sigma``,
+"""Unscented Kalman kernels, on blocks of filters (Stone Soup's ``gauss2sigma``,
 ``unscented_transform`` and ``sigma2gauss``).
 
 Sigma points of a mean x (d,) and covariance P: ``lambda = alpha^2 (d + kappa) - d``,
@@ -9,43 +9,256 @@ points ``x``, ``x + sqrt(c) L[:, i]`` (i < d), ``x - sqrt(c) L[:, i]``; mean wei
 for the centre. The transformed points Y give the mean ``sum(Wm Y) / sum(Wm)`` (for an angle
 row the circular mean ``atan2(sum(Wm sin Y), sum(Wm cos Y))``, as Stone Soup's ``Bearing``
 rows average), the covariance ``sum Wc (Y - y)(Y - y)^T + noise`` and the cross covariance
-``sum Wc (X - X_0)(Y - y)^T``, with the angle rows of ``Y - y`` wrapped to [-pi, pi).
+``sum Wc (X - X_0)(Y - y)^T``, with the angle rows of ``Y - y`` wrapped to [-pi, pi). The
+update is the Kalman gain step of :mod:`kalman` with that cross covariance.
 
-Layout: points are (n, 2d + 1), one sigma point per column. Covariances are computed on the
-lower triangle and mirrored (exactly symmetric).
+Layout as :mod:`kalman`: the filter index last, means (d, B), covariances (d, d, B), sigma
+points (d, 2d + 1, B), so that the loops over a block's filters vectorise; one filter is a
+block of one. Covariances are computed on the lower triangle and mirrored (exactly
+symmetric).
 """
 import numpy as np
 
 from . import jit
-from .kalman import _check_covariance, _sandwich, _transition
-from .numeric import cholesky, fill, wrap_angle
+from .kalman import (FILTERS_PER_BLOCK, _check_covariance, _correct, _from_block, _to_block,
+                     _transition)
+from .numeric import copy_into, fill, sin_cos_turns, wrap_angle
 from .sensor import _predict_block
-from .status import (INNOVATION_NOT_PD, MEASUREMENT_NOT_FINITE, OK, PREDICTION_NOT_PSD,
-                     PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC)
+from .status import (OK, PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
+                     PRIOR_NOT_SYMMETRIC)
+from .user import output_status
+
+#: Stages of :func:`batch_unscented` (a bit mask).
+PREDICT, MEASURE, UPDATE = np.int64(1), np.int64(2), np.int64(4)
+
+
+# --- blocks: the filter index last --------------------------------------------------------
+
+
+@jit()
+def _weights(d, alpha, beta, kappa):
+    """The mean and covariance weights (2d + 1,) and the spread ``sqrt(c)``."""
+    alpha2 = alpha * alpha
+    lamda = alpha2 * (d + kappa) - d
+    c = d + lamda
+    mean_weights = np.full(2 * d + 1, 0.5 / c)
+    covar_weights = np.full(2 * d + 1, 0.5 / c)
+    mean_weights[0] = lamda / c
+    covar_weights[0] = lamda / c + (1.0 - alpha2 + beta)
+    return mean_weights, covar_weights, np.sqrt(c)
 
 
 @jit()
 def _cholesky_eps(a, lower):
-    """Lower Cholesky factor of the symmetric (n, n) ``a`` into ``lower``; a pivot not above
-    ``spacing(max diag a)`` becomes its square root (Stone Soup's ``cholesky_eps``)."""
-    n = a.shape[0]
-    top = a[0, 0]
-    for i in range(n):
-        top = max(top, a[i, i])
-    eps = np.spacing(top)
-    for i in range(n):
-        for j in range(n):
-            lower[i, j] = 0.0
-    for i in range(n):
-        for j in range(i):
-            s = a[i, j]
+    """Lower Cholesky factors of the symmetric (d, d, B) ``a`` into ``lower``; a pivot not
+    above ``spacing(max diag a)`` becomes its square root (Stone Soup's ``cholesky_eps``)."""
+    d, _, nb = a.shape
+    eps = np.empty(nb)
+    for b in range(nb):
+        top = a[0, 0, b]
+        for i in range(d):
+            top = max(top, a[i, i, b])
+        eps[b] = np.spacing(top)
+    fill(lower, 0.0)
+    acc = np.empty(nb)
+    for i in range(d):
+        for j in range(i + 1):
+            for b in range(nb):
+                acc[b] = a[i, j, b]
             for k in range(j):
-                s -= lower[i, k] * lower[j, k]
-            lower[i, j] = s / lower[j, j]
-        s = a[i, i]
-        for k in range(i):
-            s -= lower[i, k] * lower[i, k]
-        lower[i, i] = np.sqrt(s) if s > eps else np.sqrt(eps)
+                li, lj = lower[i, k], lower[j, k]
+                for b in range(nb):
+                    acc[b] -= li[b] * lj[b]
+            out = lower[i, j]
+            if j < i:
+                pivot = lower[j, j]
+                for b in range(nb):
+                    out[b] = acc[b] / pivot[b]
+            else:
+                for b in range(nb):
+                    out[b] = np.sqrt(acc[b]) if acc[b] > eps[b] else np.sqrt(eps[b])
+
+
+@jit()
+def _sigma(x, covariance, alpha, beta, kappa):
+    """Sigma points (d, 2d + 1, B) of the means ``x`` (d, B) and covariances (d, d, B), the
+    Cholesky factors used (d, d, B) and the weights (see :func:`_weights`)."""
+    d, nb = x.shape
+    mean_weights, covar_weights, root = _weights(d, alpha, beta, kappa)
+    lower = np.empty((d, d, nb))
+    _cholesky_eps(covariance, lower)
+    points = np.empty((d, 2 * d + 1, nb))
+    for r in range(d):
+        xr = x[r]
+        centre = points[r, 0]
+        for b in range(nb):
+            centre[b] = xr[b]
+        for i in range(d):
+            column = lower[r, i]
+            plus, minus = points[r, 1 + i], points[r, 1 + d + i]
+            for b in range(nb):
+                step = column[b] * root
+                plus[b] = xr[b] + step
+                minus[b] = xr[b] - step
+    return points, lower, mean_weights, covar_weights
+
+
+@jit()
+def _moments(points, transformed, mean_weights, covar_weights, angles, noise, mean, covar,
+             cross):
+    """Mean (m, B), covariance (m, m, B) plus ``noise`` (m, m, B), and cross covariance
+    (d, m, B) of the transformed sigma points (m, 2d + 1, B) of ``points``
+    (d, 2d + 1, B); rows where ``angles`` (m,) is True are angles (circular mean, wrapped
+    differences). ``cross`` with no rows: not computed."""
+    n = points.shape[1]
+    m, _, nb = transformed.shape
+    total = 0.0
+    for i in range(n):
+        total += mean_weights[i]
+    for r in range(m):
+        out = mean[r]
+        if angles[r]:
+            sines, cosines = np.zeros(nb), np.zeros(nb)
+            for i in range(n):
+                row, w = transformed[r, i], mean_weights[i]
+                for b in range(nb):
+                    turns = row[b] * 0.15915494309189535
+                    s, c = sin_cos_turns(turns - np.floor(turns))
+                    sines[b] += s * w
+                    cosines[b] += c * w
+            for b in range(nb):
+                out[b] = wrap_angle(np.arctan2(sines[b] / total, cosines[b] / total))
+        else:
+            fill(out, 0.0)
+            for i in range(n):
+                row, w = transformed[r, i], mean_weights[i]
+                for b in range(nb):
+                    out[b] += row[b] * w
+            for b in range(nb):
+                out[b] /= total
+    diff = np.empty(transformed.shape)
+    for r in range(m):
+        for i in range(n):
+            row, centre, out = transformed[r, i], mean[r], diff[r, i]
+            if angles[r]:
+                for b in range(nb):
+                    out[b] = wrap_angle(row[b] - centre[b])
+            else:
+                for b in range(nb):
+                    out[b] = row[b] - centre[b]
+    for r in range(m):
+        for c in range(r + 1):
+            out = covar[r, c]
+            for b in range(nb):
+                out[b] = 0.0
+            for i in range(n):
+                dr, dc, w = diff[r, i], diff[c, i], covar_weights[i]
+                for b in range(nb):
+                    out[b] += dr[b] * w * dc[b]
+            extra, mirror = noise[r, c], covar[c, r]
+            for b in range(nb):
+                out[b] += extra[b]
+                mirror[b] = out[b]
+    for r in range(cross.shape[0]):
+        for c in range(m):
+            out = cross[r, c]
+            fill(out, 0.0)
+            for i in range(n):
+                p, p0, dc, w = points[r, i], points[r, 0], diff[c, i], covar_weights[i]
+                for b in range(nb):
+                    out[b] += (p[b] - p0[b]) * w * dc[b]
+
+
+@jit()
+def _no_cross(m, nb):
+    return np.empty((0, m, nb))
+
+
+@jit()
+def _predict(matrix, covar, alpha, beta, kappa, x, covariance, x_out, covariance_out):
+    """The unscented prediction of checked priors through F (d, d, B), plus Q (d, d, B)."""
+    d, nb = x.shape
+    points, _, mean_weights, covar_weights = _sigma(x, covariance, alpha, beta, kappa)
+    moved = np.zeros(points.shape)
+    for r in range(d):
+        for i in range(points.shape[1]):
+            out = moved[r, i]
+            for k in range(d):
+                f, p = matrix[r, k], points[k, i]
+                for b in range(nb):
+                    out[b] += f[b] * p[b]
+    _moments(points, moved, mean_weights, covar_weights, np.zeros(d, dtype=np.bool_), covar,
+             x_out, covariance_out, _no_cross(d, nb))
+
+
+@jit()
+def _measure(kind, mapping, offset, rotation, alpha, beta, kappa, x, covariance, m):
+    """The sigma points of ``(x, covariance)`` (as :func:`_sigma`) and their predicted
+    measurements (m, 2d + 1, B) by a built-in kind."""
+    points, lower, mean_weights, covar_weights = _sigma(x, covariance, alpha, beta, kappa)
+    d, n, nb = points.shape
+    transformed = np.empty((m, n, nb))
+    _predict_block(kind, points.reshape((d, n * nb)), np.int64(0), np.int64(n * nb), mapping,
+                   offset, rotation, transformed.reshape((m, n * nb)), np.int64(0))
+    return transformed, points, lower, mean_weights, covar_weights
+
+
+@jit()
+def _tiled(matrix, nb):
+    """The (r, c) ``matrix`` repeated for B filters: (r, c, B)."""
+    rows, cols = matrix.shape
+    out = np.empty((rows, cols, nb))
+    for r in range(rows):
+        for c in range(cols):
+            for b in range(nb):
+                out[r, c, b] = matrix[r, c]
+    return out
+
+
+@jit()
+def _linearisation(lower, cross):
+    """The statistical linearisation ``H = C^T P^-1`` (m, d, B) of cross covariances C
+    (d, m, B), with ``P = L L^T`` the sigma points' factors: ``H^T = L^-T L^-1 C``."""
+    d, m, nb = cross.shape
+    h_t = np.empty((d, m, nb))
+    for c in range(m):
+        for r in range(d):
+            for b in range(nb):
+                s = cross[r, c, b]
+                for k in range(r):
+                    s -= lower[r, k, b] * h_t[k, c, b]
+                h_t[r, c, b] = s / lower[r, r, b]
+        for r in range(d - 1, -1, -1):
+            for b in range(nb):
+                s = h_t[r, c, b]
+                for k in range(r + 1, d):
+                    s -= lower[k, r, b] * h_t[k, c, b]
+                h_t[r, c, b] = s / lower[r, r, b]
+    h = np.empty((m, d, nb))
+    for r in range(m):
+        for c in range(d):
+            for b in range(nb):
+                h[r, c, b] = h_t[c, r, b]
+    return h
+
+
+@jit()
+def _update(transformed, points, lower, mean_weights, covar_weights, noise, angles, joseph,
+            x, covariance, z, x_out, covariance_out, z_hat, innovation_covar, cross, status):
+    """The update of the filters whose sigma points (of ``x``, ``covariance``) measure
+    ``transformed``: the moments, then the Kalman gain step (:func:`kalman._correct`, the
+    Joseph form with the statistical linearisation)."""
+    d, nb = x.shape
+    m = z.shape[0]
+    tiled = _tiled(noise, nb)
+    _moments(points, transformed, mean_weights, covar_weights, angles, tiled, z_hat,
+             innovation_covar, cross)
+    jacobian = _linearisation(lower, cross) if joseph else np.empty((m, d, 0))
+    _correct(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, covariance_out,
+             innovation_covar, cross, status)
+
+
+# --- one filter: a state's (d, 1) column and its (d, d) covariance ------------------------
 
 
 @jit()
@@ -55,22 +268,11 @@ def sigma_points(x, covariance, alpha, beta, kappa, lower, points, mean_weights,
     their weights (2d + 1,) into ``mean_weights`` and ``covar_weights``, and the Cholesky
     factor used into ``lower`` (d, d)."""
     d = x.shape[0]
-    _cholesky_eps(covariance, lower)
-    alpha2 = alpha * alpha
-    lamda = alpha2 * (d + kappa) - d
-    c = d + lamda
-    root = np.sqrt(c)
-    for r in range(d):
-        points[r, 0] = x[r, 0]
-        for i in range(d):
-            step = lower[r, i] * root
-            points[r, 1 + i] = x[r, 0] + step
-            points[r, 1 + d + i] = x[r, 0] - step
-    mean_weights[0] = lamda / c
-    covar_weights[0] = lamda / c + (1.0 - alpha2 + beta)
-    for i in range(1, 2 * d + 1):
-        mean_weights[i] = 0.5 / c
-        covar_weights[i] = 0.5 / c
+    block, factor, wm, wc = _sigma(x, covariance.reshape((d, d, 1)), alpha, beta, kappa)
+    copy_into(block, points)
+    copy_into(factor, lower)
+    copy_into(wm, mean_weights)
+    copy_into(wc, covar_weights)
 
 
 @jit()
@@ -79,49 +281,30 @@ def unscented_moments(points, transformed, mean_weights, covar_weights, angles, 
     """Mean (m, 1), covariance (m, m) (plus ``noise``) and cross covariance (d, m) of the
     transformed sigma points (m, 2d + 1) of ``points`` (d, 2d + 1); rows where ``angles``
     (m,) is True are angles (circular mean, wrapped differences)."""
-    _moments(points, transformed, mean_weights, covar_weights, angles, noise, mean, covar,
-             cross, np.empty(transformed.shape))
+    d, n = points.shape
+    m = transformed.shape[0]
+    _moments(points.reshape((d, n, 1)), transformed.reshape((m, n, 1)), mean_weights,
+             covar_weights, angles, noise.reshape((m, m, 1)), mean,
+             covar.reshape((m, m, 1)), cross.reshape((d, m, 1)))
 
 
 @jit()
-def _moments(points, transformed, mean_weights, covar_weights, angles, noise, mean, covar,
-             cross, diff):
-    """:func:`unscented_moments` with ``diff`` (m, 2d + 1) as workspace."""
-    d, n = points.shape
-    m = transformed.shape[0]
-    total = 0.0
-    for i in range(n):
-        total += mean_weights[i]
-    for r in range(m):
-        if angles[r]:
-            s, c = 0.0, 0.0
-            for i in range(n):
-                s += np.sin(transformed[r, i]) * mean_weights[i]
-                c += np.cos(transformed[r, i]) * mean_weights[i]
-            mean[r, 0] = wrap_angle(np.arctan2(s / total, c / total))
-        else:
-            s = 0.0
-            for i in range(n):
-                s += transformed[r, i] * mean_weights[i]
-            mean[r, 0] = s / total
-    for r in range(m):
-        for i in range(n):
-            v = transformed[r, i] - mean[r, 0]
-            diff[r, i] = wrap_angle(v) if angles[r] else v
-    for r in range(m):
-        for c in range(r + 1):
-            s = 0.0
-            for i in range(n):
-                s += diff[r, i] * covar_weights[i] * diff[c, i]
-            s += noise[r, c]
-            covar[r, c] = s
-            covar[c, r] = s
-    for r in range(d):
-        for c in range(m):
-            s = 0.0
-            for i in range(n):
-                s += (points[r, i] - points[r, 0]) * covar_weights[i] * diff[c, i]
-            cross[r, c] = s
+def _checked_prior(covariance):
+    """The status of a (d, d) prior covariance (symmetric positive semi-definite: OK)."""
+    d = covariance.shape[0]
+    status = np.zeros(1, dtype=np.int64)
+    _check_covariance(covariance.reshape((d, d, 1)), status, PRIOR_NOT_SYMMETRIC,
+                      PRIOR_NOT_PSD)
+    return status
+
+
+@jit()
+def _checked_prediction(covariance):
+    d = covariance.shape[0]
+    status = np.zeros(1, dtype=np.int64)
+    _check_covariance(covariance.reshape((d, d, 1)), status, PREDICTION_NOT_SYMMETRIC,
+                      PREDICTION_NOT_PSD)
+    return status
 
 
 @jit()
@@ -131,45 +314,35 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
     :mod:`kalman`): the prior's sigma points moved by F, their moments plus Q. Returns the
     status (PRIOR_NOT_SYMMETRIC / PRIOR_NOT_PSD for a bad prior covariance)."""
     d = x.shape[0]
-    n = 2 * d + 1
-    status = np.zeros(1, dtype=np.int64)
-    _check_covariance(covariance.reshape((d, d, 1)), status, PRIOR_NOT_SYMMETRIC,
-                      PRIOR_NOT_PSD)
+    status = _checked_prior(covariance)
+    if status[0] == OK:
+        matrix, covar = np.empty((d, d, 1)), np.empty((d, d, 1))
+        _transition(kind, rates, fixed_matrix, fixed_covar, np.full(1, dt), matrix, covar)
+        _predict(matrix, covar, alpha, beta, kappa, x, covariance.reshape((d, d, 1)), x_out,
+                 covariance_out.reshape((d, d, 1)))
+    return status[0]
+
+
+@jit()
+def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covariance,
+                               x_out, covariance_out):
+    """One filter's unscented prediction through a user transition ``f((d, n), dt)``: the
+    prior's sigma points through f (its output checked first, see :mod:`user`), their
+    moments plus ``covar`` (Q). Returns the status."""
+    d = x.shape[0]
+    status = _checked_prior(covariance)
     if status[0] != OK:
         return status[0]
-    # one workspace (few small allocations: they dominate at these sizes)
-    work = np.empty(3 * d * d + 3 * d * n + 2 * n + 1)
-    at = 0
-    matrix = work[at:at + d * d].reshape((d, d, 1))
-    at += d * d
-    covar = work[at:at + d * d].reshape((d, d, 1))
-    at += d * d
-    lower = work[at:at + d * d].reshape((d, d))
-    at += d * d
-    points = work[at:at + d * n].reshape((d, n))
-    at += d * n
-    moved = work[at:at + d * n].reshape((d, n))
-    at += d * n
-    diff = work[at:at + d * n].reshape((d, n))
-    at += d * n
-    mean_weights = work[at:at + n]
-    at += n
-    covar_weights = work[at:at + n]
-    at += n
-    dts = work[at:at + 1]
-    dts[0] = dt
-    _transition(kind, rates, fixed_matrix, fixed_covar, dts, matrix, covar)
-    sigma_points(x, covariance, alpha, beta, kappa, lower, points, mean_weights, covar_weights)
-    for r in range(d):
-        for i in range(n):
-            s = 0.0
-            for k in range(d):
-                s += matrix[r, k, 0] * points[k, i]
-            moved[r, i] = s
-    angles = np.zeros(d, dtype=np.bool_)
-    _moments(points, moved, mean_weights, covar_weights, angles, covar.reshape((d, d)),
-             x_out, covariance_out, lower, diff)  # the cross covariance is not needed
-    return OK
+    points, _, mean_weights, covar_weights = _sigma(x, covariance.reshape((d, d, 1)), alpha,
+                                                    beta, kappa)
+    n = points.shape[1]
+    moved = function(points.reshape((d, n)), dt)
+    code = output_status(moved, d, n)
+    if code == OK:
+        _moments(points, np.ascontiguousarray(moved).reshape((d, n, 1)), mean_weights,
+                 covar_weights, np.zeros(d, dtype=np.bool_), covar.reshape((d, d, 1)), x_out,
+                 covariance_out.reshape((d, d, 1)), _no_cross(d, 1))
+    return code
 
 
 @jit()
@@ -183,102 +356,98 @@ def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta
     ``z - z_hat`` with angle rows wrapped, ``x_out = x + K v``, and ``P - K S K^T`` or with
     ``joseph`` ``(I - K H) P (I - K H)^T + K R K^T`` with the statistical linearisation
     ``H = C^T P^-1`` (exact for a linear sensor). Returns the status."""
-    d = x.shape[0]
-    m = z.shape[0]
-    n = 2 * d + 1
-    status = np.zeros(1, dtype=np.int64)
-    _check_covariance(covariance.reshape((d, d, 1)), status, PREDICTION_NOT_SYMMETRIC,
-                      PREDICTION_NOT_PSD)
+    d, m = x.shape[0], z.shape[0]
+    status = _checked_prediction(covariance)
+    if status[0] == OK:
+        covariance = covariance.reshape((d, d, 1))
+        measured = _measure(kind, mapping, offset, rotation, alpha, beta, kappa, x,
+                            covariance, m)
+        _update(*measured, noise, angles, joseph, x, covariance, z, x_out,
+                covariance_out.reshape((d, d, 1)), z_hat, innovation_covar.reshape((m, m, 1)),
+                cross.reshape((d, m, 1)), status)
+    return status[0]
+
+
+@jit()
+def unscented_update_function(function, noise, angles, alpha, beta, kappa, joseph, x,
+                              covariance, z, x_out, covariance_out, z_hat, innovation_covar,
+                              cross):
+    """One filter's unscented update with a user measurement ``h((d, n)) -> (m, n)`` (its
+    output checked first); otherwise as :func:`unscented_update`. Returns the status."""
+    d, m = x.shape[0], z.shape[0]
+    status = _checked_prediction(covariance)
     if status[0] != OK:
         return status[0]
-    work = np.empty(d * d + d * n + 2 * m * n + 2 * n + m * m + 2 * m * d + m)
-    at = 0
-    lower = work[at:at + d * d].reshape((d, d))
-    at += d * d
-    points = work[at:at + d * n].reshape((d, n))
-    at += d * n
-    transformed = work[at:at + m * n].reshape((m, n))
-    at += m * n
-    diff = work[at:at + m * n].reshape((m, n))
-    at += m * n
-    mean_weights = work[at:at + n]
-    at += n
-    covar_weights = work[at:at + n]
-    at += n
-    chol = work[at:at + m * m].reshape((m, m))
-    at += m * m
-    whitened = work[at:at + m * d].reshape((m, d))  # L^-1 C^T
-    at += m * d
-    gain_t = work[at:at + m * d].reshape((m, d))  # S^-1 C^T = K^T
-    at += m * d
-    innovation = work[at:at + m]
-    sigma_points(x, covariance, alpha, beta, kappa, lower, points, mean_weights, covar_weights)
-    _predict_block(kind, points, np.int64(0), np.int64(n), mapping, offset, rotation,
-                   transformed, np.int64(0))
-    _moments(points, transformed, mean_weights, covar_weights, angles, noise, z_hat,
-             innovation_covar, cross, diff)
-    if not cholesky(innovation_covar, chol):
-        return INNOVATION_NOT_PD
-    for c in range(d):
-        for r in range(m):
-            s = cross[c, r]
-            for k in range(r):
-                s -= chol[r, k] * whitened[k, c]
-            whitened[r, c] = s / chol[r, r]
-        for r in range(m - 1, -1, -1):
-            s = whitened[r, c]
-            for k in range(r + 1, m):
-                s -= chol[k, r] * gain_t[k, c]
-            gain_t[r, c] = s / chol[r, r]
-    for r in range(m):
-        if not np.isfinite(z[r, 0]):
-            return MEASUREMENT_NOT_FINITE
-        v = z[r, 0] - z_hat[r, 0]
-        innovation[r] = wrap_angle(v) if angles[r] else v
-    for r in range(d):
-        s = x[r, 0]
-        for k in range(m):
-            s += gain_t[k, r] * innovation[k]
-        x_out[r, 0] = s
-    if not joseph:
-        for r in range(d):
-            for c in range(r + 1):
-                s = covariance[r, c]
-                for k in range(m):
-                    s -= whitened[k, r] * whitened[k, c]
-                covariance_out[r, c] = s
-                covariance_out[c, r] = s
-        return OK
-    # H^T = P^-1 C = L^-T L^-1 C with the sigma points' factor L
-    h_t = np.empty((d, m))
-    for c in range(m):
-        for r in range(d):
-            s = cross[r, c]
-            for k in range(r):
-                s -= lower[r, k] * h_t[k, c]
-            h_t[r, c] = s / lower[r, r]
-        for r in range(d - 1, -1, -1):
-            s = h_t[r, c]
-            for k in range(r + 1, d):
-                s -= lower[k, r] * h_t[k, c]
-            h_t[r, c] = s / lower[r, r]
-    square = np.empty((d, d, 1))  # I - K H
-    for r in range(d):
-        for c in range(d):
-            s = 1.0 if r == c else 0.0
-            for k in range(m):
-                s -= gain_t[k, r] * h_t[c, k]
-            square[r, c, 0] = s
-    out = covariance_out.reshape((d, d, 1))
-    fill(out, 0.0)
-    _sandwich(square, covariance.reshape((d, d, 1)), np.empty((d, d, 1)), out)
-    gain = np.empty((d, m, 1))
-    noises = np.empty((m, m, 1))
-    for r in range(d):
-        for c in range(m):
-            gain[r, c, 0] = gain_t[c, r]
-    for r in range(m):
-        for c in range(m):
-            noises[r, c, 0] = noise[r, c]
-    _sandwich(gain, noises, np.empty((d, m, 1)), out)
-    return OK
+    covariance = covariance.reshape((d, d, 1))
+    points, lower, mean_weights, covar_weights = _sigma(x, covariance, alpha, beta, kappa)
+    n = points.shape[1]
+    transformed = function(points.reshape((d, n)))
+    code = output_status(transformed, m, n)
+    if code != OK:
+        return code
+    _update(np.ascontiguousarray(transformed).reshape((m, n, 1)), points, lower,
+            mean_weights, covar_weights, noise, angles, joseph, x, covariance, z, x_out,
+            covariance_out.reshape((d, d, 1)), z_hat, innovation_covar.reshape((m, m, 1)),
+            cross.reshape((d, m, 1)), status)
+    return status[0]
+
+
+# --- many filters: rows of (K, d) means and (K, d, d) covariances ------------------------
+
+
+@jit()
+def batch_unscented(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
+                    rotation, noise, angles, alpha, beta, kappa, joseph, stages, means,
+                    covars, measurements, means_out, covars_out, z_hats, innovation_covars,
+                    status):
+    """Unscented steps of K filters, rows of ``means`` (K, d) and ``covars`` (K, d, d),
+    in blocks, each filter as the one-filter kernels do it, with its status into
+    ``status`` (K,).
+
+    ``stages`` (a mask of PREDICT, MEASURE, UPDATE): PREDICT by the transition (interval
+    ``dts[k]`` seconds for filter k) into ``means_out``/``covars_out``; MEASURE the
+    predicted measurement and innovation covariance of the prediction (or of the input
+    with no PREDICT) into ``z_hats`` (K, m) and ``innovation_covars`` (K, m, m); UPDATE
+    the prediction (or the input) by ``measurements`` (K, m) into ``means_out``/
+    ``covars_out``. A filter whose status is not OK has unspecified outputs."""
+    k, d = means.shape
+    m = noise.shape[0]
+    for lo in range(0, k, FILTERS_PER_BLOCK):
+        hi = min(k, lo + FILTERS_PER_BLOCK)
+        nb = hi - lo
+        x, covariance = np.empty((d, nb)), np.empty((d, d, nb))
+        _to_block(means, lo, hi, x)
+        _to_block(covars, lo, hi, covariance)
+        block_status = np.zeros(nb, dtype=np.int64)
+        if stages & PREDICT:
+            _check_covariance(covariance, block_status, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+            matrix, covar = np.empty((d, d, nb)), np.empty((d, d, nb))
+            _transition(t_kind, rates, fixed_matrix, fixed_covar, dts[lo:hi], matrix, covar)
+            x_pred, covariance_pred = np.empty((d, nb)), np.empty((d, d, nb))
+            _predict(matrix, covar, alpha, beta, kappa, x, covariance, x_pred,
+                     covariance_pred)
+            x, covariance = x_pred, covariance_pred
+        if stages & (MEASURE | UPDATE):
+            _check_covariance(covariance, block_status, PREDICTION_NOT_SYMMETRIC,
+                              PREDICTION_NOT_PSD)
+            measured = _measure(m_kind, mapping, offset, rotation, alpha, beta, kappa, x,
+                                covariance, m)
+            z_hat, innovation_covar = np.empty((m, nb)), np.empty((m, m, nb))
+            if stages & MEASURE:
+                transformed, points, _, mean_weights, covar_weights = measured
+                _moments(points, transformed, mean_weights, covar_weights, angles,
+                         _tiled(noise, nb), z_hat, innovation_covar, _no_cross(m, nb))
+                _from_block(z_hat, lo, hi, z_hats)
+                _from_block(innovation_covar, lo, hi, innovation_covars)
+            if stages & UPDATE:
+                z = np.empty((m, nb))
+                _to_block(measurements, lo, hi, z)
+                x_post, covariance_post = np.empty((d, nb)), np.empty((d, d, nb))
+                _update(*measured, noise, angles, joseph, x, covariance, z, x_post,
+                        covariance_post, z_hat, innovation_covar, np.empty((d, m, nb)),
+                        block_status)
+                x, covariance = x_post, covariance_post
+        _from_block(x, lo, hi, means_out)
+        _from_block(covariance, lo, hi, covars_out)
+        for b in range(nb):
+            status[lo + b] = block_status[b]

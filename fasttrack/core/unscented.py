@@ -38,50 +38,73 @@ def scaling(alpha, kappa, d):
 
 
 def check_transition(model):
-    """A TypeError unless ``model`` is a built-in linear transition (the kinds the kernel
-    knows)."""
-    if not hasattr(model, "_kalman_spec"):
+    """A TypeError unless ``model`` is a built-in linear transition or one built from a
+    user's Numba function (the kinds the kernels know)."""
+    if not (hasattr(model, "_kalman_spec") or hasattr(model, "transition_function")):
         raise TypeError(f"transition_model: the unscented Kalman filter supports the built-in "
-                        f"linear transition models, got {type(model).__name__}")
+                        f"transition models and NonlinearGaussianTransitionModel, got "
+                        f"{type(model).__name__}")
 
 
 def check_measurement(model):
-    """A TypeError unless ``model`` is a built-in measurement model (LinearGaussian or a
-    polar sensor; not a NonlinearGaussianMeasurement of a user function)."""
-    if isinstance(model, NonlinearGaussianMeasurement) or not hasattr(model, "_kalman_args"):
+    """A TypeError unless ``model`` is a built-in measurement model (LinearGaussian, a polar
+    sensor, or a NonlinearGaussianMeasurement of a user's function)."""
+    if not (isinstance(model, NonlinearGaussianMeasurement) or hasattr(model, "_kalman_args")):
         raise TypeError(f"the unscented Kalman filter supports the built-in measurement "
-                        f"models (LinearGaussian and the polar sensors), got "
-                        f"{type(model).__name__}")
+                        f"models (LinearGaussian, the polar sensors and "
+                        f"NonlinearGaussianMeasurement), got {type(model).__name__}")
+
+
+def _function_error(status, model, x, covar, alpha, beta, kappa, dt=None):
+    """Raise the error of ``status``; one about the user's function names it, with the
+    sigma points it was called on."""
+    if status in _errors.FUNCTION_CODES:
+        d, n = x.shape[0], 2 * x.shape[0] + 1
+        points = np.empty((d, n))
+        _unscented.sigma_points(x, covar, alpha, beta, kappa, np.empty((d, d)), points,
+                                np.empty(n), np.empty(n))
+        _errors.check(status, model._function, points, dt)
+    _errors.check(status)
 
 
 def predict(model, dt, x, covar, alpha, beta, kappa):
     """``(x, P)`` predicted ``dt`` seconds ahead by the unscented transform of ``model``
-    (a built-in linear transition, see :func:`check_transition`): the sigma points of
-    ``(x, covar)`` moved by F, their weighted mean and covariance plus Q. ``kappa`` is
-    resolved (a float, see :func:`scaling`). Raises ValueError if ``covar`` is not
-    symmetric positive semi-definite."""
+    (see :func:`check_transition`): the sigma points of ``(x, covar)`` through the
+    transition (F, or the user's function), their weighted mean and covariance plus Q.
+    ``kappa`` is resolved (a float, see :func:`scaling`). Raises ValueError if ``covar`` is
+    not symmetric positive semi-definite or the user's function returns a wrong shape or
+    non-finite values."""
     d = x.shape[0]
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
-    kind, rates, matrix, noise = model._kalman_spec(dt)
-    status = _unscented.unscented_predict(kind, rates, matrix, noise, dt, alpha, beta,
-                                          kappa, x, covar, x_out, covar_out)
+    if hasattr(model, "_kalman_spec"):
+        kind, rates, matrix, noise = model._kalman_spec(dt)
+        status = _unscented.unscented_predict(kind, rates, matrix, noise, dt, alpha, beta,
+                                              kappa, x, covar, x_out, covar_out)
+    else:
+        status = _unscented.unscented_predict_function(
+            model.transition_function, dt, np.ascontiguousarray(model.covar(dt)), alpha,
+            beta, kappa, x, covar, x_out, covar_out)
     if status:
-        _errors.check(status)
+        _function_error(status, model, x, covar, alpha, beta, kappa, dt)
     return x_out, covar_out
 
 
 def update(model, x, covar, z, alpha, beta, kappa, joseph=False):
-    """``(x, P, z_hat, S, cross)`` of one unscented update with measurement ``z`` (m, 1) by a
-    built-in measurement ``model`` (see :func:`check_measurement`); ``kappa`` is resolved
-    (a float, see :func:`scaling`). Raises ValueError when the step is undefined (see
+    """``(x, P, z_hat, S, cross)`` of one unscented update with measurement ``z`` (m, 1) by
+    ``model`` (see :func:`check_measurement`); ``kappa`` is resolved (a float, see
+    :func:`scaling`). Raises ValueError when the step is undefined (see
     :mod:`fasttrack._errors`)."""
     m, d = model._ndim_meas, model._ndim_state
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
     z_hat, s, cross = np.empty((m, 1)), np.empty((m, m)), np.empty((d, m))
-    kind, mapping, offset, rotation, noise, angles = model._kalman_args
-    status = _unscented.unscented_update(kind, mapping, offset, rotation, noise, angles,
-                                         alpha, beta, kappa, joseph, x, covar, z,
-                                         x_out, covar_out, z_hat, s, cross)
+    outputs = (x, covar, z, x_out, covar_out, z_hat, s, cross)
+    if isinstance(model, NonlinearGaussianMeasurement):
+        status = _unscented.unscented_update_function(
+            model.measurement_function, model._noise_covar, model._angles, alpha, beta, kappa,
+            joseph, *outputs)
+    else:
+        status = _unscented.unscented_update(*model._kalman_args, alpha, beta, kappa, joseph,
+                                             *outputs)
     if status:
-        _errors.check(status)
+        _function_error(status, model, x, covar, alpha, beta, kappa)
     return x_out, covar_out, z_hat, s, cross
