@@ -27,7 +27,7 @@ from .kernel import (GaussianKernel, Kernel, LinearKernel, PolynomialKernel, Qua
 from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
                         ParticlePredictor, UnscentedKalmanPredictor)
 from .simulate import detections, ground_truth
-from .smoother import ExtendedKalmanSmoother, KalmanSmoother, ffbs
+from .smoother import ExtendedKalmanSmoother, KalmanSmoother, UnscentedKalmanSmoother, ffbs
 from .tracker import MultiTargetTracker
 from .types import (Detection, GaussianMeasurementPrediction, GaussianState,
                     GaussianStatePrediction, GaussianStateUpdate, GroundTruthPath,
@@ -57,7 +57,7 @@ __all__ = [
     "ParticleStateUpdate", "ParticleUpdater", "PolynomialKernel", "QuadraticKernel",
     "QuarticKernel", "Resampler", "ResidualMethod", "ResidualResampler", "RunFailure",
     "SingleHypothesis", "State", "StratifiedResampler", "SystematicResampler", "Track",
-    "TransitionModel", "TrialResults", "UnscentedKalmanPredictor",
+    "TransitionModel", "TrialResults", "UnscentedKalmanPredictor", "UnscentedKalmanSmoother",
     "UnscentedKalmanUpdater", "detections", "ess", "ffbs", "get_threads", "ground_truth",
     "local_cluster", "multinomial", "normalise", "position_rmse", "resampling_points", "residual",
     "run_filter", "run_seeds", "run_trial", "run_trials", "seed", "set_threads", "stratified",

@@ -23,12 +23,13 @@ from . import _validate
 from ._jit import jacobian as _jacobian
 from ._jit import smooth as _smooth
 from .core import kalman as _kalman
+from .core import unscented as _unscented
 from .models.base import check_model
 from .models.transition import TransitionModel
 from .types import (GaussianState, GaussianStatePrediction, GaussianStateUpdate,
                     StateSequence, seconds, time_interval)
 
-__all__ = ["KalmanSmoother", "ExtendedKalmanSmoother", "ffbs"]
+__all__ = ["KalmanSmoother", "ExtendedKalmanSmoother", "UnscentedKalmanSmoother", "ffbs"]
 
 
 _STEP_TYPES = (GaussianStatePrediction, GaussianStateUpdate)
@@ -415,6 +416,55 @@ class ExtendedKalmanSmoother(KalmanSmoother):
             prediction = _kalman.predict(model, dt, x, covar, self.jacobian)
         return f, np.zeros((d, d)), prediction
 
+
+
+class UnscentedKalmanSmoother(KalmanSmoother):
+    """The unscented Kalman (Rauch-Tung-Striebel) smoother: as :class:`KalmanSmoother`, with
+    the gain ``G = C P_{k+1|k}^{-1}`` from the unscented transform (Stone Soup's
+    ``UnscentedKalmanSmoother``): C is the cross covariance of the sigma points of the
+    filtered state and their transition. For a linear model ``C = P F^T`` exactly, so the
+    Kalman smoother's formulas are used; for a model built from a Numba function the sigma
+    points go through it. A missing prediction is recomputed as
+    :class:`~fasttrack.UnscentedKalmanPredictor` does with this smoother's parameters (give
+    it the filter's, for the filter's predictions).
+
+    Parameters
+    ----------
+    transition_model : TransitionModel
+        A built-in linear-Gaussian model or a
+        :class:`~fasttrack.NonlinearGaussianTransitionModel`.
+    alpha : float
+        Primary spread of the sigma points, > 0.
+    beta : float
+        Prior knowledge of the distribution (2 is optimal for a Gaussian).
+    kappa : float, optional
+        Secondary spread; None means ``3 - ndim_state``, the default of the unscented
+        filters and of Stone Soup's documentation (Stone Soup 1.9.1's smoother uses 0).
+    predictions : {'exact', 'stonesoup'}
+        How a prediction in the track is read (see :class:`KalmanSmoother`).
+    """
+
+    def __init__(self, transition_model, alpha=0.5, beta=2.0, kappa=None, predictions="exact"):
+        self.alpha, self.beta, self.kappa = _unscented.check_parameters(alpha, beta, kappa)
+        super().__init__(transition_model, predictions)
+        self._kappa = _unscented.scaling(self.alpha, self.kappa, transition_model.ndim_state)
+
+    def _check_model(self, model):
+        _unscented.check_transition(model)
+
+    def _linearise(self, model, dt, x, covar, need_prediction):
+        """A linear model as :class:`KalmanSmoother`; for a function-built one the
+        statistical linearisation ``F = C^T P^+`` (so that ``P F^T = C``, the cross
+        covariance of the unscented transform, C lying in the range of P) and, when
+        ``need_prediction``, the unscented prediction."""
+        if hasattr(model, "matrix"):
+            return super()._linearise(model, dt, x, covar, need_prediction)
+        self._check_model(model)
+        x_pred, covar_pred, cross = _unscented.transition_moments(
+            model, dt, x, covar, self.alpha, self.beta, self._kappa)
+        f = np.linalg.lstsq(covar, cross, rcond=None)[0].T
+        prediction = (x_pred, covar_pred) if need_prediction else None
+        return f, np.zeros_like(f), prediction
 
 def ffbs(particle_states, transition_model, n_paths, rng=None, method="rejection"):
     """Forward-filter backward-simulation particle smoother: trajectories drawn from the

@@ -1136,7 +1136,7 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
 
 
 def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covariance,
-                               x_out, covariance_out):
+                               x_out, covariance_out, cross):
     status = _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
     if status != OK:
         return status
@@ -1145,9 +1145,12 @@ def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covar
     moved = function(np.ascontiguousarray(points), dt)
     status = output_status(moved, d, points.shape[1])
     if status == OK:
+        full = np.empty((d, d))
         unscented_moments(points, moved, wm, wc, np.zeros(d, bool), covar, x_out,
-                          covariance_out, np.empty((d, d)))
+                          covariance_out, full)
+        cross[:] = full[:cross.shape[0]]
     return status
+
 
 def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta, kappa,
                      joseph, x, covariance, z, x_out, covariance_out, z_hat,

@@ -5,6 +5,7 @@ import datetime
 
 import numpy as np
 import pytest
+from numba import njit
 
 import fasttrack as ft
 from fasttrack._jit import smooth as kernels
@@ -344,6 +345,118 @@ def test_extended_smoother_nonlinear_matches_numpy_rts():
     with pytest.raises(TypeError, match="linear transition_model"):
         ft.ExtendedKalmanSmoother(transition).smooth_arrays(x, p, 1.0)
 
+
+
+# --- unscented smoother ----------------------------------------------------------------------
+
+@njit(cache=False)
+def constant_turn(states, dt):
+    """(x, vx, y, vy, turn rate): Stone Soup's ConstantTurn, term for term."""
+    out = np.empty_like(states)
+    for i in range(states.shape[1]):
+        x, vx, y, vy, w = states[:, i]
+        w = w if w != 0.0 else np.finfo(np.float64).eps
+        c, s = np.cos(w * dt), np.sin(w * dt)
+        out[0, i] = x + s / w * vx - vy / w * (1.0 - c)
+        out[1, i] = vx * c - vy * s
+        out[2, i] = vx / w * (1.0 - c) + y + vy * s / w
+        out[3, i] = vx * s + vy * c
+        out[4, i] = w
+    return out
+
+
+def _turn_tracks(n, missed=()):
+    """A turning target (Stone Soup's ConstantTurn, bearing-range from (50, 0)) tracked by
+    Stone Soup's UKF and by fasttrack's with the same model as a user function."""
+    from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
+    from stonesoup.models.transition.nonlinear import ConstantTurn
+    from stonesoup.predictor.kalman import UnscentedKalmanPredictor
+    from stonesoup.types.angle import Bearing
+    from stonesoup.types.array import StateVector
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.state import GaussianState
+    from stonesoup.types.track import Track
+    from stonesoup.updater.kalman import UnscentedKalmanUpdater
+
+    noise = np.diag([np.radians(0.5), 1.0])
+    turn = ConstantTurn(linear_noise_coeffs=[0.1, 0.1], turn_noise_coeff=1e-4)
+    sensor = CartesianToBearingRange(ndim_state=5, mapping=(0, 2), noise_covar=noise,
+                                     translation_offset=np.array([[50], [0]]))
+    ours = ft.NonlinearGaussianTransitionModel(
+        constant_turn, lambda dt: turn.covar(time_interval=STEP * dt), 5)
+    our_sensor = ft.CartesianToBearingRange(5, (0, 2), noise, translation_offset=[50, 0])
+    mean, covar = np.array([0.0, 2.0, 0.0, 1.0, 0.05]), np.diag([1.0, 0.1, 1.0, 0.1, 1e-3])
+    rng = np.random.default_rng(4)
+    truth = mean.reshape(5, 1)
+    theirs, track = Track(), ft.Track()
+    state, our_state = GaussianState(mean, covar, timestamp=START), ft.GaussianState(
+        mean, covar, timestamp=START)
+    predictor, updater = UnscentedKalmanPredictor(turn), UnscentedKalmanUpdater(sensor)
+    our_predictor, our_updater = ft.UnscentedKalmanPredictor(ours), ft.UnscentedKalmanUpdater(
+        our_sensor)
+    kept = []  # fasttrack's updates link their predictions weakly: keep them, as Stone Soup
+    for k in range(n):
+        truth = constant_turn(truth, 1.0)
+        z = our_sensor.function(truth)[:, 0] + rng.normal(size=2) * np.sqrt(np.diag(noise))
+        stamp = START + (k + 1) * STEP
+        prediction = predictor.predict(state, timestamp=stamp)
+        our_prediction = our_predictor.predict(our_state, stamp)
+        kept.append(our_prediction)
+        if k in missed:
+            state, our_state = prediction, our_prediction
+        else:
+            detection = Detection(StateVector([Bearing(z[0]), z[1]]), timestamp=stamp,
+                                  measurement_model=sensor)
+            state = updater.update(SingleHypothesis(prediction, detection))
+            our_state = our_updater.update(ft.SingleHypothesis(
+                our_prediction, ft.Detection(z, timestamp=stamp)))
+        theirs.append(state)
+        track.append(our_state)
+    return track, theirs, ours, turn, kept
+
+
+@pytest.mark.parametrize("missed", [(), (7, 8, 20)])
+def test_unscented_smoother_equals_stonesoup_on_a_turning_target(missed):
+    """Stone Soup's UnscentedKalmanSmoother (its default kappa, 0) against fasttrack's on the
+    same UKF track of a nonlinear (constant-turn) model; with missed steps, in Stone Soup's
+    reading of predictions in a track."""
+    pytest.importorskip("stonesoup")
+    from stonesoup.smoother.kalman import UnscentedKalmanSmoother
+
+    track, theirs, ours, turn, _ = _turn_tracks(40, missed)
+    np.testing.assert_allclose(_arrays(track)[0], _arrays(theirs)[0], rtol=1e-9, atol=1e-9)
+    expected = _arrays(UnscentedKalmanSmoother(turn).smooth(theirs))
+    mode = "stonesoup" if missed else "exact"
+    got = _arrays(ft.UnscentedKalmanSmoother(ours, kappa=0.0, predictions=mode).smooth(track))
+    np.testing.assert_allclose(got[0], expected[0], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(got[1], expected[1], rtol=1e-9, atol=1e-9)
+    assert not np.allclose(got[0][0], _arrays(track)[0][0])
+
+
+def test_unscented_smoother_recomputes_lost_predictions_and_equals_kalman_when_linear():
+    """With the predictions gone from the track, the unscented prediction is recomputed (with
+    the smoother's parameters, here the filter's): the same result as with them. On a linear
+    model the unscented smoother is the Kalman smoother."""
+    pytest.importorskip("stonesoup")
+    track, _, ours, _, kept = _turn_tracks(15)
+    smoother = ft.UnscentedKalmanSmoother(ours)
+    with_predictions = _arrays(smoother.smooth(track))
+    del kept
+    assert track[3].hypothesis.prediction is None
+    without = _arrays(smoother.smooth(track))
+    np.testing.assert_allclose(without[0], with_predictions[0], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(without[1], with_predictions[1], rtol=1e-9, atol=1e-9)
+    transition, _ = _models()
+    linear_track, _ = _ft_track(30)
+    a = _arrays(ft.KalmanSmoother(transition).smooth(linear_track))
+    b = _arrays(ft.UnscentedKalmanSmoother(transition).smooth(linear_track))
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(a[1], b[1])
+    with pytest.raises(ValueError, match="alpha"):
+        ft.UnscentedKalmanSmoother(transition, alpha=-1.0)
+    with pytest.raises(TypeError, match="transition_model"):
+        ft.UnscentedKalmanSmoother("model")
 
 # --- edge cases and bad input ----------------------------------------------------------------
 

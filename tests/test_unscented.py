@@ -364,12 +364,13 @@ def test_user_function_kernels_match_their_mirrors():
     x = np.array([[30.0], [1.0], [-5.0], [0.5]])
     covariance = _random_covariance(rng, 4)
     q = _random_covariance(rng, 4) * 0.1
-    outs = [(np.empty((4, 1)), np.empty((4, 4))) for _ in range(2)]
-    args = (coordinated_turn, 2.0, q, 0.5, 2.0, -1.0, x, covariance)
-    assert kernels.unscented_predict_function(*args, *outs[0]) == 0
-    assert reference.unscented_predict_function(*args, *outs[1]) == 0
-    for a, b in zip(*outs):
-        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
+    for rows in (0, 4):
+        outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((rows, 4))) for _ in range(2)]
+        args = (coordinated_turn, 2.0, q, 0.5, 2.0, -1.0, x, covariance)
+        assert kernels.unscented_predict_function(*args, *outs[0]) == 0
+        assert reference.unscented_predict_function(*args, *outs[1]) == 0
+        for a, b in zip(*outs):
+            np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
     for joseph in (False, True):
         outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
                  np.empty((4, 2))) for _ in range(2)]

@@ -325,10 +325,11 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
 
 @jit()
 def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covariance,
-                               x_out, covariance_out):
+                               x_out, covariance_out, cross):
     """One filter's unscented prediction through a user transition ``f((d, n), dt)``: the
     prior's sigma points through f (its output checked first, see :mod:`user`), their
-    moments plus ``covar`` (Q). Returns the status."""
+    moments plus ``covar`` (Q), and their cross covariance with the prior's sigma points
+    into ``cross`` (d, d; not computed if it has no rows). Returns the status."""
     d = x.shape[0]
     status = _checked_prior(covariance)
     if status[0] != OK:
@@ -341,7 +342,7 @@ def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covar
     if code == OK:
         _moments(points, np.ascontiguousarray(moved).reshape((d, n, 1)), mean_weights,
                  covar_weights, np.zeros(d, dtype=np.bool_), covar.reshape((d, d, 1)), x_out,
-                 covariance_out.reshape((d, d, 1)), _no_cross(d, 1))
+                 covariance_out.reshape((d, d, 1)), cross.reshape((cross.shape[0], d, 1)))
     return code
 
 

@@ -75,15 +75,31 @@ def predict(model, dt, x, covar, alpha, beta, kappa):
     not symmetric positive semi-definite or the user's function returns a wrong shape or
     non-finite values."""
     d = x.shape[0]
+    if not hasattr(model, "_kalman_spec"):
+        return _through_function(model, dt, x, covar, alpha, beta, kappa, np.empty((0, d)))
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
-    if hasattr(model, "_kalman_spec"):
-        kind, rates, matrix, noise = model._kalman_spec(dt)
-        status = _unscented.unscented_predict(kind, rates, matrix, noise, dt, alpha, beta,
-                                              kappa, x, covar, x_out, covar_out)
-    else:
-        status = _unscented.unscented_predict_function(
-            model.transition_function, dt, np.ascontiguousarray(model.covar(dt)), alpha,
-            beta, kappa, x, covar, x_out, covar_out)
+    kind, rates, matrix, noise = model._kalman_spec(dt)
+    status = _unscented.unscented_predict(kind, rates, matrix, noise, dt, alpha, beta, kappa,
+                                          x, covar, x_out, covar_out)
+    if status:
+        _errors.check(status)
+    return x_out, covar_out
+
+
+def transition_moments(model, dt, x, covar, alpha, beta, kappa):
+    """``(x, P, C)``: :func:`predict` through a function-built ``model``, with the cross
+    covariance C (d, d) of the sigma points of ``(x, covar)`` and their transition."""
+    d = x.shape[0]
+    cross = np.empty((d, d))
+    return _through_function(model, dt, x, covar, alpha, beta, kappa, cross) + (cross,)
+
+
+def _through_function(model, dt, x, covar, alpha, beta, kappa, cross):
+    d = x.shape[0]
+    x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
+    status = _unscented.unscented_predict_function(
+        model.transition_function, dt, np.ascontiguousarray(model.covar(dt)), alpha, beta,
+        kappa, x, covar, x_out, covar_out, cross)
     if status:
         _function_error(status, model, x, covar, alpha, beta, kappa, dt)
     return x_out, covar_out
