@@ -1,7 +1,9 @@
 """The seed tutorials' filter loops through fasttrack.stonesoup (Stone Soup objects in and
 out) against pure Stone Soup and against fasttrack's native API, in the same run: the particle
 filter (21 steps) at N = 1000 and 100,000, the extended Kalman filter (21 steps), and the
-AKKF (30 steps) at M = 30 and 3000. Stone Soup's AKKF is not run at M = 3000: its two SVD
+AKKF (30 steps) at M = 30 and 3000; and, drop-in against Stone Soup, one unscented Kalman
+step (predict and update) of the extended Kalman tutorial's bearing-range scenario and the
+Kalman smoother over a 1000-step track. Stone Soup's AKKF is not run at M = 3000: its two SVD
 pseudo-inverses of 3000 x 3000 matrices a step would take minutes per loop.
 
 Stone Soup memoises ``predict`` (up to 128 predictions, with their particles and, for the
@@ -20,7 +22,8 @@ from stonesoup.models.measurement.nonlinear import (  # noqa: E402
     Cartesian2DToBearing, CartesianToBearingRange)
 from stonesoup.models.transition.linear import (  # noqa: E402
     CombinedLinearGaussianTransitionModel, ConstantVelocity)
-from stonesoup.predictor.kalman import ExtendedKalmanPredictor  # noqa: E402
+from stonesoup.predictor.kalman import (ExtendedKalmanPredictor,  # noqa: E402
+                                       UnscentedKalmanPredictor)
 from stonesoup.predictor.kernel import AdaptiveKernelKalmanPredictor  # noqa: E402
 from stonesoup.predictor.particle import ParticlePredictor  # noqa: E402
 from stonesoup.resampler.particle import SystematicResampler  # noqa: E402
@@ -28,7 +31,9 @@ from stonesoup.types.array import StateVectors  # noqa: E402
 from stonesoup.types.detection import Detection  # noqa: E402
 from stonesoup.types.hypothesis import SingleHypothesis  # noqa: E402
 from stonesoup.types.state import GaussianState, KernelParticleState, ParticleState  # noqa: E402
-from stonesoup.updater.kalman import ExtendedKalmanUpdater  # noqa: E402
+from stonesoup.smoother.kalman import KalmanSmoother  # noqa: E402
+from stonesoup.types.track import Track  # noqa: E402
+from stonesoup.updater.kalman import ExtendedKalmanUpdater, UnscentedKalmanUpdater  # noqa
 from stonesoup.updater.kernel import AdaptiveKernelKalmanUpdater  # noqa: E402
 from stonesoup.updater.particle import ParticleUpdater  # noqa: E402
 
@@ -137,3 +142,59 @@ def test_akkf_loop(benchmark, implementation, m):
                                     weight=np.full(m, 1 / m), timestamp=START)
         args = (prior, _ss_detections(scenario, sensor), SingleHypothesis)
     _time(benchmark, implementation, m * 100, lambda: _loop(predictor, updater, *args))
+
+
+@pytest.mark.parametrize("implementation", ["dropin", "stonesoup"])
+def test_ukf_step(benchmark, implementation):
+    benchmark.group = "dropin-ukf step"
+    scenario = extended_kalman_tutorial()
+    classes = (fss.UnscentedKalmanPredictor, fss.UnscentedKalmanUpdater) \
+        if implementation == "dropin" else (UnscentedKalmanPredictor, UnscentedKalmanUpdater)
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
+    sensor = _bearing_range(scenario)
+    predictor, updater = classes[0](transition), classes[1](sensor)
+    prior = GaussianState(scenario.prior.state_vector, scenario.prior.covar, timestamp=START)
+    detection = _ss_detections(scenario, sensor)[1]
+    memos = (type(predictor).predict.__wrapped__, type(updater).predict_measurement)
+
+    def step():
+        for memo in memos:  # a new prediction each round, as in a filter loop
+            memo.cache_clear()
+        prediction = predictor.predict(prior, timestamp=detection.timestamp)
+        return updater.update(SingleHypothesis(prediction, detection))
+
+    benchmark(step)
+
+
+@pytest.fixture(scope="module")
+def filtered_track():
+    """1000 steps of the extended Kalman tutorial's scenario filtered by Stone Soup's EKF
+    (every 50th detection missed: a prediction in the track)."""
+    scenario = extended_kalman_tutorial()
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
+    sensor = _bearing_range(scenario)
+    predictor, updater = ExtendedKalmanPredictor(transition), ExtendedKalmanUpdater(sensor)
+    np.random.seed(3)
+    truth = GaussianState(scenario.prior.state_vector, scenario.prior.covar, timestamp=START)
+    track = Track([truth])
+    state = truth
+    for k in range(1, 1000):
+        timestamp = START + datetime.timedelta(seconds=k)
+        truth = GaussianState(transition.function(truth, noise=True,
+                                                  time_interval=timestamp - truth.timestamp),
+                              truth.covar, timestamp=timestamp)
+        state = predictor.predict(state, timestamp=timestamp)
+        if k % 50:
+            detection = Detection(sensor.function(truth, noise=True), timestamp=timestamp,
+                                  measurement_model=sensor)
+            state = updater.update(SingleHypothesis(state, detection))
+        track.append(state)
+    return transition, track
+
+
+@pytest.mark.parametrize("implementation", ["dropin", "stonesoup"])
+def test_smooth_track(benchmark, implementation, filtered_track):
+    benchmark.group = "dropin-smooth T=1000"
+    transition, track = filtered_track
+    smoother = (fss.KalmanSmoother if implementation == "dropin" else KalmanSmoother)(transition)
+    _time(benchmark, implementation, 1, lambda: smoother.smooth(track))

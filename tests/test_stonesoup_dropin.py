@@ -5,6 +5,7 @@ import pathlib
 import re
 import subprocess
 import sys
+import types
 
 import numpy as np
 import pytest
@@ -423,3 +424,297 @@ def test_resampled_weights_are_stone_soups_to_the_bit():
                       fss.MultinomialResampler(), fss.ResidualResampler()):
         out = resampler.resample(_particles(n))
         assert np.array_equal(np.asarray(out.log_weight, float), np.full(n, np.log(1 / n)))
+
+
+# -- the unscented Kalman filter --------------------------------------------------------------
+
+def _relative_difference(ours, theirs):
+    """Largest difference relative to the largest magnitude (NaN where both are NaN
+    counting as equal)."""
+    ours, theirs = np.asarray(ours, dtype=float), np.asarray(theirs, dtype=float)
+    np.testing.assert_array_equal(np.isnan(ours), np.isnan(theirs))
+    ours, theirs = np.nan_to_num(ours), np.nan_to_num(theirs)
+    return np.abs(ours - theirs).max() / max(np.abs(theirs).max(), 1e-300)
+
+
+def _unscented_steps(seed, predictor, updater, sensor=None):
+    """Predictions, measurement predictions and updates of the bearing-range scenario (or
+    ``sensor``'s detections of its truth)."""
+    transition, polar, truth, detections = _bearing_range_scenario(seed)
+    sensor = sensor or polar
+    detections = [Detection(sensor.function(s, noise=True), timestamp=s.timestamp,
+                            measurement_model=sensor) for s in truth]
+    predictor, updater = predictor(transition), updater(sensor)
+    state = GaussianState([[0], [1], [0], [1]], np.diag([1.5, 0.5, 1.5, 0.5]),
+                          timestamp=START)
+    steps = []
+    for detection in detections[1:]:
+        prediction = predictor.predict(state, timestamp=detection.timestamp)
+        measurement_prediction = updater.predict_measurement(prediction)
+        state = updater.update(SingleHypothesis(prediction, detection))
+        steps.append((prediction, measurement_prediction, state))
+    return steps
+
+
+def _assert_same_steps(ours, theirs, tolerance=1e-9):
+    for our_step, their_step in zip(ours, theirs, strict=True):
+        for mine, reference in zip(our_step, their_step):
+            assert type(mine) is type(reference)
+            assert [type(v) for v in mine.state_vector[:, 0]] == \
+                [type(v) for v in reference.state_vector[:, 0]]
+            attributes = ["state_vector", "covar"] + (
+                ["cross_covar"] if hasattr(reference, "cross_covar") else [])
+            assert max(_relative_difference(getattr(mine, a), getattr(reference, a))
+                       for a in attributes) <= tolerance
+        prediction, _, update = our_step
+        assert prediction.transition_model is their_step[0].transition_model or \
+            type(prediction.transition_model) is type(their_step[0].transition_model)
+        assert update.hypothesis.prediction is prediction
+        assert type(update.hypothesis.measurement_prediction) is \
+            ss_prediction.GaussianMeasurementPrediction
+
+
+@pytest.mark.parametrize("sensor", [
+    None, LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=np.eye(2)),
+    Cartesian2DToBearing(ndim_state=4, mapping=(0, 2), noise_covar=np.array([[1e-4]]))],
+    ids=["bearing-range", "linear", "bearing"])
+def test_unscented_kalman_filter_equal_to_stone_soup(sensor):
+    for seed in range(3):
+        _assert_same_steps(
+            _unscented_steps(seed, fss.UnscentedKalmanPredictor, fss.UnscentedKalmanUpdater,
+                             sensor),
+            _unscented_steps(seed, ss_kalman_predictor.UnscentedKalmanPredictor,
+                             ss_kalman_updater.UnscentedKalmanUpdater, sensor))
+
+
+def test_unscented_drop_ins_compute_without_stone_soups_sigma_points():
+    from unittest import mock
+    with mock.patch("stonesoup.predictor.kalman.gauss2sigma", side_effect=AssertionError), \
+            mock.patch("stonesoup.updater.kalman.gauss2sigma", side_effect=AssertionError):
+        steps = _unscented_steps(0, fss.UnscentedKalmanPredictor, fss.UnscentedKalmanUpdater)
+    assert len(steps) == 20
+
+
+def _unscented_step(predictor, updater, prior, detection, **measurement_kwargs):
+    prediction = predictor.predict(prior, timestamp=detection.timestamp)
+    measurement_prediction = updater.predict_measurement(prediction, **measurement_kwargs)
+    return prediction, measurement_prediction, updater.update(
+        SingleHypothesis(prediction, detection))
+
+
+@pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")  # Stone Soup's NaN
+@pytest.mark.parametrize("parameters", [
+    {}, {"alpha": 1.0, "beta": 0.0, "kappa": 1.0}, {"alpha": 0.3, "kappa": -1.0},
+    {"alpha": -0.5},  # outside fasttrack's range: Stone Soup's code (alpha**2)
+    {"kappa": -4.5},  # a negative spread: Stone Soup's code (NaN)
+], ids=["default", "alpha-1", "kappa-1", "negative-alpha", "negative-spread"])
+def test_unscented_parameters_and_options_as_stone_soup(parameters):
+    transition, sensor, _, detections = _bearing_range_scenario(3)
+    prior = GaussianState([[0], [1], [0], [1]], np.diag([1.5, 0.5, 1.5, 0.5]), timestamp=START)
+    for measurement_kwargs in ({}, {"measurement_noise": False}):
+        steps = [_unscented_step(
+            predictor(transition, **parameters), updater(sensor, **parameters), prior,
+            detections[1], **measurement_kwargs)
+            for predictor, updater in [
+                (fss.UnscentedKalmanPredictor, fss.UnscentedKalmanUpdater),
+                (ss_kalman_predictor.UnscentedKalmanPredictor,
+                 ss_kalman_updater.UnscentedKalmanUpdater)]]
+        _assert_same_steps([steps[0]], [steps[1]])
+
+
+def test_unscented_joseph_form_is_stone_soups():
+    """Stone Soup's Joseph form takes the model's matrix H with the unscented gain: the
+    linear sensor gives its numbers, the bearing-range sensor (no matrix) its error."""
+    linear = LinearGaussian(ndim_state=4, mapping=(0, 2), noise_covar=np.eye(2))
+    transition, polar, _, detections = _bearing_range_scenario(4)
+    prior = GaussianState([[0], [1], [0], [1]], np.diag([1.5, 0.5, 1.5, 0.5]), timestamp=START)
+    detection = Detection(linear.function(prior, noise=True), timestamp=START + STEP,
+                          measurement_model=linear)
+    steps = [_unscented_step(predictor(transition), updater(linear, use_joseph_cov=True),
+                             prior, detection)
+             for predictor, updater in [
+                 (fss.UnscentedKalmanPredictor, fss.UnscentedKalmanUpdater),
+                 (ss_kalman_predictor.UnscentedKalmanPredictor,
+                  ss_kalman_updater.UnscentedKalmanUpdater)]]
+    _assert_same_steps([steps[0]], [steps[1]])
+    for updater in (fss.UnscentedKalmanUpdater, ss_kalman_updater.UnscentedKalmanUpdater):
+        prediction = fss.UnscentedKalmanPredictor(transition).predict(prior, START + STEP)
+        with pytest.raises(AttributeError, match="matrix"):
+            updater(polar, use_joseph_cov=True).update(SingleHypothesis(prediction,
+                                                                        detections[1]))
+
+
+def test_unscented_predictions_are_memoised_and_other_models_use_stone_soup():
+    transition, sensor, _, detections = _bearing_range_scenario(5)
+    prior = GaussianState([[0], [1], [0], [1]], np.diag([1.5, 0.5, 1.5, 0.5]), timestamp=START)
+    predictor, updater = fss.UnscentedKalmanPredictor(transition), \
+        fss.UnscentedKalmanUpdater(sensor)
+    prediction = predictor.predict(prior, timestamp=START + STEP)
+    assert predictor.predict(prior, timestamp=START + STEP) is prediction
+    assert prediction.prior is prior and prediction.transition_model is transition
+    assert updater.predict_measurement(prediction) is updater.predict_measurement(prediction)
+
+    class UserCV(CombinedLinearGaussianTransitionModel):
+        pass
+
+    class UserSensor(CartesianToBearingRange):
+        pass
+
+    user_transition = UserCV([ConstantVelocity(0.05)] * 2)
+    user_sensor = UserSensor(ndim_state=4, mapping=(0, 2), noise_covar=sensor.noise_covar,
+                             translation_offset=sensor.translation_offset)
+    detection = Detection(detections[1].state_vector, timestamp=START + STEP,
+                          measurement_model=user_sensor)
+    steps = [_unscented_step(predictor(user_transition), updater(user_sensor), prior, detection)
+             for predictor, updater in [
+                 (fss.UnscentedKalmanPredictor, fss.UnscentedKalmanUpdater),
+                 (ss_kalman_predictor.UnscentedKalmanPredictor,
+                  ss_kalman_updater.UnscentedKalmanUpdater)]]
+    _assert_same_steps([steps[0]], [steps[1]], tolerance=1e-15)
+
+
+# -- the Kalman smoothers -----------------------------------------------------------------
+
+def _filtered_track(seed, missed=(), steps=21):
+    """A Stone Soup track (a prior, then updates, and predictions at the ``missed`` steps)
+    of the bearing-range scenario filtered by Stone Soup's UKF."""
+    from stonesoup.types.track import Track
+    transition, sensor, truth, detections = _bearing_range_scenario(seed)
+    predictor = ss_kalman_predictor.UnscentedKalmanPredictor(transition)
+    updater = ss_kalman_updater.UnscentedKalmanUpdater(sensor)
+    state = GaussianState([[0], [1], [0], [1]], np.diag([1.5, 0.5, 1.5, 0.5]), timestamp=START)
+    track = Track([state])
+    for k, detection in enumerate(detections[1:steps], start=1):
+        state = predictor.predict(state, timestamp=detection.timestamp)
+        if k not in missed:
+            state = updater.update(SingleHypothesis(state, detection))
+        track.append(state)
+    return transition, track
+
+
+def _assert_same_track(ours, theirs, track, tolerance=1e-9):
+    assert type(ours) is type(theirs) and ours is not track and ours.id == track.id
+    assert len(ours) == len(theirs) == len(track)
+    assert ours[-1] is track[-1] and theirs[-1] is track[-1]
+    for mine, reference, original in zip(ours, theirs, track):
+        assert type(mine) is type(reference)
+        assert mine.timestamp == original.timestamp
+        assert getattr(mine, "hypothesis", None) is getattr(original, "hypothesis", None)
+        assert max(_relative_difference(mine.state_vector, reference.state_vector),
+                   _relative_difference(mine.covar, reference.covar)) <= tolerance
+
+
+@pytest.mark.parametrize("name", ["KalmanSmoother", "ExtendedKalmanSmoother",
+                                  "UnscentedKalmanSmoother"])
+@pytest.mark.parametrize("missed", [(), (7,), (1, 2, 12, 20)],
+                         ids=["all-detected", "one-missed", "missed-at-the-ends"])
+def test_kalman_smoothers_equal_to_stone_soup(name, missed):
+    from unittest import mock
+
+    from stonesoup.smoother import kalman as ss_smoother
+    for seed in range(3):
+        transition, track = _filtered_track(seed, missed)
+        theirs = getattr(ss_smoother, name)(transition).smooth(track)
+        with mock.patch.object(getattr(ss_smoother, name), "smooth",
+                               side_effect=AssertionError("Stone Soup's smooth ran")):
+            ours = getattr(fss, name)(transition).smooth(track)
+        _assert_same_track(ours, theirs, track)
+        assert ours[0] is track[0]  # the prior, kept as Stone Soup keeps it
+        for k in missed:
+            assert type(ours[k]) is ss_prediction.GaussianStatePrediction
+
+
+def test_kalman_smoother_reads_single_prediction_multiple_hypotheses():
+    from stonesoup.smoother.kalman import KalmanSmoother
+    from stonesoup.types.multihypothesis import MultipleHypothesis
+    transition, track = _filtered_track(6)
+    for state in track[1:]:
+        state.hypothesis = MultipleHypothesis([state.hypothesis])
+    _assert_same_track(fss.KalmanSmoother(transition).smooth(track),
+                       KalmanSmoother(transition).smooth(track), track)
+    track[3].hypothesis = MultipleHypothesis(
+        list(track[3].hypothesis) + [SingleHypothesis(track[2], track[3].hypothesis[0]
+                                                      .measurement)])
+    for smoother in (fss.KalmanSmoother(transition), KalmanSmoother(transition)):
+        with pytest.raises(ValueError, match="multiple predictions"):
+            smoother.smooth(track)
+
+
+def test_kalman_smoothers_fall_back_to_stone_soup():
+    """A user's transition model, a prediction naming another model, an overridden hook, a
+    keyword or a non-Gaussian state go through Stone Soup's code (or its error)."""
+    from stonesoup.smoother.kalman import KalmanSmoother
+
+    class UserCV(CombinedLinearGaussianTransitionModel):
+        pass
+
+    transition, track = _filtered_track(8, missed=(4,))
+    user = UserCV(transition.model_list)
+    track[5].hypothesis.prediction.transition_model = user  # one step's model
+    _assert_same_track(fss.KalmanSmoother(transition).smooth(track),
+                       KalmanSmoother(transition).smooth(track), track, tolerance=0)
+    for state in track[1:]:  # the predictions' model is used before the smoother's
+        getattr(state, "hypothesis", types.SimpleNamespace(prediction=state)) \
+            .prediction.transition_model = user
+    _assert_same_track(fss.KalmanSmoother(transition).smooth(track),
+                       KalmanSmoother(transition).smooth(track), track, tolerance=0)
+
+    track[2] = track[2].hypothesis.measurement
+    errors = []
+    for smoother in (fss.KalmanSmoother(transition), KalmanSmoother(transition)):
+        with pytest.raises(Exception) as error:
+            smoother.smooth(track)
+        errors.append((type(error.value), str(error.value)))
+    assert errors[0] == errors[1]
+    transition, track = _filtered_track(8)
+
+    def damped_gain(self, state, prediction, **kwargs):
+        return 0.5 * KalmanSmoother._smooth_gain(self, state, prediction, **kwargs)
+
+    damped = [type("Damped", (base,), {"_smooth_gain": damped_gain})(transition)
+              for base in (fss.KalmanSmoother, KalmanSmoother)]
+    _assert_same_track(damped[0].smooth(track), damped[1].smooth(track), track, tolerance=0)
+    prediction = track[3].hypothesis.prediction  # invertible, not positive definite
+    prediction.covar = -prediction.covar
+    _assert_same_track(fss.KalmanSmoother(transition).smooth(track),
+                       KalmanSmoother(transition).smooth(track), track, tolerance=0)
+
+
+def test_unscented_drop_ins_in_an_associator_give_stone_soups_hypotheses():
+    """The associators' batched path over several tracks computes Kalman steps, not
+    unscented ones: with the unscented drop-ins they give Stone Soup's unscented
+    hypotheses."""
+    from stonesoup.dataassociator.neighbour import GNNWith2DAssignment
+    from stonesoup.hypothesiser.distance import DistanceHypothesiser
+    from stonesoup.measures import Mahalanobis
+    from stonesoup.types.track import Track
+    transition, sensor, _, _ = _bearing_range_scenario(9)
+    tracks = {Track([GaussianState([[x], [1], [0], [1]], np.diag([1.5, 0.5, 1.5, 0.5]),
+                                   timestamp=START)]) for x in (0, 3, 6)}
+    scan = {Detection(sensor.function(GaussianState([[x], [1], [1], [1]], np.eye(4)),
+                                      noise=True), timestamp=START + STEP,
+                      measurement_model=sensor) for x in (1, 4)}
+    found = []
+    for associator, hypothesiser, predictor, updater in [
+            (fss.GNNWith2DAssignment, fss.DistanceHypothesiser, fss.UnscentedKalmanPredictor,
+             fss.UnscentedKalmanUpdater),
+            (GNNWith2DAssignment, DistanceHypothesiser,
+             ss_kalman_predictor.UnscentedKalmanPredictor,
+             ss_kalman_updater.UnscentedKalmanUpdater)]:
+        associations = associator(hypothesiser(
+            predictor(transition), updater(sensor), measure=Mahalanobis(),
+            missed_distance=30)).associate(tracks, scan, START + STEP)
+        found.append({track.id: hypothesis for track, hypothesis in associations.items()})
+    assert found[0].keys() == found[1].keys()
+    for track_id, hypothesis in found[0].items():
+        reference = found[1][track_id]
+        assert float(hypothesis.distance) == pytest.approx(float(reference.distance), rel=1e-9)
+        assert _relative_difference(hypothesis.prediction.covar, reference.prediction.covar) \
+            < 1e-9
+        if reference:
+            assert hypothesis.measurement is reference.measurement
+            assert _relative_difference(hypothesis.measurement_prediction.covar,
+                                        reference.measurement_prediction.covar) < 1e-9
+        else:
+            assert not hypothesis
+    assert sum(map(bool, found[1].values())) == 2

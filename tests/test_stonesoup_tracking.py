@@ -1,6 +1,7 @@
 """fasttrack.stonesoup's metrics, deleters, initiators and trackers: the same outputs as Stone
-Soup 1.9.1's classes on the same inputs, Stone Soup's own tests for those classes run against
-the drop-ins, and Stone Soup's tutorial 9 (initiators and deleters) run both ways.
+Soup 1.9.1's classes on the same inputs, Stone Soup's own tests for those classes (and for the
+Kalman predictors, updaters and smoothers) run against the drop-ins, and Stone Soup's tutorial
+9 (initiators and deleters) run both ways.
 
 Stone Soup's tests are copied, unchanged, from its 1.9.1 sdist (MIT licence, see
 ``tests/data/stonesoup_tests/LICENSE``) into ``tests/data/stonesoup_tests/<package>/`` with a
@@ -706,7 +707,10 @@ STONESOUP_TESTS = {
     "deleter": ["test_time.py", "test_error.py"],
     "initiator": ["test_simple.py"],
     "metricgenerator": ["conftest.py", "test_ospametric.py"],
+    "predictor": ["test_kalman.py"],
+    "smoother": ["test_kalman.py"],
     "tracker": ["conftest.py", "test_simple.py"],
+    "updater": ["test_kalman.py"],
 }
 
 #: Tests that pin an implementation detail rather than the replaced classes' behaviour.
@@ -767,7 +771,11 @@ def stonesoup_test_run(tmp_path_factory):
     ("initiator", {"SimpleMeasurementInitiator", "MultiMeasurementInitiator",
                    "UpdateTimeStepsDeleter"}),
     ("metricgenerator", {"GOSPAMetric", "OSPAMetric"}),
-    ("tracker", {"MultiTargetTracker", "MultiTargetMixtureTracker"})])
+    ("predictor", {"KalmanPredictor", "ExtendedKalmanPredictor", "UnscentedKalmanPredictor"}),
+    ("smoother", {"KalmanPredictor", "KalmanUpdater", "KalmanSmoother",
+                  "ExtendedKalmanSmoother", "UnscentedKalmanSmoother"}),
+    ("tracker", {"MultiTargetTracker", "MultiTargetMixtureTracker"}),
+    ("updater", {"KalmanUpdater", "ExtendedKalmanUpdater", "UnscentedKalmanUpdater"})])
 def test_stonesoups_own_tests_pass_on_the_drop_ins(stonesoup_test_run, package, replaced):
     returncode, output, outcomes, switched = stonesoup_test_run
     names = {name for file, found in switched.items() if file.startswith(f"{package}/")

@@ -23,24 +23,27 @@ from .kernel import (GaussianKernel, LinearKernel, PolynomialKernel, QuadraticKe
                      QuarticKernel)
 from .metrics import GOSPAMetric, OSPAMetric
 from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
-                        ParticlePredictor)
+                        ParticlePredictor, UnscentedKalmanPredictor)
 from .resampler import (ESSResampler, MultinomialResampler, ResidualMethod, ResidualResampler,
                         StratifiedResampler, SystematicResampler)
+from .smoother import ExtendedKalmanSmoother, KalmanSmoother, UnscentedKalmanSmoother
 from .tracking import (CovarianceBasedDeleter, MultiMeasurementInitiator,
                        MultiTargetMixtureTracker, MultiTargetTracker,
                        SimpleMeasurementInitiator, UpdateTimeStepsDeleter)
 from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, KalmanUpdater,
-                      ParticleUpdater)
+                      ParticleUpdater, UnscentedKalmanUpdater)
 
 __all__ = [
     "AdaptiveKernelKalmanPredictor", "AdaptiveKernelKalmanUpdater", "CovarianceBasedDeleter",
     "DistanceGater", "DistanceHypothesiser", "ESSResampler", "ExtendedKalmanPredictor",
-    "ExtendedKalmanUpdater", "GaussianKernel", "GlobalNearestNeighbour", "GNNWith2DAssignment",
-    "GOSPAMetric", "JPDA", "JPDAwithEHM", "KalmanPredictor", "KalmanUpdater", "LinearKernel",
+    "ExtendedKalmanSmoother", "ExtendedKalmanUpdater", "GaussianKernel",
+    "GlobalNearestNeighbour", "GNNWith2DAssignment", "GOSPAMetric", "JPDA", "JPDAwithEHM",
+    "KalmanPredictor", "KalmanSmoother", "KalmanUpdater", "LinearKernel",
     "Mahalanobis", "MultiMeasurementInitiator", "MultinomialResampler",
     "MultiTargetMixtureTracker", "MultiTargetTracker", "NearestNeighbour", "OSPAMetric",
     "ParticlePredictor", "ParticleUpdater", "PDA", "PDAHypothesiser", "PolynomialKernel",
     "QuadraticKernel", "QuarticKernel", "ResidualMethod", "ResidualResampler",
     "SimpleMeasurementInitiator", "StratifiedResampler", "SystematicResampler",
+    "UnscentedKalmanPredictor", "UnscentedKalmanSmoother", "UnscentedKalmanUpdater",
     "UpdateTimeStepsDeleter",
 ]

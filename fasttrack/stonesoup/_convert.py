@@ -15,6 +15,7 @@ from stonesoup.types.state import ParticleState
 
 from .. import kernel as ft_kernel
 from .. import models as ft_models
+from ..core import unscented as ft_unscented
 
 
 def _polar(cls):
@@ -123,6 +124,26 @@ def zero_control(control_model):
     default it builds)."""
     return (type(control_model) is LinearControlModel
             and not np.any(control_model.control_matrix))
+
+
+def fits(state, ndim):
+    """Whether a Gaussian state has ``ndim`` dimensions (a mean (ndim, 1), a covariance
+    (ndim, ndim))."""
+    return (np.shape(state.state_vector) == (ndim, 1)
+            and np.shape(getattr(state, "covar", None)) == (ndim, ndim))
+
+
+def sigma_parameters(component, ndim):
+    """``(alpha, beta, kappa)`` of a Stone Soup unscented component as fasttrack's unscented
+    kernels take them (``kappa`` None resolved to ``3 - ndim``), or None where they are
+    outside the kernels' range (``alpha <= 0``, a spread ``alpha**2 (ndim + kappa) <= 0``,
+    values that are not finite reals)."""
+    try:
+        alpha, beta, kappa = ft_unscented.check_parameters(component.alpha, component.beta,
+                                                           component.kappa)
+        return alpha, beta, ft_unscented.scaling(alpha, kappa, ndim)
+    except (TypeError, ValueError):
+        return None
 
 
 def fast_kernel(kernel):

@@ -17,9 +17,10 @@ from stonesoup.types.update import GaussianStateUpdate, KernelParticleStateUpdat
 from ..core import akkf as ft_akkf
 from ..core import kalman as ft_kalman
 from ..core import particle as ft_particle
+from ..core import unscented as ft_unscented
 from ..types import dense_kernel_covar
-from ._convert import (fast_kernel, fast_model, floats, model_rng, plain_particles, uncached,
-                       zero_control)
+from ._convert import (fast_kernel, fast_model, fits, floats, model_rng, plain_particles,
+                       sigma_parameters, uncached, zero_control)
 from .state import kernel_factors, remember_factors
 
 #: Gaussian state types whose predictions the Kalman kernel builds (not the square-root or
@@ -54,21 +55,34 @@ class ParticlePredictor(ss_particle.ParticlePredictor):
 
 
 class _Kalman:
-    """``predict`` of the Kalman predictors through fasttrack's Kalman kernel."""
+    """``predict`` of the Kalman predictors through one of fasttrack's Gaussian kernels."""
 
     _stonesoup = ss_kalman.KalmanPredictor
 
-    @predict_lru_cache()
-    def predict(self, prior, timestamp=None, control_input=None, **kwargs):
+    def _moments(self, model, dt, x, covar):
+        """``(x, P)`` predicted by the kernel, or None where Stone Soup's code must run."""
+        return ft_kalman.predict(model, dt, x, covar)
+
+    def _fast(self, prior, timestamp, control_input, kwargs):
+        """The fasttrack transition model if the kernel applies to this call, else None."""
         model = fast_model(self.transition_model)
         if (model is None or kwargs or control_input is not None
                 or not zero_control(self.control_model) or type(prior) not in _GAUSSIAN_STATES
-                or timestamp is None or prior.timestamp is None):
+                or timestamp is None or prior.timestamp is None
+                or not fits(prior, model.ndim_state)):
+            return None
+        return model
+
+    @predict_lru_cache()
+    def predict(self, prior, timestamp=None, control_input=None, **kwargs):
+        model = self._fast(prior, timestamp, control_input, kwargs)
+        moments = None if model is None else self._moments(
+            model, _seconds(timestamp, prior.timestamp), floats(prior.state_vector),
+            floats(prior.covar))
+        if moments is None:
             return uncached(self._stonesoup.predict)(self, prior, timestamp, control_input,
                                                      **kwargs)
-        x_out, covar_out = ft_kalman.predict(model, _seconds(timestamp, prior.timestamp),
-                                             floats(prior.state_vector), floats(prior.covar))
-        return Prediction.from_state(prior, x_out, covar_out, timestamp=timestamp,
+        return Prediction.from_state(prior, *moments, timestamp=timestamp,
                                      transition_model=self.transition_model, prior=prior)
 
 
@@ -81,6 +95,28 @@ class ExtendedKalmanPredictor(_Kalman, ss_kalman.ExtendedKalmanPredictor):
     (whose Jacobian is their matrix)."""
 
     _stonesoup = ss_kalman.ExtendedKalmanPredictor
+
+
+class UnscentedKalmanPredictor(_Kalman, ss_kalman.UnscentedKalmanPredictor):
+    """Stone Soup's ``UnscentedKalmanPredictor``, compiled for its built-in linear models.
+
+    Sigma-point parameters outside fasttrack's range (``alpha <= 0``, a spread
+    ``alpha**2 (ndim + kappa) <= 0``) and covariances without a Cholesky factor (for which
+    Stone Soup regularises the factor) go through Stone Soup's code.
+    """
+
+    _stonesoup = ss_kalman.UnscentedKalmanPredictor
+    # its own method object: the associators' batched path computes the Kalman ones only
+    predict = predict_lru_cache()(uncached(_Kalman.predict))
+
+    def _moments(self, model, dt, x, covar):
+        parameters = sigma_parameters(self, x.shape[0])
+        if parameters is None:
+            return None
+        try:
+            return ft_unscented.predict(model, dt, x, covar, *parameters)
+        except ValueError:  # refused (no Cholesky factor, which Stone Soup regularises)
+            return None
 
 
 class AdaptiveKernelKalmanPredictor(ss_kernel.AdaptiveKernelKalmanPredictor):

@@ -21,10 +21,11 @@ from stonesoup.updater import particle as ss_particle
 from ..core import akkf as ft_akkf
 from ..core import kalman as ft_kalman
 from ..core import particle as ft_particle
+from ..core import unscented as ft_unscented
 from ..models import LinearGaussian
 from ..types import dense_kernel_covar
-from ._convert import (angle_rows, fast_kernel, fast_model, floats, global_rng,
-                       plain_particles, typed_measurement, uncached)
+from ._convert import (angle_rows, fast_kernel, fast_model, fits, floats, global_rng,
+                       plain_particles, sigma_parameters, typed_measurement, uncached)
 from .state import kernel_factors, remember_factors
 
 
@@ -68,7 +69,14 @@ class _Kalman:
             return None
         return fast
 
+    def _fast_for(self, model, prediction):
+        """The fasttrack model if the kernel applies to ``prediction``, or None."""
+        fast = self._fast(model)
+        return fast if fast is not None and fits(prediction, fast.ndim_state) else None
+
     def _update(self, fast, prediction, z):
+        """``(x, P, z_hat, S, cross)`` of the kernel's update, or None where Stone Soup's
+        code must run."""
         return ft_kalman.update(fast, floats(prediction.state_vector), floats(prediction.covar),
                                 z, "forward", self.use_joseph_cov)
 
@@ -76,12 +84,14 @@ class _Kalman:
     def predict_measurement(self, predicted_state, measurement_model=None,
                             measurement_noise=True, **kwargs):
         model = self._check_measurement_model(measurement_model)
-        fast = self._fast(model)
-        if fast is None or kwargs:
+        fast = self._fast_for(model, predicted_state)
+        # any z: only the measurement prediction is kept
+        moments = None if fast is None or kwargs else self._update(
+            fast, predicted_state, np.zeros((fast.ndim_meas, 1)))
+        if moments is None:
             return uncached(self._stonesoup.predict_measurement)(
                 self, predicted_state, model, measurement_noise, **kwargs)
-        z = np.zeros((fast.ndim_meas, 1))  # any: only the measurement prediction is kept
-        z_hat, s, cross = self._update(fast, predicted_state, z)[2:]
+        z_hat, s, cross = moments[2:]
         if not measurement_noise:
             s = s - fast.noise_covar
         return MeasurementPrediction.from_state(predicted_state, typed_measurement(z_hat, fast),
@@ -129,7 +139,7 @@ class _Kalman:
 
     def update(self, hypothesis, **kwargs):
         model = self._check_measurement_model(hypothesis.measurement.measurement_model)
-        fast = self._fast(model)
+        fast = self._fast_for(model, hypothesis.prediction)
         if fast is None or kwargs:
             return self._stonesoup.update(self, hypothesis, **kwargs)
         if hypothesis.measurement_prediction is not None:
@@ -139,7 +149,10 @@ class _Kalman:
             return update
         prediction = hypothesis.prediction
         z = fast.measurement_column(hypothesis.measurement, "hypothesis.measurement")
-        x, covar, z_hat, s, cross = self._update(fast, prediction, z)
+        moments = self._update(fast, prediction, z)
+        if moments is None:
+            return self._stonesoup.update(self, hypothesis, **kwargs)
+        x, covar, z_hat, s, cross = moments
         hypothesis.measurement_prediction = MeasurementPrediction.from_state(
             prediction, typed_measurement(z_hat, fast), s, cross_covar=cross)
         return Update.from_state(prediction, x, covar, timestamp=hypothesis.measurement.timestamp,
@@ -156,6 +169,44 @@ class ExtendedKalmanUpdater(_Kalman, ss_kalman.ExtendedKalmanUpdater):
 
     _stonesoup = ss_kalman.ExtendedKalmanUpdater
     _linear_only = False
+
+
+class UnscentedKalmanUpdater(_Kalman, ss_kalman.UnscentedKalmanUpdater):
+    """Stone Soup's ``UnscentedKalmanUpdater``, compiled for its built-in models (bearings
+    averaged circularly, as Stone Soup's ``Bearing`` mean does).
+
+    As in Stone Soup, ``use_joseph_cov`` takes the model's matrix ``H`` with the unscented
+    gain, so it applies to ``LinearGaussian`` only (Stone Soup's own code runs, and fails,
+    for a nonlinear model). Sigma-point parameters outside fasttrack's range and
+    covariances without a Cholesky factor (which Stone Soup regularises) go through Stone
+    Soup's code.
+    """
+
+    _stonesoup = ss_kalman.UnscentedKalmanUpdater
+    _linear_only = False
+
+    # its own method object: the associators' batched path computes the Kalman ones only
+    predict_measurement = lru_cache()(uncached(_Kalman.predict_measurement))
+
+    def _update(self, fast, prediction, z):
+        parameters = sigma_parameters(self, fast.ndim_state)
+        if parameters is None:
+            return None
+        try:
+            return ft_unscented.update(fast, floats(prediction.state_vector),
+                                       floats(prediction.covar), z, *parameters)
+        except ValueError:  # refused (no Cholesky factor, which Stone Soup regularises)
+            return None
+
+    def update(self, hypothesis, **kwargs):
+        if self.use_joseph_cov and hypothesis.measurement_prediction is None and not kwargs:
+            # the Joseph form from the measurement prediction, with the model's H
+            model = self._check_measurement_model(hypothesis.measurement.measurement_model)
+            if not isinstance(self._fast_for(model, hypothesis.prediction), LinearGaussian):
+                return self._stonesoup.update(self, hypothesis)
+            hypothesis.measurement_prediction = self.predict_measurement(
+                hypothesis.prediction, model)
+        return super().update(hypothesis, **kwargs)
 
 
 class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
