@@ -97,6 +97,56 @@ def _stack(states, attribute, shape, offset):
     return out
 
 
+
+def _check_step_types(body, offset):
+    """A TypeError naming the first state of ``body`` that is not a Gaussian prediction or
+    update."""
+    if all(issubclass(kind, _STEP_TYPES) for kind in set(map(type, body))):
+        return
+    k = next(k for k, state in enumerate(body) if not isinstance(state, _STEP_TYPES))
+    raise TypeError(f"track[{offset + k}] must be a GaussianStatePrediction or "
+                    f"GaussianStateUpdate, got {type(body[k]).__name__}")
+
+
+def _held_predictions(body, model, offset):
+    """``(x_pred, covar_pred, recompute, models)`` from the predictions the states of
+    ``body`` still hold: the means (1, n, d) and covariances (1, n, d, d) at their times,
+    ``recompute[t]`` (n,) 1 where none is held (the kernel computes it) else 0, and the
+    steps (by the index of the later state) whose prediction names another transition
+    model than ``model``."""
+    n, d = len(body), model.ndim_state
+    x_pred, covar_pred = np.empty((1, n, d)), np.empty((1, n, d, d))
+    recompute = np.ones(n, dtype=np.uint8)
+    models = {}
+    for t, prediction in enumerate(map(_prediction_of, body[1:]), start=1):
+        if prediction is None:
+            continue
+        if prediction.state_vector.shape != (d, 1) or prediction.covar.shape != (d, d):
+            raise ValueError(f"the prediction of track[{offset + t}] must have dimension "
+                             f"{d}, got {prediction.state_vector.shape[0]}")
+        x_pred[0, t] = prediction.state_vector[:, 0]
+        covar_pred[0, t] = prediction.covar
+        recompute[t] = 0
+        own = getattr(prediction, "transition_model", None)
+        if own is not None and own is not model:
+            models[t] = own
+    return x_pred, covar_pred, recompute, models
+
+
+def _with_moments(states, means, covars):
+    """New states of the types and attributes of ``states`` (Stone Soup's ``from_state``)
+    holding ``means`` and ``covars``."""
+    new = object.__new__
+    out = []
+    for state, mean, covar in zip(states, means, covars):
+        attributes = state.__dict__.copy()
+        attributes["state_vector"] = mean
+        attributes["covar"] = covar
+        smoothed = new(type(state))
+        smoothed.__dict__ = attributes
+        out.append(smoothed)
+    return out
+
 class KalmanSmoother:
     """The Rauch-Tung-Striebel (Kalman) smoother for a linear-Gaussian transition model.
 
@@ -194,11 +244,8 @@ class KalmanSmoother:
         return result
 
     def _smooth_states(self, body, offset):
+        _check_step_types(body, offset)
         n = len(body)
-        if not all(isinstance(state, _STEP_TYPES) for state in body):
-            k = next(k for k, state in enumerate(body) if not isinstance(state, _STEP_TYPES))
-            raise TypeError(f"track[{offset + k}] must be a GaussianStatePrediction or "
-                            f"GaussianStateUpdate, got {type(body[k]).__name__}")
         if n == 1:
             return [body[0]]
         model = self.transition_model
@@ -206,53 +253,13 @@ class KalmanSmoother:
         x = _stack(body, "state_vector", (d, 1), offset).reshape(1, n, d)
         covar = _stack(body, "covar", (d, d), offset).reshape(1, n, d, d)
         intervals = _track_intervals(body, offset)
-        x_pred = np.empty((1, n, d))
-        covar_pred = np.empty((1, n, d, d))
-        recompute = np.ones(n, dtype=np.uint8)
-        models = {}  # steps whose prediction names another transition model
-        predictions = [state if isinstance(state, GaussianStatePrediction) else
-                       _prediction_of(state) for state in body]
-        for t in range(1, n):
-            prediction = predictions[t]
-            if prediction is None:
-                continue
-            if prediction.state_vector.shape != (d, 1) or prediction.covar.shape != (d, d):
-                raise ValueError(f"the prediction of track[{offset + t}] must have dimension "
-                                 f"{d}, got {prediction.state_vector.shape[0]}")
-            x_pred[0, t] = prediction.state_vector[:, 0]
-            covar_pred[0, t] = prediction.covar
-            recompute[t] = 0
-            own = getattr(prediction, "transition_model", None)
-            if own is not None and own is not model:
-                models[t] = own
+        x_pred, covar_pred, recompute, models = _held_predictions(body, model, offset)
         if self.predictions == "stonesoup":
             for t in range(1, n):
                 if isinstance(body[t], GaussianStatePrediction):
                     recompute[t] = 2
-        if not models and hasattr(model, "matrix"):
-            values, inverse = np.unique(intervals, return_inverse=True)
-            matrices = [self._linearise(model, dt, None, None, False)[:2] for dt in values]
-            step = np.zeros(n, dtype=np.int64)
-            step[:n - 1] = inverse
-        else:
-            matrices, table = [], {}
-            step = np.zeros(n, dtype=np.int64)
-            for t in range(n - 1):
-                step_model = models.get(t + 1, model)
-                key = (id(step_model), intervals[t])
-                index = table.get(key)
-                if index is None or not hasattr(step_model, "matrix"):
-                    f, q, prediction = self._linearise(
-                        step_model, intervals[t], x[0, t].reshape(d, 1), covar[0, t],
-                        recompute[t + 1] == 1)
-                    if prediction is not None:
-                        x_pred[0, t + 1] = prediction[0][:, 0]
-                        covar_pred[0, t + 1] = prediction[1]
-                        recompute[t + 1] = 0
-                    index = len(matrices)
-                    matrices.append((f, q))
-                    table[key] = index
-                step[t] = index
+        matrices, step = self._steps(models, intervals, x, covar, x_pred, covar_pred,
+                                     recompute)
         x_out, covar_out = np.empty_like(x), np.empty_like(covar)
         status = _smooth.rts(x, covar, x_pred, covar_pred, recompute,
                              np.array([m[0] for m in matrices]),
@@ -261,18 +268,37 @@ class KalmanSmoother:
             t = (status - 1) % n
             raise ValueError(f"the predicted covariance of track[{offset + t}] is not "
                              f"positive definite: cannot form the smoothing gain")
-        new = object.__new__
-        out = []
-        for state, mean, matrix in zip(body[:-1], x_out.reshape(n, d, 1), covar_out[0]):
-            # Stone Soup's from_state: same type and attributes, the smoothed moments
-            attributes = state.__dict__.copy()
-            attributes["state_vector"] = mean
-            attributes["covar"] = matrix
-            smoothed = new(type(state))
-            smoothed.__dict__ = attributes
-            out.append(smoothed)
-        out.append(body[-1])
-        return out
+        return _with_moments(body[:-1], x_out.reshape(n, d, 1), covar_out[0]) + [body[-1]]
+
+    def _steps(self, models, intervals, x, covar, x_pred, covar_pred, recompute):
+        """The (F, Q) pairs of the track's steps and, for each t < n - 1, the index of the
+        one from t to t + 1; predictions the linearisation makes (nonlinear models) go into
+        ``x_pred``/``covar_pred``."""
+        model = self.transition_model
+        n, d = x.shape[1:]
+        step = np.zeros(n, dtype=np.int64)
+        if not models and hasattr(model, "matrix"):
+            values, inverse = np.unique(intervals, return_inverse=True)
+            step[:n - 1] = inverse
+            return [self._linearise(model, dt, None, None, False)[:2] for dt in values], step
+        matrices, table = [], {}
+        for t in range(n - 1):
+            step_model = models.get(t + 1, model)
+            key = (id(step_model), intervals[t])
+            index = table.get(key)
+            if index is None or not hasattr(step_model, "matrix"):
+                f, q, prediction = self._linearise(
+                    step_model, intervals[t], x[0, t].reshape(d, 1), covar[0, t],
+                    recompute[t + 1] == 1)
+                if prediction is not None:
+                    x_pred[0, t + 1] = prediction[0][:, 0]
+                    covar_pred[0, t + 1] = prediction[1]
+                    recompute[t + 1] = 0
+                index = len(matrices)
+                matrices.append((f, q))
+                table[key] = index
+            step[t] = index
+        return matrices, step
 
     def smooth_arrays(self, means, covars, time_intervals, predicted_means=None,
                       predicted_covars=None):
