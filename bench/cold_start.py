@@ -1,6 +1,7 @@
 """Cold-start costs, each measured in a new Python process.
 
 Usage: python bench/cold_start.py [--repeats 3] [--json bench/results/cold_start.json]
+[--families NAME ...]
 
 - ``import fasttrack``;
 - the first call of each kernel family in a new process with an empty compile cache,
@@ -53,12 +54,29 @@ elif family == "EKF batch":
     ft.BatchExtendedKalmanFilter(s.transition_model, s.measurement_model).step(
         np.zeros((4, 4)) + [0, 1, 0, 1], np.broadcast_to(np.eye(4), (4, 4, 4)).copy(),
         np.array([[0.0, 49.0]] * 4), 1.0)
+elif family == "unscented Kalman filter":
+    s = extended_kalman_tutorial()
+    step(ft.UnscentedKalmanPredictor(s.transition_model),
+         ft.UnscentedKalmanUpdater(s.measurement_model), s)
+elif family == "UKF batch":
+    s = extended_kalman_tutorial()
+    ft.BatchUnscentedKalmanFilter(s.transition_model, s.measurement_model).step(
+        np.zeros((4, 4)) + [0, 1, 0, 1], np.broadcast_to(np.eye(4), (4, 4, 4)).copy(),
+        np.array([[0.0, 49.0]] * 4), 1.0)
+elif family == "Kalman smoother":
+    s = extended_kalman_tutorial()
+    track = ft.run_filter(ft.KalmanPredictor(s.transition_model),
+                          ft.KalmanUpdater(ft.LinearGaussian(4, (0, 2), np.eye(2))), s.prior,
+                          [ft.Detection([k, k], timestamp=d.timestamp)
+                           for k, d in enumerate(s.detections[1:])])
+    ft.KalmanSmoother(s.transition_model).smooth(track)
 elif family == "warmup":
     ft.warmup(processes=2)
 print(time.perf_counter() - start)
 """
 
-FAMILIES = ["resample", "particle filter", "extended Kalman filter", "AKKF", "EKF batch"]
+FAMILIES = ["resample", "particle filter", "extended Kalman filter", "AKKF", "EKF batch",
+            "unscented Kalman filter", "UKF batch", "Kalman smoother"]
 #: Seconds from an empty cache, import included (the targets of a first result).
 TARGETS = {"resample": 2.0, "particle filter": 4.0, "extended Kalman filter": 4.0,
            "AKKF": 6.0, "warmup": 25.0}
@@ -93,11 +111,13 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--json", help="also write the measurements here")
+    parser.add_argument("--families", nargs="+", choices=FAMILIES + ["warmup"],
+                        default=FAMILIES + ["warmup"], help="the families to time (all)")
     args = parser.parse_args(argv)
     results = {"import": [_python(IMPORT) for _ in range(args.repeats)], "cold": {}, "warm": {}}
     print(f"import fasttrack: {_runs(results['import'])}; target 0.5 s")
     print("\nfirst call per family, new process, import included: empty cache | cache filled")
-    for family in FAMILIES + ["warmup"]:
+    for family in args.families:
         cold, warm = [], []
         for _ in range(args.repeats if family != "warmup" else 1):
             with tempfile.TemporaryDirectory() as cache:

@@ -49,8 +49,32 @@ def _batch():
     scenario = extended_kalman_tutorial(steps=2)
     means = np.tile([0.0, 1.0, 0.0, 1.0], (4, 1))
     covars = np.broadcast_to(np.eye(4), (4, 4, 4)).copy()
+    measurements = np.tile([0.0, 49.0], (4, 1))
     ft.BatchExtendedKalmanFilter(scenario.transition_model, scenario.measurement_model).step(
-        means, covars, np.tile([0.0, 49.0], (4, 1)), 1.0)
+        means, covars, measurements, 1.0)
+    unscented = ft.BatchUnscentedKalmanFilter(scenario.transition_model,
+                                              scenario.measurement_model)
+    unscented.step(means, covars, measurements, 1.0)
+    predicted = unscented.predict(means, covars, 1.0)
+    unscented.update(predicted[0], predicted[1], measurements)
+
+
+def _smoothers():
+    import fasttrack as ft
+    from fasttrack.scenarios import extended_kalman_tutorial, particle_filter_tutorial
+    scenario = extended_kalman_tutorial(steps=3)
+    track = ft.run_filter(ft.ExtendedKalmanPredictor(scenario.transition_model),
+                          ft.ExtendedKalmanUpdater(scenario.measurement_model), scenario.prior,
+                          scenario.detections[1:])
+    smoother = ft.KalmanSmoother(scenario.transition_model)
+    smoother.smooth(track)
+    smoother.smooth_arrays(np.zeros((3, 4)), np.broadcast_to(np.eye(4), (3, 4, 4)), 1.0)
+    scenario = particle_filter_tutorial(64, steps=3)
+    track = ft.run_filter(ft.ParticlePredictor(scenario.transition_model, rng=0),
+                          ft.ParticleUpdater(scenario.measurement_model,
+                                             ft.SystematicResampler(rng=0)),
+                          scenario.prior, scenario.detections[1:])
+    ft.ffbs(track, scenario.transition_model, 4, rng=0)
 
 
 def _adaptive_kernel():
@@ -87,7 +111,7 @@ def _multi_target():
 
 #: Families, slowest to compile first (so that a pool balances them).
 FAMILIES = {"batch": _batch, "kalman": _kalman, "adaptive_kernel": _adaptive_kernel,
-            "multi_target": _multi_target, "resamplers": _resamplers,
+            "multi_target": _multi_target, "smoothers": _smoothers, "resamplers": _resamplers,
             "particle_filter": _particle_filter}
 
 
@@ -105,8 +129,8 @@ def warmup(families=None, processes=1, report=None, load=True):
     Parameters
     ----------
     families : iterable of str, optional
-        Some of 'resamplers', 'particle_filter', 'kalman', 'batch', 'adaptive_kernel'
-        (default: all).
+        Some of 'resamplers', 'particle_filter', 'kalman', 'batch', 'adaptive_kernel',
+        'multi_target', 'smoothers' (default: all).
     processes : int
         With more than one, compile in that many worker processes at once, which fill the
         shared cache, then load from it: on a first run, up to ``processes`` times faster.

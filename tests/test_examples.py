@@ -76,3 +76,14 @@ def test_guide_multi_target_runs():
     exec(compile(code, "guide multi-target", "exec"), namespace)
     tracks, scenario = namespace["tracks"], namespace["scenario"]
     assert len(tracks) == 40 and 14 <= len(tracks[-1]) <= 20
+
+
+def test_guide_smoothing_runs():
+    import re
+    guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()
+    code = re.search(r"## Smoothing\n.*?```python\n(.*?)```", guide, re.S).group(1)
+    namespace = {}
+    exec(compile(code, "guide smoothing", "exec"), namespace)
+    track, smoothed, paths = namespace["track"], namespace["smoothed"], namespace["paths"]
+    assert len(smoothed) == len(track) == 20 and smoothed[-1] is track[-1]
+    assert paths.shape == (20, 4, 100)
