@@ -515,3 +515,31 @@ def test_batch_filter_names_the_failing_filter_and_bad_arguments():
         _batch(kappa=-4.0)
     empty = batch.step(np.empty((0, 4)), np.empty((0, 4, 4)), np.empty((0, 2)), 1.0)
     assert empty[0].shape == (0, 4) and empty[1].shape == (0, 4, 4)
+
+
+def test_long_loops_run_in_flat_memory():
+    """A filter loop keeping only the latest posterior, and repeated batch steps: traced
+    memory does not grow with the number of steps."""
+    import tracemalloc
+    predictor, updater = ft.UnscentedKalmanPredictor(_transition()), ft.UnscentedKalmanUpdater(
+        _sensor())
+    batch = _batch()
+    means, covars, z = _batch_inputs(2000, np.random.default_rng(12))
+    state = ft.GaussianState([0.0, 1.0, 0.0, 1.0], PRIOR_COVAR, timestamp=0.0)
+
+    def steps(state, first, last):
+        for t in range(first, last):
+            prediction = predictor.predict(state, float(t))
+            state = updater.update(ft.SingleHypothesis(
+                prediction, ft.Detection([[3.1], [49.0 - 0.01 * t]], timestamp=float(t))))
+            batch.step(means, covars, z, 1.0)
+        return state
+
+    state = steps(state, 1, 20)
+    tracemalloc.start()
+    state = steps(state, 20, 60)
+    early = tracemalloc.get_traced_memory()[0]
+    state = steps(state, 60, 300)
+    late = tracemalloc.get_traced_memory()[0]
+    tracemalloc.stop()
+    assert late - early < 100_000  # bytes

@@ -259,6 +259,27 @@ def _update(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, cov
 
 
 @jit()
+def _solve(lower, rhs, half, out):
+    """``half = L^-1 rhs`` and ``out = L^-T half`` (the solution of ``L L^T out = rhs``) per
+    filter, for lower Cholesky factors L (n, n, B) and ``rhs``, ``half``, ``out``
+    (n, k, B)."""
+    n, k, nb = rhs.shape
+    for c in range(k):
+        for r in range(n):
+            for b in range(nb):
+                s = rhs[r, c, b]
+                for j in range(r):
+                    s -= lower[r, j, b] * half[j, c, b]
+                half[r, c, b] = s / lower[r, r, b]
+        for r in range(n - 1, -1, -1):
+            for b in range(nb):
+                s = half[r, c, b]
+                for j in range(r + 1, n):
+                    s -= lower[j, r, b] * out[j, c, b]
+                out[r, c, b] = s / lower[r, r, b]
+
+
+@jit()
 def _correct(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, covariance_out,
              innovation_covar, cross, status):
     """The gain step of :func:`_update` given each filter's ``cross`` (d, m, B) and
@@ -267,21 +288,14 @@ def _correct(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, co
     m = z.shape[0]
     lower = np.empty((m, m, nb))
     _cholesky(innovation_covar, lower, status, INNOVATION_NOT_PD)
+    cross_t = np.empty((m, d, nb))
+    for r in range(m):
+        for c in range(d):
+            for b in range(nb):
+                cross_t[r, c, b] = cross[c, r, b]
     whitened = np.empty((m, d, nb))  # L^-1 cross^T
     gain_t = np.empty((m, d, nb))  # S^-1 cross^T = K^T
-    for c in range(d):
-        for r in range(m):
-            for b in range(nb):
-                s = cross[c, r, b]
-                for k in range(r):
-                    s -= lower[r, k, b] * whitened[k, c, b]
-                whitened[r, c, b] = s / lower[r, r, b]
-        for r in range(m - 1, -1, -1):
-            for b in range(nb):
-                s = whitened[r, c, b]
-                for k in range(r + 1, m):
-                    s -= lower[k, r, b] * gain_t[k, c, b]
-                gain_t[r, c, b] = s / lower[r, r, b]
+    _solve(lower, cross_t, whitened, gain_t)
     innovation = np.empty((m, nb))
     for r in range(m):
         for b in range(nb):

@@ -20,8 +20,8 @@ symmetric).
 import numpy as np
 
 from . import jit
-from .kalman import (FILTERS_PER_BLOCK, _check_covariance, _correct, _from_block, _to_block,
-                     _transition)
+from .kalman import (FILTERS_PER_BLOCK, _check_covariance, _correct, _from_block, _solve,
+                     _to_block, _transition)
 from .numeric import copy_into, fill, sin_cos_turns, wrap_angle
 from .sensor import _predict_block
 from .status import (OK, PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
@@ -221,19 +221,7 @@ def _linearisation(lower, cross):
     (d, m, B), with ``P = L L^T`` the sigma points' factors: ``H^T = L^-T L^-1 C``."""
     d, m, nb = cross.shape
     h_t = np.empty((d, m, nb))
-    for c in range(m):
-        for r in range(d):
-            for b in range(nb):
-                s = cross[r, c, b]
-                for k in range(r):
-                    s -= lower[r, k, b] * h_t[k, c, b]
-                h_t[r, c, b] = s / lower[r, r, b]
-        for r in range(d - 1, -1, -1):
-            for b in range(nb):
-                s = h_t[r, c, b]
-                for k in range(r + 1, d):
-                    s -= lower[k, r, b] * h_t[k, c, b]
-                h_t[r, c, b] = s / lower[r, r, b]
+    _solve(lower, cross, np.empty((d, m, nb)), h_t)
     h = np.empty((m, d, nb))
     for r in range(m):
         for c in range(d):
@@ -289,21 +277,12 @@ def unscented_moments(points, transformed, mean_weights, covar_weights, angles, 
 
 
 @jit()
-def _checked_prior(covariance):
-    """The status of a (d, d) prior covariance (symmetric positive semi-definite: OK)."""
+def _checked(covariance, asymmetric, indefinite):
+    """The status (1,) of a (d, d) covariance: OK if symmetric positive semi-definite, else
+    ``asymmetric`` or ``indefinite``."""
     d = covariance.shape[0]
     status = np.zeros(1, dtype=np.int64)
-    _check_covariance(covariance.reshape((d, d, 1)), status, PRIOR_NOT_SYMMETRIC,
-                      PRIOR_NOT_PSD)
-    return status
-
-
-@jit()
-def _checked_prediction(covariance):
-    d = covariance.shape[0]
-    status = np.zeros(1, dtype=np.int64)
-    _check_covariance(covariance.reshape((d, d, 1)), status, PREDICTION_NOT_SYMMETRIC,
-                      PREDICTION_NOT_PSD)
+    _check_covariance(covariance.reshape((d, d, 1)), status, asymmetric, indefinite)
     return status
 
 
@@ -314,7 +293,7 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
     :mod:`kalman`): the prior's sigma points moved by F, their moments plus Q. Returns the
     status (PRIOR_NOT_SYMMETRIC / PRIOR_NOT_PSD for a bad prior covariance)."""
     d = x.shape[0]
-    status = _checked_prior(covariance)
+    status = _checked(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
     if status[0] == OK:
         matrix, covar = np.empty((d, d, 1)), np.empty((d, d, 1))
         _transition(kind, rates, fixed_matrix, fixed_covar, np.full(1, dt), matrix, covar)
@@ -331,7 +310,7 @@ def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covar
     moments plus ``covar`` (Q), and their cross covariance with the prior's sigma points
     into ``cross`` (d, d; not computed if it has no rows). Returns the status."""
     d = x.shape[0]
-    status = _checked_prior(covariance)
+    status = _checked(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
     if status[0] != OK:
         return status[0]
     points, _, mean_weights, covar_weights = _sigma(x, covariance.reshape((d, d, 1)), alpha,
@@ -358,7 +337,7 @@ def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta
     ``joseph`` ``(I - K H) P (I - K H)^T + K R K^T`` with the statistical linearisation
     ``H = C^T P^-1`` (exact for a linear sensor). Returns the status."""
     d, m = x.shape[0], z.shape[0]
-    status = _checked_prediction(covariance)
+    status = _checked(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
     if status[0] == OK:
         covariance = covariance.reshape((d, d, 1))
         measured = _measure(kind, mapping, offset, rotation, alpha, beta, kappa, x,
@@ -376,7 +355,7 @@ def unscented_update_function(function, noise, angles, alpha, beta, kappa, josep
     """One filter's unscented update with a user measurement ``h((d, n)) -> (m, n)`` (its
     output checked first); otherwise as :func:`unscented_update`. Returns the status."""
     d, m = x.shape[0], z.shape[0]
-    status = _checked_prediction(covariance)
+    status = _checked(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
     if status[0] != OK:
         return status[0]
     covariance = covariance.reshape((d, d, 1))
