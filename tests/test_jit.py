@@ -228,7 +228,8 @@ _SMALL_CALL = ("import fasttrack._jit.numeric as n; from fasttrack._jit import c
 
 def test_the_cache_is_per_user_and_never_in_the_package(tmp_path):
     before = _package_cache_files()
-    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME",
+                                                           "FASTTRACK_CACHE_DIR")}
     chosen = subprocess.run([sys.executable, "-c", _SMALL_CALL], capture_output=True, text=True,
                             env={**env, "FASTTRACK_CACHE_DIR": str(tmp_path / "mine")}, timeout=600)
     assert chosen.returncode == 0, chosen.stderr
