@@ -39,6 +39,12 @@ def _kalman():
     scenario = extended_kalman_tutorial(steps=2)
     _step(ft.ExtendedKalmanPredictor(scenario.transition_model),
           ft.ExtendedKalmanUpdater(scenario.measurement_model), scenario)
+
+
+def _unscented():
+    import fasttrack as ft
+    from fasttrack.scenarios import extended_kalman_tutorial
+    scenario = extended_kalman_tutorial(steps=2)
     _step(ft.UnscentedKalmanPredictor(scenario.transition_model),
           ft.UnscentedKalmanUpdater(scenario.measurement_model), scenario)
 
@@ -110,7 +116,8 @@ def _multi_target():
 
 
 #: Families, slowest to compile first (so that a pool balances them).
-FAMILIES = {"batch": _batch, "kalman": _kalman, "adaptive_kernel": _adaptive_kernel,
+FAMILIES = {"batch": _batch, "kalman": _kalman, "unscented": _unscented,
+            "adaptive_kernel": _adaptive_kernel,
             "multi_target": _multi_target, "smoothers": _smoothers, "resamplers": _resamplers,
             "particle_filter": _particle_filter}
 
@@ -129,8 +136,8 @@ def warmup(families=None, processes=1, report=None, load=True):
     Parameters
     ----------
     families : iterable of str, optional
-        Some of 'resamplers', 'particle_filter', 'kalman', 'batch', 'adaptive_kernel',
-        'multi_target', 'smoothers' (default: all).
+        Some of 'resamplers', 'particle_filter', 'kalman', 'unscented', 'batch',
+        'adaptive_kernel', 'multi_target', 'smoothers' (default: all).
     processes : int
         With more than one, compile in that many worker processes at once, which fill the
         shared cache, then load from it: on a first run, up to ``processes`` times faster.
