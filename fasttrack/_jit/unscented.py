@@ -66,17 +66,14 @@ def _cholesky_eps(a, lower):
             for b in range(nb):
                 acc[b] = a[i, j, b]
             for k in range(j):
-                li, lj = lower[i, k], lower[j, k]
                 for b in range(nb):
-                    acc[b] -= li[b] * lj[b]
-            out = lower[i, j]
+                    acc[b] -= lower[i, k, b] * lower[j, k, b]
             if j < i:
-                pivot = lower[j, j]
                 for b in range(nb):
-                    out[b] = acc[b] / pivot[b]
+                    lower[i, j, b] = acc[b] / lower[j, j, b]
             else:
                 for b in range(nb):
-                    out[b] = np.sqrt(acc[b]) if acc[b] > eps[b] else np.sqrt(eps[b])
+                    lower[i, i, b] = np.sqrt(acc[b]) if acc[b] > eps[b] else np.sqrt(eps[b])
 
 
 @jit()
@@ -89,17 +86,13 @@ def _sigma(x, covariance, alpha, beta, kappa):
     _cholesky_eps(covariance, lower)
     points = np.empty((d, 2 * d + 1, nb))
     for r in range(d):
-        xr = x[r]
-        centre = points[r, 0]
         for b in range(nb):
-            centre[b] = xr[b]
+            points[r, 0, b] = x[r, b]
         for i in range(d):
-            column = lower[r, i]
-            plus, minus = points[r, 1 + i], points[r, 1 + d + i]
             for b in range(nb):
-                step = column[b] * root
-                plus[b] = xr[b] + step
-                minus[b] = xr[b] - step
+                step = lower[r, i, b] * root
+                points[r, 1 + i, b] = x[r, b] + step
+                points[r, 1 + d + i, b] = x[r, b] - step
     return points, lower, mean_weights, covar_weights
 
 
@@ -116,57 +109,53 @@ def _moments(points, transformed, mean_weights, covar_weights, angles, noise, me
     for i in range(n):
         total += mean_weights[i]
     for r in range(m):
-        out = mean[r]
         if angles[r]:
             sines, cosines = np.zeros(nb), np.zeros(nb)
             for i in range(n):
-                row, w = transformed[r, i], mean_weights[i]
+                w = mean_weights[i]
                 for b in range(nb):
-                    turns = row[b] * 0.15915494309189535
+                    turns = transformed[r, i, b] * 0.15915494309189535
                     s, c = sin_cos_turns(turns - np.floor(turns))
                     sines[b] += s * w
                     cosines[b] += c * w
             for b in range(nb):
-                out[b] = wrap_angle(np.arctan2(sines[b] / total, cosines[b] / total))
+                mean[r, b] = wrap_angle(np.arctan2(sines[b] / total, cosines[b] / total))
         else:
-            fill(out, 0.0)
-            for i in range(n):
-                row, w = transformed[r, i], mean_weights[i]
-                for b in range(nb):
-                    out[b] += row[b] * w
             for b in range(nb):
-                out[b] /= total
+                mean[r, b] = 0.0
+            for i in range(n):
+                w = mean_weights[i]
+                for b in range(nb):
+                    mean[r, b] += transformed[r, i, b] * w
+            for b in range(nb):
+                mean[r, b] /= total
     diff = np.empty(transformed.shape)
     for r in range(m):
         for i in range(n):
-            row, centre, out = transformed[r, i], mean[r], diff[r, i]
             if angles[r]:
                 for b in range(nb):
-                    out[b] = wrap_angle(row[b] - centre[b])
+                    diff[r, i, b] = wrap_angle(transformed[r, i, b] - mean[r, b])
             else:
                 for b in range(nb):
-                    out[b] = row[b] - centre[b]
+                    diff[r, i, b] = transformed[r, i, b] - mean[r, b]
     for r in range(m):
         for c in range(r + 1):
-            out = covar[r, c]
             for b in range(nb):
-                out[b] = 0.0
+                covar[r, c, b] = noise[r, c, b]
             for i in range(n):
-                dr, dc, w = diff[r, i], diff[c, i], covar_weights[i]
+                w = covar_weights[i]
                 for b in range(nb):
-                    out[b] += dr[b] * w * dc[b]
-            extra, mirror = noise[r, c], covar[c, r]
+                    covar[r, c, b] += diff[r, i, b] * w * diff[c, i, b]
             for b in range(nb):
-                out[b] += extra[b]
-                mirror[b] = out[b]
+                covar[c, r, b] = covar[r, c, b]
     for r in range(cross.shape[0]):
         for c in range(m):
-            out = cross[r, c]
-            fill(out, 0.0)
+            for b in range(nb):
+                cross[r, c, b] = 0.0
             for i in range(n):
-                p, p0, dc, w = points[r, i], points[r, 0], diff[c, i], covar_weights[i]
+                w = covar_weights[i]
                 for b in range(nb):
-                    out[b] += (p[b] - p0[b]) * w * dc[b]
+                    cross[r, c, b] += (points[r, i, b] - points[r, 0, b]) * w * diff[c, i, b]
 
 
 @jit()
@@ -182,11 +171,9 @@ def _predict(matrix, covar, alpha, beta, kappa, x, covariance, x_out, covariance
     moved = np.zeros(points.shape)
     for r in range(d):
         for i in range(points.shape[1]):
-            out = moved[r, i]
             for k in range(d):
-                f, p = matrix[r, k], points[k, i]
                 for b in range(nb):
-                    out[b] += f[b] * p[b]
+                    moved[r, i, b] += matrix[r, k, b] * points[k, i, b]
     _moments(points, moved, mean_weights, covar_weights, np.zeros(d, dtype=np.bool_), covar,
              x_out, covariance_out, _no_cross(d, nb))
 
