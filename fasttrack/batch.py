@@ -22,11 +22,17 @@ _AS_PREDICTION = {_status.PRIOR_NOT_PSD: _status.PREDICTION_NOT_PSD,
                   _status.PRIOR_NOT_SYMMETRIC: _status.PREDICTION_NOT_SYMMETRIC}
 
 
+def _identity(d):
+    """The kernel transition F = I, Q = 0: a step through it (exact) is the update alone."""
+    return _kalman.FIXED, np.empty(0), np.eye(d), np.zeros((d, d))
+
+
 class _BatchFilter:
     """K independent Gaussian filters sharing a transition and a measurement model, each
     with its own state, covariance, measurements and time intervals: the validation, the
     threads and the loop over time of :class:`BatchExtendedKalmanFilter` and
-    :class:`BatchUnscentedKalmanFilter`."""
+    :class:`BatchUnscentedKalmanFilter`, which provide the kernels: ``_step``, and
+    ``_predict``/``_update`` returning the filters' statuses."""
 
     def __init__(self, transition_model, measurement_model):
         if not isinstance(transition_model, TransitionModel) \
@@ -91,6 +97,71 @@ class _BatchFilter:
         if failed.size:
             raise ValueError(f"{failed.size} of {status.size} filters failed; filter "
                              f"{failed[0]}: {_errors.MESSAGES[status[failed[0]]]}")
+
+    def predict(self, means, covars, time_intervals):
+        """Predict every filter and its measurement, for gating and association.
+
+        Parameters
+        ----------
+        means : (K, d) array_like
+        covars : (K, d, d) array_like
+            Positive semi-definite.
+        time_intervals : float or (K,) array_like
+            Seconds from each filter's state to the prediction.
+
+        Returns
+        -------
+        means, covars : (K, d), (K, d, d) ndarray
+            The predicted states.
+        z_hats : (K, m) ndarray
+            The predicted measurements.
+        innovation_covars : (K, m, m) ndarray
+            Their covariances plus the measurement noise R: ``H P H^T + R`` with H the
+            measurement Jacobian at the predicted mean (extended), or from the sigma
+            points of the prediction (unscented).
+
+        Raises
+        ------
+        ValueError
+            If a filter's prediction is undefined (naming the first such filter and why).
+        """
+        means, covars, _ = self._arrays(means, covars, None, ())
+        k, d = means.shape
+        m = self.measurement_model.ndim_meas
+        intervals = self._intervals(time_intervals, (k,))
+        out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))
+        status = np.zeros(k, dtype=np.int64)
+        if k:
+            self._raise(self._predict(intervals, means, covars, out, status))
+        return out
+
+    def update(self, means, covars, measurements):
+        """Update every (predicted) filter with its measurement.
+
+        Parameters
+        ----------
+        means : (K, d) array_like
+        covars : (K, d, d) array_like
+            Positive semi-definite.
+        measurements : (K, m) array_like
+
+        Returns
+        -------
+        means, covars : (K, d), (K, d, d) ndarray
+            The posteriors.
+
+        Raises
+        ------
+        ValueError
+            If a filter's update is undefined (naming the first such filter and why).
+        """
+        means, covars, measurements = self._arrays(means, covars, measurements, ())
+        means_out, covars_out = np.empty_like(means), np.empty_like(covars)
+        status = np.zeros(means.shape[0], dtype=np.int64)
+        if means.shape[0]:
+            self._raise(self._update(means, covars, measurements, means_out, covars_out,
+                                     status))
+        return means_out, covars_out
 
     def step(self, means, covars, measurements, time_intervals):
         """One predict + update of every filter.
@@ -218,39 +289,10 @@ class BatchExtendedKalmanFilter(_BatchFilter):
 
         self._in_chunks(means.shape[0], run)
 
-    def predict(self, means, covars, time_intervals):
-        """Predict every filter and its measurement, for gating and association.
-
-        Parameters
-        ----------
-        means : (K, d) array_like
-        covars : (K, d, d) array_like
-            Positive semi-definite.
-        time_intervals : float or (K,) array_like
-            Seconds from each filter's state to the prediction.
-
-        Returns
-        -------
-        means, covars : (K, d), (K, d, d) ndarray
-            The predicted states.
-        z_hats : (K, m) ndarray
-            The predicted measurements.
-        innovation_covars : (K, m, m) ndarray
-            ``S = H P H^T + R``, H the measurement Jacobian at the predicted mean.
-
-        Raises
-        ------
-        ValueError
-            If a filter's prediction is undefined (naming the first such filter and why).
-        """
-        means, covars, _ = self._arrays(means, covars, None, ())
-        k, d = means.shape
-        m = self.measurement_model.ndim_meas
-        intervals = self._intervals(time_intervals, (k,))
-        out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))
-        status = np.zeros(k, dtype=np.int64)
+    def _predict(self, intervals, means, covars, out, status):
+        k = means.shape[0]
         model = self.measurement_model
-        if k and self._selects and np.all(intervals == intervals[0]):
+        if self._selects and np.all(intervals == intervals[0]):
             dt = float(intervals[0])
             fixed = (self.transition_model.matrix(time_interval=dt),
                      self.transition_model.covar(time_interval=dt), model._mapping,
@@ -260,8 +302,7 @@ class BatchExtendedKalmanFilter(_BatchFilter):
                 _kalman.linear_predict(*fixed, means[lo:hi], covars[lo:hi],
                                        *[a[lo:hi] for a in out], status[lo:hi])
 
-            self._in_chunks(k, run)
-        elif k:
+        else:
             spec = self._spec(intervals)
             measurement_spec = (model.kind, model._mapping, model._offset, model._rotation,
                                 model._noise_covar, self._method)
@@ -271,35 +312,12 @@ class BatchExtendedKalmanFilter(_BatchFilter):
                                       means[lo:hi], covars[lo:hi],
                                       *[a[lo:hi] for a in out], status[lo:hi])
 
-            self._in_chunks(k, run)
-        self._raise(status)
-        return out
+        self._in_chunks(k, run)
+        return status
 
-    def update(self, means, covars, measurements):
-        """Update every (predicted) filter with its measurement.
-
-        Parameters
-        ----------
-        means : (K, d) array_like
-        covars : (K, d, d) array_like
-            Positive semi-definite.
-        measurements : (K, m) array_like
-
-        Returns
-        -------
-        means, covars : (K, d), (K, d, d) ndarray
-            The posteriors.
-
-        Raises
-        ------
-        ValueError
-            If a filter's update is undefined (naming the first such filter and why).
-        """
-        means, covars, measurements = self._arrays(means, covars, measurements, ())
+    def _update(self, means, covars, measurements, means_out, covars_out, status):
         k, d = means.shape
-        means_out, covars_out = np.empty_like(means), np.empty_like(covars)
-        status = np.zeros(k, dtype=np.int64)
-        if k and self._selects:
+        if self._selects:
             model = self.measurement_model
 
             def run(lo, hi):
@@ -309,13 +327,10 @@ class BatchExtendedKalmanFilter(_BatchFilter):
                                       covars_out[lo:hi], status[lo:hi])
 
             self._in_chunks(k, run)
-        elif k:  # a step through the identity (F = I, Q = 0: exact) is the update alone
-            stay = (_kalman.FIXED, np.empty(0), np.eye(d), np.zeros((d, d)))
-            self._step(stay, np.zeros(k), means, covars, measurements, means_out,
-                       covars_out, status)
-            status = np.array([_AS_PREDICTION.get(code, code) for code in status], np.int64)
-        self._raise(status)
-        return means_out, covars_out
+            return status
+        self._step(_identity(d), np.zeros(k), means, covars, measurements, means_out,
+                   covars_out, status)
+        return np.array([_AS_PREDICTION.get(code, code) for code in status], np.int64)
 
     @property
     def _selects(self):
@@ -376,71 +391,13 @@ class BatchUnscentedKalmanFilter(_BatchFilter):
                      measurements, (means_out, covars_out, np.empty((k, 0)),
                                     np.empty((k, 0, 0))), status)
 
-    def predict(self, means, covars, time_intervals):
-        """Predict every filter and its measurement, for gating and association.
+    def _predict(self, intervals, means, covars, out, status):
+        self._kernel(_unscented.PREDICT | _unscented.MEASURE, self._spec(intervals),
+                     intervals, means, covars, np.empty((means.shape[0], 0)), out, status)
+        return status
 
-        Parameters
-        ----------
-        means : (K, d) array_like
-        covars : (K, d, d) array_like
-            Positive semi-definite.
-        time_intervals : float or (K,) array_like
-            Seconds from each filter's state to the prediction.
-
-        Returns
-        -------
-        means, covars : (K, d), (K, d, d) ndarray
-            The predicted states.
-        z_hats : (K, m) ndarray
-            The predicted measurements (sigma points of the prediction).
-        innovation_covars : (K, m, m) ndarray
-            Their covariances plus the measurement noise.
-
-        Raises
-        ------
-        ValueError
-            If a filter's prediction is undefined (naming the first such filter and why).
-        """
-        means, covars, _ = self._arrays(means, covars, None, ())
+    def _update(self, means, covars, measurements, means_out, covars_out, status):
         k, d = means.shape
-        m = self.measurement_model.ndim_meas
-        intervals = self._intervals(time_intervals, (k,))
-        outputs = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))
-        status = np.zeros(k, dtype=np.int64)
-        if k:
-            self._kernel(_unscented.PREDICT | _unscented.MEASURE, self._spec(intervals),
-                         intervals, means, covars, np.empty((k, 0)), outputs, status)
-        self._raise(status)
-        return outputs
-
-    def update(self, means, covars, measurements):
-        """Update every (predicted) filter with its measurement.
-
-        Parameters
-        ----------
-        means : (K, d) array_like
-        covars : (K, d, d) array_like
-            Positive semi-definite.
-        measurements : (K, m) array_like
-
-        Returns
-        -------
-        means, covars : (K, d), (K, d, d) ndarray
-            The posteriors.
-
-        Raises
-        ------
-        ValueError
-            If a filter's update is undefined (naming the first such filter and why).
-        """
-        means, covars, measurements = self._arrays(means, covars, measurements, ())
-        k, d = means.shape
-        outputs = (np.empty_like(means), np.empty_like(covars), np.empty((k, 0)),
-                   np.empty((k, 0, 0)))
-        status = np.zeros(k, dtype=np.int64)
-        if k:
-            stay = (_kalman.FIXED, np.empty(0), np.eye(d), np.zeros((d, d)))
-            self._kernel(_unscented.UPDATE, stay, np.zeros(k), means, covars, measurements,
-                         outputs, status)
-        self._raise(status)
-        return outputs[:2]
+        self._kernel(_unscented.UPDATE, _identity(d), np.zeros(k), means, covars, measurements,
+                     (means_out, covars_out, np.empty((k, 0)), np.empty((k, 0, 0))), status)
+        return status
