@@ -14,7 +14,8 @@ update is the Kalman gain step of :mod:`kalman` with that cross covariance.
 
 Layout as :mod:`kalman`: the filter index last, means (d, B), covariances (d, d, B), sigma
 points (d, 2d + 1, B), so that the loops over a block's filters vectorise; one filter is a
-block of one. Covariances are computed on the lower triangle and mirrored (exactly
+block of one, passed as the literal ``nb = 1`` (the first argument of every block function,
+as in :mod:`kalman`). Covariances are computed on the lower triangle and mirrored (exactly
 symmetric).
 """
 import numpy as np
@@ -49,10 +50,10 @@ def _weights(d, alpha, beta, kappa):
 
 
 @jit()
-def _cholesky_eps(a, lower):
+def _cholesky_eps(nb, a, lower):
     """Lower Cholesky factors of the symmetric (d, d, B) ``a`` into ``lower``; a pivot not
     above ``spacing(max diag a)`` becomes its square root (Stone Soup's ``cholesky_eps``)."""
-    d, _, nb = a.shape
+    d = a.shape[0]
     eps = np.empty(nb)
     for b in range(nb):
         top = a[0, 0, b]
@@ -77,13 +78,13 @@ def _cholesky_eps(a, lower):
 
 
 @jit()
-def _sigma(x, covariance, alpha, beta, kappa):
+def _sigma(nb, x, covariance, alpha, beta, kappa):
     """Sigma points (d, 2d + 1, B) of the means ``x`` (d, B) and covariances (d, d, B), the
     Cholesky factors used (d, d, B) and the weights (see :func:`_weights`)."""
-    d, nb = x.shape
+    d = x.shape[0]
     mean_weights, covar_weights, root = _weights(d, alpha, beta, kappa)
     lower = np.empty((d, d, nb))
-    _cholesky_eps(covariance, lower)
+    _cholesky_eps(nb, covariance, lower)
     points = np.empty((d, 2 * d + 1, nb))
     for r in range(d):
         for b in range(nb):
@@ -97,14 +98,14 @@ def _sigma(x, covariance, alpha, beta, kappa):
 
 
 @jit()
-def _moments(points, transformed, mean_weights, covar_weights, angles, noise, mean, covar,
+def _moments(nb, points, transformed, mean_weights, covar_weights, angles, noise, mean, covar,
              cross):
     """Mean (m, B), covariance (m, m, B) plus ``noise`` (m, m, B), and cross covariance
     (d, m, B) of the transformed sigma points (m, 2d + 1, B) of ``points``
     (d, 2d + 1, B); rows where ``angles`` (m,) is True are angles (circular mean, wrapped
     differences). ``cross`` with no rows: not computed."""
     n = points.shape[1]
-    m, _, nb = transformed.shape
+    m = transformed.shape[0]
     total = 0.0
     for i in range(n):
         total += mean_weights[i]
@@ -164,26 +165,26 @@ def _no_cross(m, nb):
 
 
 @jit()
-def _predict(matrix, covar, alpha, beta, kappa, x, covariance, x_out, covariance_out):
+def _predict(nb, matrix, covar, alpha, beta, kappa, x, covariance, x_out, covariance_out):
     """The unscented prediction of checked priors through F (d, d, B), plus Q (d, d, B)."""
-    d, nb = x.shape
-    points, _, mean_weights, covar_weights = _sigma(x, covariance, alpha, beta, kappa)
+    d = x.shape[0]
+    points, _, mean_weights, covar_weights = _sigma(nb, x, covariance, alpha, beta, kappa)
     moved = np.zeros(points.shape)
     for r in range(d):
         for i in range(points.shape[1]):
             for k in range(d):
                 for b in range(nb):
                     moved[r, i, b] += matrix[r, k, b] * points[k, i, b]
-    _moments(points, moved, mean_weights, covar_weights, np.zeros(d, dtype=np.bool_), covar,
+    _moments(nb, points, moved, mean_weights, covar_weights, np.zeros(d, dtype=np.bool_), covar,
              x_out, covariance_out, _no_cross(d, nb))
 
 
 @jit()
-def _measure(kind, mapping, offset, rotation, alpha, beta, kappa, x, covariance, m):
+def _measure(nb, kind, mapping, offset, rotation, alpha, beta, kappa, x, covariance, m):
     """The sigma points of ``(x, covariance)`` (as :func:`_sigma`) and their predicted
     measurements (m, 2d + 1, B) by a built-in kind."""
-    points, lower, mean_weights, covar_weights = _sigma(x, covariance, alpha, beta, kappa)
-    d, n, nb = points.shape
+    points, lower, mean_weights, covar_weights = _sigma(nb, x, covariance, alpha, beta, kappa)
+    d, n = points.shape[0], points.shape[1]
     transformed = np.empty((m, n, nb))
     _predict_block(kind, points.reshape((d, n * nb)), np.int64(0), np.int64(n * nb), mapping,
                    offset, rotation, transformed.reshape((m, n * nb)), np.int64(0))
@@ -203,12 +204,12 @@ def _tiled(matrix, nb):
 
 
 @jit()
-def _linearisation(lower, cross):
+def _linearisation(nb, lower, cross):
     """The statistical linearisation ``H = C^T P^-1`` (m, d, B) of cross covariances C
     (d, m, B), with ``P = L L^T`` the sigma points' factors: ``H^T = L^-T L^-1 C``."""
-    d, m, nb = cross.shape
+    d, m = cross.shape[0], cross.shape[1]
     h_t = np.empty((d, m, nb))
-    _solve(lower, cross, np.empty((d, m, nb)), h_t)
+    _solve(nb, lower, cross, np.empty((d, m, nb)), h_t)
     h = np.empty((m, d, nb))
     for r in range(m):
         for c in range(d):
@@ -218,18 +219,20 @@ def _linearisation(lower, cross):
 
 
 @jit()
-def _update(transformed, points, lower, mean_weights, covar_weights, noise, angles, joseph,
-            x, covariance, z, x_out, covariance_out, z_hat, innovation_covar, cross, status):
+def _update(nb, measured, noise, angles, joseph, x, covariance, z, x_out, covariance_out,
+            z_hat, innovation_covar, cross, status):
     """The update of the filters whose sigma points (of ``x``, ``covariance``) measure
-    ``transformed``: the moments, then the Kalman gain step (:func:`kalman._correct`, the
-    Joseph form with the statistical linearisation)."""
-    d, nb = x.shape
+    ``transformed``, with ``measured`` = ``(transformed, points, lower, mean_weights,
+    covar_weights)`` (as :func:`_measure` returns it): the moments, then the Kalman gain step
+    (:func:`kalman._correct`, the Joseph form with the statistical linearisation)."""
+    transformed, points, lower, mean_weights, covar_weights = measured
+    d = x.shape[0]
     m = z.shape[0]
     tiled = _tiled(noise, nb)
-    _moments(points, transformed, mean_weights, covar_weights, angles, tiled, z_hat,
+    _moments(nb, points, transformed, mean_weights, covar_weights, angles, tiled, z_hat,
              innovation_covar, cross)
-    jacobian = _linearisation(lower, cross) if joseph else np.empty((m, d, 0))
-    _correct(x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, covariance_out,
+    jacobian = _linearisation(nb, lower, cross) if joseph else np.empty((m, d, 0))
+    _correct(nb, x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, covariance_out,
              innovation_covar, cross, status)
 
 
@@ -243,7 +246,7 @@ def sigma_points(x, covariance, alpha, beta, kappa, lower, points, mean_weights,
     their weights (2d + 1,) into ``mean_weights`` and ``covar_weights``, and the Cholesky
     factor used into ``lower`` (d, d)."""
     d = x.shape[0]
-    block, factor, wm, wc = _sigma(x, covariance.reshape((d, d, 1)), alpha, beta, kappa)
+    block, factor, wm, wc = _sigma(1, x, covariance.reshape((d, d, 1)), alpha, beta, kappa)
     copy_into(block, points)
     copy_into(factor, lower)
     copy_into(wm, mean_weights)
@@ -258,7 +261,7 @@ def unscented_moments(points, transformed, mean_weights, covar_weights, angles, 
     (m,) is True are angles (circular mean, wrapped differences)."""
     d, n = points.shape
     m = transformed.shape[0]
-    _moments(points.reshape((d, n, 1)), transformed.reshape((m, n, 1)), mean_weights,
+    _moments(1, points.reshape((d, n, 1)), transformed.reshape((m, n, 1)), mean_weights,
              covar_weights, angles, noise.reshape((m, m, 1)), mean,
              covar.reshape((m, m, 1)), cross.reshape((d, m, 1)))
 
@@ -269,7 +272,7 @@ def _checked(covariance, asymmetric, indefinite):
     ``asymmetric`` or ``indefinite``."""
     d = covariance.shape[0]
     status = np.zeros(1, dtype=np.int64)
-    _check_covariance(covariance.reshape((d, d, 1)), status, asymmetric, indefinite)
+    _check_covariance(1, covariance.reshape((d, d, 1)), status, asymmetric, indefinite)
     return status
 
 
@@ -283,8 +286,8 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
     status = _checked(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
     if status[0] == OK:
         matrix, covar = np.empty((d, d, 1)), np.empty((d, d, 1))
-        _transition(kind, rates, fixed_matrix, fixed_covar, np.full(1, dt), matrix, covar)
-        _predict(matrix, covar, alpha, beta, kappa, x, covariance.reshape((d, d, 1)), x_out,
+        _transition(1, kind, rates, fixed_matrix, fixed_covar, np.full(1, dt), matrix, covar)
+        _predict(1, matrix, covar, alpha, beta, kappa, x, covariance.reshape((d, d, 1)), x_out,
                  covariance_out.reshape((d, d, 1)))
     return status[0]
 
@@ -300,13 +303,13 @@ def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covar
     status = _checked(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
     if status[0] != OK:
         return status[0]
-    points, _, mean_weights, covar_weights = _sigma(x, covariance.reshape((d, d, 1)), alpha,
+    points, _, mean_weights, covar_weights = _sigma(1, x, covariance.reshape((d, d, 1)), alpha,
                                                     beta, kappa)
     n = points.shape[1]
     moved = function(points.reshape((d, n)), dt)
     code = output_status(moved, d, n)
     if code == OK:
-        _moments(points, np.ascontiguousarray(moved).reshape((d, n, 1)), mean_weights,
+        _moments(1, points, np.ascontiguousarray(moved).reshape((d, n, 1)), mean_weights,
                  covar_weights, np.zeros(d, dtype=np.bool_), covar.reshape((d, d, 1)), x_out,
                  covariance_out.reshape((d, d, 1)), cross.reshape((cross.shape[0], d, 1)))
     return code
@@ -327,9 +330,9 @@ def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta
     status = _checked(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
     if status[0] == OK:
         covariance = covariance.reshape((d, d, 1))
-        measured = _measure(kind, mapping, offset, rotation, alpha, beta, kappa, x,
+        measured = _measure(1, kind, mapping, offset, rotation, alpha, beta, kappa, x,
                             covariance, m)
-        _update(*measured, noise, angles, joseph, x, covariance, z, x_out,
+        _update(1, measured, noise, angles, joseph, x, covariance, z, x_out,
                 covariance_out.reshape((d, d, 1)), z_hat, innovation_covar.reshape((m, m, 1)),
                 cross.reshape((d, m, 1)), status)
     return status[0]
@@ -346,14 +349,15 @@ def unscented_update_function(function, noise, angles, alpha, beta, kappa, josep
     if status[0] != OK:
         return status[0]
     covariance = covariance.reshape((d, d, 1))
-    points, lower, mean_weights, covar_weights = _sigma(x, covariance, alpha, beta, kappa)
+    points, lower, mean_weights, covar_weights = _sigma(1, x, covariance, alpha, beta, kappa)
     n = points.shape[1]
     transformed = function(points.reshape((d, n)))
     code = output_status(transformed, m, n)
     if code != OK:
         return code
-    _update(np.ascontiguousarray(transformed).reshape((m, n, 1)), points, lower,
-            mean_weights, covar_weights, noise, angles, joseph, x, covariance, z, x_out,
+    measured = (np.ascontiguousarray(transformed).reshape((m, n, 1)), points, lower,
+                mean_weights, covar_weights)
+    _update(1, measured, noise, angles, joseph, x, covariance, z, x_out,
             covariance_out.reshape((d, d, 1)), z_hat, innovation_covar.reshape((m, m, 1)),
             cross.reshape((d, m, 1)), status)
     return status[0]
@@ -387,22 +391,22 @@ def batch_unscented(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mappi
         _to_block(covars, lo, hi, covariance)
         block_status = np.zeros(nb, dtype=np.int64)
         if stages & PREDICT:
-            _check_covariance(covariance, block_status, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+            _check_covariance(nb, covariance, block_status, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
             matrix, covar = np.empty((d, d, nb)), np.empty((d, d, nb))
-            _transition(t_kind, rates, fixed_matrix, fixed_covar, dts[lo:hi], matrix, covar)
+            _transition(nb, t_kind, rates, fixed_matrix, fixed_covar, dts[lo:hi], matrix, covar)
             x_pred, covariance_pred = np.empty((d, nb)), np.empty((d, d, nb))
-            _predict(matrix, covar, alpha, beta, kappa, x, covariance, x_pred,
+            _predict(nb, matrix, covar, alpha, beta, kappa, x, covariance, x_pred,
                      covariance_pred)
             x, covariance = x_pred, covariance_pred
         if stages & (MEASURE | UPDATE):
-            _check_covariance(covariance, block_status, PREDICTION_NOT_SYMMETRIC,
+            _check_covariance(nb, covariance, block_status, PREDICTION_NOT_SYMMETRIC,
                               PREDICTION_NOT_PSD)
-            measured = _measure(m_kind, mapping, offset, rotation, alpha, beta, kappa, x,
+            measured = _measure(nb, m_kind, mapping, offset, rotation, alpha, beta, kappa, x,
                                 covariance, m)
             z_hat, innovation_covar = np.empty((m, nb)), np.empty((m, m, nb))
             if stages & MEASURE:
                 transformed, points, _, mean_weights, covar_weights = measured
-                _moments(points, transformed, mean_weights, covar_weights, angles,
+                _moments(nb, points, transformed, mean_weights, covar_weights, angles,
                          _tiled(noise, nb), z_hat, innovation_covar, _no_cross(m, nb))
                 _from_block(z_hat, lo, hi, z_hats)
                 _from_block(innovation_covar, lo, hi, innovation_covars)
@@ -410,7 +414,7 @@ def batch_unscented(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mappi
                 z = np.empty((m, nb))
                 _to_block(measurements, lo, hi, z)
                 x_post, covariance_post = np.empty((d, nb)), np.empty((d, d, nb))
-                _update(*measured, noise, angles, joseph, x, covariance, z, x_post,
+                _update(nb, measured, noise, angles, joseph, x, covariance, z, x_post,
                         covariance_post, z_hat, innovation_covar, np.empty((d, m, nb)),
                         block_status)
                 x, covariance = x_post, covariance_post

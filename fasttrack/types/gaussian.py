@@ -67,14 +67,15 @@ class GaussianState(State):
         return self.state_vector
 
     @classmethod
-    def _trusted(cls, state_vector, covar, timestamp, extra=None):
-        """Build from arrays that a kernel produced (no validation, no copies), with the
-        ``extra`` attributes (a dict) if given; a :class:`Link` goes under its slot name
-        (``_prior``)."""
+    def _trusted(cls, state_vector, covar, timestamp, attributes):
+        """Build from arrays that a kernel produced (no validation, no copies).
+        ``attributes``, a new dict of the other attributes (a :class:`Link` under its slot
+        name, ``_prior``), becomes the state's ``__dict__``."""
         state = object.__new__(cls)
-        state.__dict__ = {"state_vector": state_vector, "covar": covar, "timestamp": timestamp}
-        if extra:
-            state.__dict__.update(extra)
+        attributes["state_vector"] = state_vector
+        attributes["covar"] = covar
+        attributes["timestamp"] = timestamp
+        state.__dict__ = attributes
         return state
 
 
