@@ -139,7 +139,7 @@ def _python(code, **env):
 
 @pytest.mark.slow
 def test_a_damaged_cache_entry_is_compiled_again_and_replaced(tmp_path):
-    env = {"NUMBA_CACHE_DIR": str(tmp_path)}
+    env = {"FASTTRACK_CACHE_DIR": str(tmp_path)}  # the first place the cache is looked for
     first = _python(_SMALL_KERNEL, **env)
     assert first.returncode == 0, first.stderr
     files = {kind: sorted(tmp_path.rglob(f"numeric.wrap_angle-*.{kind}")) for kind in ("nbi", "nbc")}
