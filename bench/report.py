@@ -43,7 +43,8 @@ PER_ITEM_TARGETS = [("ekf-batch", 10**4, 0.5), ("ukf-batch", 10**4, 1.0)]
 TIME_TARGETS = [("gnn-associate", 1000, 10e-3), ("gnn-associate", 10**4, 150e-3),
                 ("jpda-ehm", 100, 10e-3), ("gospa-50-tracks", 100, 5e-3),
                 ("gospa-40-tracks", 30_000, 2.0), ("tracker-100-scans", 1000, 10.0),
-                ("rts-smoother", 1000, 1e-3), ("ffbs", 1000, 50e-3)]
+                ("rts-smoother", 1000, 1e-3), ("rts-smoother-arrays", 1000, 1e-3),
+                ("ffbs", 1000, 50e-3)]
 # (configuration, bound on default / one-thread step time) of bench/test_load.py; at
 # N = 1000 both run the same one-thread code, so "never slower" allows the 5 % of noise
 LOAD_TARGETS = [("alone", 1 / 1.6), ("pair", 1.3), ("small", 1.05)]

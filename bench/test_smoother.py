@@ -1,9 +1,10 @@
 """The Rauch-Tung-Striebel smoother over a 1000-step CV 4-D track (linear position sensor),
 fasttrack's KalmanSmoother.smooth(track) against Stone Soup 1.9.1's in the same run (the
 track built by each library's Kalman predictor and updater from the same detections, as in
-stonesoup_mtt_baseline.ss_rts); plus the batched array entry for 100 such tracks, and the
-forward-filter backward-simulation smoother (100 paths through a 100-step particle filter of
-N = 1000 on the same model), by rejection (the default) and by the exact draw."""
+stonesoup_mtt_baseline.ss_rts); plus the array entry for that track and for 100 such tracks
+in one call, and the forward-filter backward-simulation smoother (100 paths through a
+100-step particle filter of N = 1000 on the same model), by rejection (the default) and by
+the exact draw."""
 import datetime
 
 import numpy as np
@@ -72,11 +73,27 @@ def test_rts_1000_stonesoup(benchmark):
     assert len(result) == STEPS + 1
 
 
+def _track_arrays(track):
+    return np.array([s.state_vector[:, 0] for s in track]), np.array([s.covar for s in track])
+
+
+def test_rts_arrays_1000_fasttrack(benchmark):
+    """The same track given as arrays: the smoother's own cost, without reading and building
+    1000 state objects."""
+    benchmark.group = "rts-smoother-arrays N=1000"
+    transition, track = _ft_track()
+    means, covars = _track_arrays(track)
+    smoother = ft.KalmanSmoother(transition)
+    smoother.smooth_arrays(means, covars, STEP)
+    xs, _ = benchmark.pedantic(smoother.smooth_arrays, args=(means, covars, STEP), rounds=200,
+                               iterations=5, warmup_rounds=5)
+    assert xs.shape == (STEPS, 4)
+
+
 def test_rts_arrays_100_tracks_fasttrack(benchmark):
     benchmark.group = "rts-smoother-100-tracks N=1000"
     transition, track = _ft_track()
-    means = np.array([s.state_vector[:, 0] for s in track])
-    covars = np.array([s.covar for s in track])
+    means, covars = _track_arrays(track)
     means, covars = np.repeat(means[None], 100, 0), np.repeat(covars[None], 100, 0)
     smoother = ft.KalmanSmoother(transition)
     smoother.smooth_arrays(means, covars, STEP)

@@ -72,13 +72,12 @@ def _is_gaussian_step(state):
     return isinstance(state, (GaussianStatePrediction, GaussianStateUpdate))
 
 
-def _prediction_of(state):
-    """The prediction a state came from: itself for a prediction, the hypothesis'
-    prediction for an update (None when the link is gone)."""
-    if isinstance(state, GaussianStatePrediction):
-        return state
-    hypothesis = getattr(state, "hypothesis", None)
-    return None if hypothesis is None else hypothesis.prediction
+def _predictions_of(states):
+    """The prediction each of ``states`` came from: itself for a prediction, its
+    hypothesis' prediction for an update (None where the link is gone)."""
+    return [state if isinstance(state, GaussianStatePrediction)
+            else getattr(getattr(state, "hypothesis", None), "prediction", None)
+            for state in states]
 
 
 def _stack(states, attribute, shape, offset):
@@ -118,9 +117,9 @@ def _held_predictions(body, model, offset):
     x_pred, covar_pred = np.empty((1, n, d)), np.empty((1, n, d, d))
     recompute = np.ones(n, dtype=np.uint8)
     models = {}
-    for t, prediction in enumerate(map(_prediction_of, body[1:]), start=1):
-        if prediction is None:
-            continue
+    held = [(t, prediction) for t, prediction in enumerate(_predictions_of(body[1:]), start=1)
+            if prediction is not None]
+    for t, prediction in held:
         if prediction.state_vector.shape != (d, 1) or prediction.covar.shape != (d, d):
             raise ValueError(f"the prediction of track[{offset + t}] must have dimension "
                              f"{d}, got {prediction.state_vector.shape[0]}")
@@ -261,9 +260,10 @@ class KalmanSmoother:
         matrices, step = self._steps(models, intervals, x, covar, x_pred, covar_pred,
                                      recompute)
         x_out, covar_out = np.empty_like(x), np.empty_like(covar)
-        status = _smooth.rts(x, covar, x_pred, covar_pred, recompute,
-                             np.array([m[0] for m in matrices]),
-                             np.array([m[1] for m in matrices]), step, x_out, covar_out)
+        status = _smooth.rts_kernel(d)(x, covar, x_pred, covar_pred, recompute,
+                                       np.array([m[0] for m in matrices]),
+                                       np.array([m[1] for m in matrices]), step, x_out,
+                                       covar_out)
         if status:
             t = (status - 1) % n
             raise ValueError(f"the predicted covariance of track[{offset + t}] is not "
@@ -374,8 +374,8 @@ class KalmanSmoother:
         noises = np.array([np.asarray(model.covar(dt), dtype=np.float64) for dt in values])
         step = np.ascontiguousarray(np.append(step, 0), dtype=np.int64)
         x_out, covar_out = np.empty_like(x), np.empty_like(covar)
-        status = _smooth.rts(x, covar, x_pred, covar_pred, recompute, matrices, noises, step,
-                             x_out, covar_out)
+        status = _smooth.rts_kernel(d)(x, covar, x_pred, covar_pred, recompute, matrices,
+                                       noises, step, x_out, covar_out)
         if status:
             k, t = divmod(status - 1, n)
             where = f"time {t}" if single else f"track {k}, time {t}"

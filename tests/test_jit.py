@@ -323,6 +323,16 @@ def test_kernels_that_reach_parallel_regions_choose_their_threads():
             assert dispatcher.size < len(inspect.signature(dispatcher.py_func).parameters), name
 
 
+def test_a_build_with_a_constant_reads_it_and_is_cached_under_its_own_name():
+    from fasttrack._jit import smooth
+    build = jit_pkg.with_constant(smooth.rts, "_DIMENSION", 4)
+    assert build is jit_pkg.with_constant(smooth.rts, "_DIMENSION", 4)
+    assert build.py_func.__globals__["_DIMENSION"] == 4 and smooth._DIMENSION == 0
+    assert build.py_func.__qualname__ == "rts__DIMENSION4"
+    assert build.targetoptions == smooth.rts.targetoptions and build.strict == smooth.rts.strict
+    assert isinstance(build._cache, FunctionCache)
+
+
 def test_small_work_runs_a_serial_build_and_the_limit_holds():
     import numba
     from fasttrack._jit import weights

@@ -99,12 +99,16 @@ def _random_problem(rng, k_tracks, n, d, given):
 
 
 @pytest.mark.parametrize("k_tracks,n,d,given", [(1, 6, 4, 0.5), (3, 10, 2, 0.0), (2, 5, 5, 1.0),
-                                                (1, 1, 3, 0.5), (2, 7, 1, 0.5)])
-def test_kernel_matches_mirror(k_tracks, n, d, given):
+                                                (1, 1, 3, 0.5), (2, 7, 1, 0.5), (2, 8, 6, 0.3)])
+@pytest.mark.parametrize("build", ["for_dimension", "any_dimension"])
+def test_kernel_matches_mirror(k_tracks, n, d, given, build):
     args = _random_problem(np.random.default_rng(n * d), k_tracks, n, d, given)
     before = [a.copy() for a in args]
     outs = [(np.empty((k_tracks, n, d)), np.empty((k_tracks, n, d, d))) for _ in range(2)]
-    assert kernels.rts(*args, *outs[0]) == 0
+    kernel = kernels.rts_kernel(d) if build == "for_dimension" else kernels.rts
+    assert (kernel is kernels.rts) == (build == "any_dimension" or
+                                       d not in kernels.UNROLLED_DIMENSIONS)
+    assert kernel(*args, *outs[0]) == 0
     assert reference.rts(*args, *outs[1]) == 0
     np.testing.assert_allclose(outs[0][0], outs[1][0], rtol=1e-10, atol=1e-10)
     np.testing.assert_allclose(outs[0][1], outs[1][1], rtol=1e-10, atol=1e-10)
@@ -112,13 +116,14 @@ def test_kernel_matches_mirror(k_tracks, n, d, given):
         np.testing.assert_array_equal(a, b)  # inputs untouched
 
 
-def test_kernel_reports_non_pd_prediction_like_mirror():
+@pytest.mark.parametrize("d", [3, 4])
+def test_kernel_reports_non_pd_prediction_like_mirror(d):
     x, covar, x_pred, covar_pred, recompute, matrix, noise, step = _random_problem(
-        np.random.default_rng(1), 2, 6, 3, 1.0)
-    covar_pred[1, 3] = -np.eye(3)
+        np.random.default_rng(1), 2, 6, d, 1.0)
+    covar_pred[1, 3] = -np.eye(d)
     args = (x, covar, x_pred, covar_pred, recompute, matrix, noise, step)
-    outs = [(np.empty((2, 6, 3)), np.empty((2, 6, 3, 3))) for _ in range(2)]
-    code = kernels.rts(*args, *outs[0])
+    outs = [(np.empty((2, 6, d)), np.empty((2, 6, d, d))) for _ in range(2)]
+    code = kernels.rts_kernel(d)(*args, *outs[0])
     assert code == reference.rts(*args, *outs[1]) == 1 + 1 * 6 + 3
 
 

@@ -65,6 +65,22 @@ def _reaches_parallel(dispatcher, seen=()):
                if isinstance(callee, CPUDispatcher) and callee not in seen)
 
 
+def _twin(dispatcher, suffix, names, **options):
+    """A kernel compiled from a copy of ``dispatcher``'s function whose globals are
+    ``names`` and whose target options are changed by ``options``, cached on disk under its
+    own name (the function's qualified name with ``suffix``)."""
+    func = dispatcher.py_func
+    twin = types.FunctionType(func.__code__, names, func.__name__, func.__defaults__,
+                              func.__closure__)
+    twin.__qualname__ = f"{func.__qualname__}_{suffix}"
+    twin_dispatcher = Kernel(py_func=twin, locals={},
+                             targetoptions=dict(dispatcher.targetoptions, **options))
+    if OPTIONS["cache"]:
+        twin_dispatcher.enable_caching()
+    twin_dispatcher.strict = dispatcher.strict
+    return twin_dispatcher
+
+
 @functools.lru_cache(maxsize=None)
 def serial_twin(dispatcher):
     """The same kernel compiled without parallel regions: a copy of its function whose
@@ -79,15 +95,19 @@ def serial_twin(dispatcher):
         callee = names.get(name)
         if isinstance(callee, CPUDispatcher):
             names[name] = serial_twin(callee)
-    twin = types.FunctionType(func.__code__, names, func.__name__, func.__defaults__,
-                              func.__closure__)
-    twin.__qualname__ = f"{func.__qualname__}_serial"
-    options = dict(dispatcher.targetoptions, parallel=False)
-    serial = Kernel(py_func=twin, locals={}, targetoptions=options)
-    if OPTIONS["cache"]:
-        serial.enable_caching()
-    serial.strict = dispatcher.strict
-    return serial
+    return _twin(dispatcher, "serial", names, parallel=False)
+
+
+@functools.lru_cache(maxsize=None)
+def with_constant(dispatcher, name, value):
+    """The same kernel compiled with its global ``name`` (an int) set to ``value``: Numba
+    reads globals as compile-time constants, so loops bounded by it can be unrolled (made
+    on first use; cached on disk under its own name). Uncompiled kernels are returned as
+    they are."""
+    if not isinstance(dispatcher, CPUDispatcher):
+        return dispatcher
+    names = dict(dispatcher.py_func.__globals__, **{name: value})
+    return _twin(dispatcher, f"{name}{value}", names)
 
 
 class ThreadedKernel(Kernel):
