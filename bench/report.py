@@ -90,8 +90,9 @@ def ratios(medians, floors):
                 found["dropin"] = times.get("stonesoup", np.nan) / times["dropin"]
                 found["overhead"] = times["dropin"] / ours
             family = workload.split("-")[0]
-            if (family, n) in floors and workload not in WHOLE_LOOPS:
-                found["floor"] = floors[(family, n)] / ours
+            floor = floors.get((workload, n), floors.get((family, n)))
+            if floor and workload not in WHOLE_LOOPS:
+                found["floor"] = floor / ours
         rows.append((workload, n, times, found))
     return rows
 

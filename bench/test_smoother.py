@@ -73,6 +73,33 @@ def test_rts_1000_stonesoup(benchmark):
     assert len(result) == STEPS + 1
 
 
+def test_rts_1000_objects_floor(benchmark):
+    """The floor of smooth(track) without smoothing: reading the 1000 states' arrays and
+    timestamps and building the 999 new states that a smoothed track holds."""
+    benchmark.group = "rts-smoother-floor"
+    benchmark.extra_info["n"] = STEPS
+    _, track = _ft_track()
+    states = track.states
+
+    def read_and_build():
+        means = np.array([s.state_vector for s in states])
+        covars = np.array([s.covar for s in states])
+        origin = states[0].timestamp
+        np.array([s.timestamp - origin for s in states])
+        new = object.__new__
+        out = []
+        for state, mean, covar in zip(states[:-1], means, covars):
+            attributes = state.__dict__.copy()
+            attributes.update(state_vector=mean, covar=covar)
+            built = new(type(state))
+            built.__dict__ = attributes
+            out.append(built)
+        return out
+
+    assert len(benchmark.pedantic(read_and_build, rounds=200, iterations=5,
+                                  warmup_rounds=5)) == STEPS - 1
+
+
 def _track_arrays(track):
     return np.array([s.state_vector[:, 0] for s in track]), np.array([s.covar for s in track])
 

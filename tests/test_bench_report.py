@@ -44,6 +44,19 @@ def test_ratios_and_a_missed_target_named(tmp_path):
     assert "MISSED: resample-systematic N=1000000: stonesoup ratio not measured" in checked.stdout
 
 
+def test_a_floor_of_the_workload_itself_comes_before_its_family_s(tmp_path):
+    floor = _bench("test_floor", "rts-smoother-floor", 1e-3)
+    floor["extra_info"]["n"] = 1000
+    path = _write(tmp_path, [floor,
+                             _bench("test_rts_fasttrack", "rts-smoother N=1000", 2e-3),
+                             _bench("test_rts_arrays_fasttrack", "rts-smoother-arrays N=1000",
+                                    3e-4)])
+    done = _run(path)
+    assert done.returncode == 0
+    assert "| rts-smoother | 1e+03 | 2 ms |  |  |  |  | 2x |" in done.stdout
+    assert "| rts-smoother-arrays | 1e+03 | 0.3 ms |  |  |  |  |  |" in done.stdout
+
+
 def test_plot_is_written(tmp_path):
     pytest.importorskip("matplotlib")
     path = _write(tmp_path, [_bench("test_fasttrack_x", f"pf-step N={n}", n * 1e-8)
