@@ -128,6 +128,10 @@ def _held_predictions(body, model, offset):
         recompute[t] = 0
         own = getattr(prediction, "transition_model", None)
         if own is not None and own is not model:
+            if getattr(own, "ndim_state", None) != d:
+                raise ValueError(f"the transition_model of the prediction of "
+                                 f"track[{offset + t}] must have ndim_state {d}, got "
+                                 f"{getattr(own, 'ndim_state', None)}")
             models[t] = own
     return x_pred, covar_pred, recompute, models
 

@@ -227,6 +227,29 @@ def test_held_predictions_are_used_as_given():
     assert not np.allclose(moved[0][6], given[0][6])
 
 
+def test_a_held_prediction_s_model_of_another_dimension_is_named():
+    transition, sensor = _models()
+    predictor, updater = ft.KalmanPredictor(transition), ft.KalmanUpdater(sensor)
+    state = ft.GaussianState(PRIOR_MEAN, np.eye(4), timestamp=START)
+    track, held = ft.Track(), []
+    for k, z in enumerate(_measurements(6)):
+        held.append(predictor.predict(state, START + (k + 1) * STEP))
+        state = updater.update(ft.SingleHypothesis(held[-1], ft.Detection(
+            z, timestamp=held[-1].timestamp)))
+        track.append(state)
+    held[3].transition_model = ft.CombinedLinearGaussianTransitionModel(
+        [ft.ConstantVelocity(0.05)] * 3)
+    with pytest.raises(ValueError, match=r"prediction of track\[3\] must have ndim_state 4, "
+                                         r"got 6"):
+        ft.KalmanSmoother(transition).smooth(track)
+
+
+def test_the_kernel_built_for_a_dimension_refuses_arrays_of_another():
+    args = _random_problem(np.random.default_rng(0), 1, 5, 3, 0.5)
+    with pytest.raises(ValueError, match="this build's dimension"):
+        kernels.rts_kernel(4)(*args, np.empty((1, 5, 3)), np.empty((1, 5, 3, 3)))
+
+
 # --- exact smoothing posterior ---------------------------------------------------------------
 
 def _joint_posterior(transition, sensor, prior_mean, prior_covar, zs, dts, observed=None):

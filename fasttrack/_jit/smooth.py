@@ -38,6 +38,10 @@ def rts(x, covar, x_pred, covar_pred, recompute, matrix, noise, step, x_out, cov
     """
     n_tracks, n_times = x.shape[0], x.shape[1]
     d = x.shape[2] if _DIMENSION == 0 else _DIMENSION
+    if x.shape[2] != d or matrix.shape[1] != d or matrix.shape[2] != d \
+            or noise.shape[1] != d or noise.shape[2] != d:
+        raise ValueError("rts: the states, matrices and noises must all have this build's "
+                         "dimension")
     xp = np.empty(d)
     pp = np.empty((d, d))
     chol = np.empty((d, d))
