@@ -1,135 +1,251 @@
-"""Cold-start costs, each measured in a new Python process.
+"""What a new user waits for: installing, and each first result, in fresh environments.
 
 Usage: python bench/cold_start.py [--repeats 3] [--json bench/results/cold_start.json]
-[--families NAME ...]
+[--parts installed pure editable]
 
-- ``import fasttrack``;
-- the first call of each kernel family in a new process with an empty compile cache,
-  import included (what a new user waits for), and the same with the cache filled;
-- ``fasttrack.warmup(processes=2)`` of every family from an empty cache;
-- the first particle-filter step of a new process with a warm cache, import included.
+Each part makes a new virtual environment in a temporary folder, with an empty HOME (so no
+pip cache and no per-user kernel cache), installs this checkout into it and times, each in
+new Python processes (import included; the median of ``--repeats``):
 
-The cold runs use a temporary ``FASTTRACK_CACHE_DIR``, so the user's cache is left alone.
-``python bench/report.py ... --cold bench/results/cold_start.json`` prints the table with
-the targets.
+- ``installed``: ``pip install .`` (the README's way: the kernels are compiled while the
+  wheel is built), the installed size, then the first particle-filter, EKF, UKF and AKKF
+  update and the first multi-target tracker step, with the fasttrack kernels each compiled
+  (Numba's compile events: 0 is the target), and ``python -m fasttrack demo --quick``; then
+  the same first steps with ``NUMBA_CPU_NAME=generic``, so that the shipped kernels cannot
+  serve (another CPU): the fall-back compiles, and says why once;
+- ``pure``: ``pip install .`` with ``FASTTRACK_COMPILE_KERNELS=0``, the install as it was
+  before kernels shipped (its time and size);
+- ``editable``: ``pip install -e .`` (no shipped kernels), then the same first steps from an
+  empty per-user cache, and ``python -m fasttrack warmup``.
+
+``python bench/report.py ... --cold bench/results/cold_start.json`` prints the table again.
 """
 import argparse
 import json
 import os
+import pathlib
 import statistics
 import subprocess
 import sys
 import tempfile
+import time
 
-IMPORT = "import time; t = time.perf_counter(); import fasttrack; print(time.perf_counter() - t)"
+ROOT = pathlib.Path(__file__).resolve().parents[1]
 
-#: The first call of each family, timed from interpreter start (import included).
-FAMILY = """
+#: A first step of each kernel family, timed from interpreter start (import included);
+#: prints the seconds and the number of fasttrack kernels compiled.
+FIRST_STEP = """
 import sys, time
 start = time.perf_counter()
 import numpy as np
 import fasttrack as ft
+from fasttrack._jit import compiles
 from fasttrack.scenarios import (adaptive_kernel_tutorial, extended_kalman_tutorial,
-                                 particle_filter_tutorial)
+                                 grid_targets, particle_filter_tutorial)
 def step(predictor, updater, scenario):
     d = scenario.detections[1]
     return updater.update(ft.SingleHypothesis(predictor.predict(scenario.prior, d.timestamp), d))
 family = sys.argv[1]
-if family == "resample":
-    ft.SystematicResampler(rng=0).resample(particle_filter_tutorial(1000).prior)
-elif family == "particle filter":
-    s = particle_filter_tutorial(1000)
-    step(ft.ParticlePredictor(s.transition_model, rng=1),
-         ft.ParticleUpdater(s.measurement_model, ft.SystematicResampler(rng=2)), s)
-elif family == "extended Kalman filter":
-    s = extended_kalman_tutorial()
-    step(ft.ExtendedKalmanPredictor(s.transition_model),
-         ft.ExtendedKalmanUpdater(s.measurement_model), s)
-elif family == "AKKF":
-    s = adaptive_kernel_tutorial(30)
-    step(ft.AdaptiveKernelKalmanPredictor(s.transition_model),
-         ft.AdaptiveKernelKalmanUpdater(s.measurement_model, rng=1), s)
-elif family == "EKF batch":
-    s = extended_kalman_tutorial()
-    ft.BatchExtendedKalmanFilter(s.transition_model, s.measurement_model).step(
-        np.zeros((4, 4)) + [0, 1, 0, 1], np.broadcast_to(np.eye(4), (4, 4, 4)).copy(),
-        np.array([[0.0, 49.0]] * 4), 1.0)
-elif family == "unscented Kalman filter":
-    s = extended_kalman_tutorial()
-    step(ft.UnscentedKalmanPredictor(s.transition_model),
-         ft.UnscentedKalmanUpdater(s.measurement_model), s)
-elif family == "UKF batch":
-    s = extended_kalman_tutorial()
-    ft.BatchUnscentedKalmanFilter(s.transition_model, s.measurement_model).step(
-        np.zeros((4, 4)) + [0, 1, 0, 1], np.broadcast_to(np.eye(4), (4, 4, 4)).copy(),
-        np.array([[0.0, 49.0]] * 4), 1.0)
-elif family == "Kalman smoother":
-    s = extended_kalman_tutorial()
-    track = ft.run_filter(ft.KalmanPredictor(s.transition_model),
-                          ft.KalmanUpdater(ft.LinearGaussian(4, (0, 2), np.eye(2))), s.prior,
-                          [ft.Detection([k, k], timestamp=d.timestamp)
-                           for k, d in enumerate(s.detections[1:])])
-    ft.KalmanSmoother(s.transition_model).smooth(track)
-elif family == "warmup":
-    ft.warmup(processes=2)
-print(time.perf_counter() - start)
+with compiles() as found:
+    if family == "particle filter":
+        s = particle_filter_tutorial(1000)
+        step(ft.ParticlePredictor(s.transition_model, rng=1),
+             ft.ParticleUpdater(s.measurement_model, ft.SystematicResampler(rng=2)), s).mean
+    elif family == "extended Kalman filter":
+        s = extended_kalman_tutorial()
+        step(ft.ExtendedKalmanPredictor(s.transition_model),
+             ft.ExtendedKalmanUpdater(s.measurement_model), s)
+    elif family == "unscented Kalman filter":
+        s = extended_kalman_tutorial()
+        step(ft.UnscentedKalmanPredictor(s.transition_model),
+             ft.UnscentedKalmanUpdater(s.measurement_model), s)
+    elif family == "AKKF":
+        s = adaptive_kernel_tutorial(30)
+        step(ft.AdaptiveKernelKalmanPredictor(s.transition_model),
+             ft.AdaptiveKernelKalmanUpdater(s.measurement_model, rng=1), s)
+    elif family == "multi-target tracker":
+        s = grid_targets(n_targets=20, steps=2, seed=0)
+        tracker = ft.MultiTargetTracker(s.transition_model, s.measurement_model, np.zeros(4),
+                                        np.diag([100.0, 1.0, 100.0, 1.0]))
+        tracker.step(s.detections[0], 0.0)
+print(time.perf_counter() - start, len(found))
 """
 
-FAMILIES = ["resample", "particle filter", "extended Kalman filter", "AKKF", "EKF batch",
-            "unscented Kalman filter", "UKF batch", "Kalman smoother"]
-#: Seconds from an empty cache, import included (the targets of a first result).
-TARGETS = {"resample": 2.0, "particle filter": 4.0, "extended Kalman filter": 4.0,
-           "AKKF": 6.0, "warmup": 25.0}
+FAMILIES = ["particle filter", "extended Kalman filter", "unscented Kalman filter", "AKKF",
+            "multi-target tracker"]
 
-FIRST_STEP = """
-import time; t = time.perf_counter()
-import fasttrack as ft
-from fasttrack.scenarios import particle_filter_tutorial
-s = particle_filter_tutorial(1000)
-d = s.detections[1]
-ft.ParticleUpdater(s.measurement_model, ft.SystematicResampler(rng=2)).update(
-    ft.SingleHypothesis(ft.ParticlePredictor(s.transition_model, rng=1).predict(s.prior,
-                                                                              d.timestamp), d))
-print(time.perf_counter() - t)
-"""
+#: Seconds, from a new process (import included): after ``pip install .`` (all families,
+#: and the quick demo), in an editable install from an empty cache, and for the install.
+TARGETS = {"installed": {**dict.fromkeys(FAMILIES, 1.0), "demo --quick": 15.0},
+           "editable": {"particle filter": 4.0, "extended Kalman filter": 6.0, "AKKF": 9.0,
+                        "warmup": 20.0},
+           "install": {"pip install .": 90.0, "installed megabytes added": 25.0}}
 
 
-def _python(code, *args, cache=None):
-    env = dict(os.environ)
-    if cache is not None:
-        env["FASTTRACK_CACHE_DIR"] = cache
-    done = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True,
-                          check=True, env=env)
-    return float(done.stdout.strip().splitlines()[-1])
+class Environment:
+    """A new virtual environment with an empty HOME, in ``folder``."""
+
+    def __init__(self, folder):
+        self.folder = pathlib.Path(folder)
+        self.home = self.folder / "home"
+        self.home.mkdir(parents=True)
+        subprocess.run([sys.executable, "-m", "venv", str(self.folder / "venv")], check=True)
+        self.python = str(self.folder / "venv" / "bin" / "python")
+
+    def env(self, **extra):
+        env = {k: v for k, v in os.environ.items()
+               if not k.startswith(("FASTTRACK_", "NUMBA_", "PYTHON", "XDG_"))}
+        return dict(env, HOME=str(self.home), **extra)
+
+    def run(self, *args, **extra):
+        """Run ``python *args`` here (in ``home``); returns (seconds, stdout)."""
+        start = time.perf_counter()
+        done = subprocess.run([self.python, *args], cwd=self.home, env=self.env(**extra),
+                              capture_output=True, text=True)
+        seconds = time.perf_counter() - start
+        if done.returncode:
+            raise RuntimeError(f"{args} failed:\n{done.stderr[-3000:]}")
+        return seconds, done.stdout, done.stderr
+
+    def first_step(self, family, **extra):
+        _, out, err = self.run("-c", FIRST_STEP, family, **extra)
+        seconds, compiled = out.split()[-2:]
+        return float(seconds), int(compiled), err
+
+    def site_packages(self):
+        _, out, _ = self.run("-c", "import sysconfig; print(sysconfig.get_path('purelib'))")
+        return pathlib.Path(out.strip())
+
+
+def _megabytes(folder):
+    return sum(p.stat().st_size for p in folder.rglob("*") if p.is_file()) / 1e6
+
+
+def _first_steps(environment, repeats, empty_cache, **extra):
+    """Per family: seconds and kernels compiled of ``repeats`` new processes; each starts
+    from an empty per-user cache if ``empty_cache``."""
+    found = {}
+    for family in FAMILIES:
+        seconds, compiled, warnings = [], [], 0
+        for attempt in range(repeats):
+            cache = environment.folder / f"cache-{family}-{attempt}"
+            settings = dict(extra, FASTTRACK_CACHE_DIR=str(cache)) if empty_cache else extra
+            s, c, err = environment.first_step(family, **settings)
+            seconds.append(s)
+            compiled.append(c)
+            warnings += err.count("cannot be used")
+        found[family] = {"seconds": seconds, "compiled": compiled, "fallback_warnings": warnings}
+        print(f"  {family:<24} {_runs(seconds)}; kernels compiled {compiled}", flush=True)
+    return found
 
 
 def _runs(values):
     return f"median {statistics.median(values):.2f} s ({', '.join(f'{v:.2f}' for v in values)})"
 
 
+def installed(folder, repeats):
+    environment = Environment(folder)
+    print("pip install . (kernels compiled while the wheel is built)", flush=True)
+    seconds, _, _ = environment.run("-m", "pip", "install", "--quiet", str(ROOT))
+    package = environment.site_packages() / "fasttrack"
+    result = {"install_seconds": seconds, "package_megabytes": _megabytes(package),
+              "kernels_megabytes": _megabytes(package / "_kernels")}
+    print(f"  {seconds:.1f} s; package {result['package_megabytes']:.1f} MB, of which "
+          f"kernels {result['kernels_megabytes']:.1f} MB", flush=True)
+    environment.run("-m", "pip", "install", "--quiet", f"{ROOT}[stonesoup]")  # the demo's
+    print("first steps after install (empty per-user cache)", flush=True)
+    result["first_steps"] = _first_steps(environment, repeats, empty_cache=True)
+    demo = [environment.run("-m", "fasttrack", "demo", "--quick", "--no-plots")[0]
+            for _ in range(repeats)]
+    result["demo_quick"] = demo
+    print(f"  python -m fasttrack demo --quick: {_runs(demo)}", flush=True)
+    print("mismatch: NUMBA_CPU_NAME=generic (the shipped kernels cannot serve)", flush=True)
+    result["mismatch"] = _first_steps(environment, repeats, empty_cache=True,
+                                      NUMBA_CPU_NAME="generic", NUMBA_CPU_FEATURES="")
+    return result
+
+
+def pure(folder):
+    """The install as it was before kernels shipped: a pure wheel, nothing compiled."""
+    environment = Environment(folder)
+    print("pip install . with FASTTRACK_COMPILE_KERNELS=0 (a pure wheel)", flush=True)
+    seconds, _, _ = environment.run("-m", "pip", "install", "--quiet", str(ROOT),
+                                    FASTTRACK_COMPILE_KERNELS="0")
+    package = environment.site_packages() / "fasttrack"
+    print(f"  {seconds:.1f} s; package {_megabytes(package):.1f} MB", flush=True)
+    return {"install_seconds": seconds, "package_megabytes": _megabytes(package)}
+
+
+def editable(folder, repeats):
+    environment = Environment(folder)
+    print("pip install -e . (no shipped kernels)", flush=True)
+    seconds, _, _ = environment.run("-m", "pip", "install", "--quiet", "-e", str(ROOT))
+    print(f"  {seconds:.1f} s", flush=True)
+    result = {"install_seconds": seconds}
+    print("first steps from an empty per-user cache", flush=True)
+    result["first_steps"] = _first_steps(environment, repeats, empty_cache=True)
+    warmup = []
+    for attempt in range(repeats):
+        cache = environment.folder / f"cache-warmup-{attempt}"
+        warmup.append(environment.run("-m", "fasttrack", "warmup",
+                                      FASTTRACK_CACHE_DIR=str(cache))[0])
+    result["warmup"] = warmup
+    print(f"  python -m fasttrack warmup: {_runs(warmup)}", flush=True)
+    return result
+
+
+def table(results):
+    """The measurements as a Markdown table with the targets."""
+    lines = ["| new process, import included | seconds (median) | kernels compiled | target |",
+             "|---|---|---|---|"]
+
+    def row(name, values, compiled="", target=None):
+        median = statistics.median(values) if isinstance(values, list) else values
+        lines.append(f"| {name} | {median:.2f} | {compiled} | "
+                     f"{'' if target is None else f'<= {target:g}'} |")
+
+    if "installed" in results:
+        done = results["installed"]
+        row("`pip install .`", done["install_seconds"], "",
+            TARGETS["install"]["pip install ."])
+        if "pure" in results:
+            row("`pip install .`, kernels not compiled (`FASTTRACK_COMPILE_KERNELS=0`)",
+                results["pure"]["install_seconds"])
+            added = done["package_megabytes"] - results["pure"]["package_megabytes"]
+            lines.append(f"| installed size added by the kernels | {added:.1f} MB | | "
+                         f"<= {TARGETS['install']['installed megabytes added']:g} MB |")
+        for family, step in done["first_steps"].items():
+            row(f"installed: first {family} step", step["seconds"], max(step["compiled"]),
+                TARGETS["installed"].get(family))
+        row("installed: `python -m fasttrack demo --quick`", done["demo_quick"], "",
+            TARGETS["installed"]["demo --quick"])
+        for family, step in done["mismatch"].items():
+            row(f"shipped kernels unusable (another CPU): first {family} step",
+                step["seconds"], max(step["compiled"]))
+    if "editable" in results:
+        done = results["editable"]
+        for family, step in done["first_steps"].items():
+            row(f"editable, empty cache: first {family} step", step["seconds"],
+                max(step["compiled"]), TARGETS["editable"].get(family))
+        row("editable: `python -m fasttrack warmup`", done["warmup"], "",
+            TARGETS["editable"]["warmup"])
+    return "\n".join(lines)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--json", help="also write the measurements here")
-    parser.add_argument("--families", nargs="+", choices=FAMILIES + ["warmup"],
-                        default=FAMILIES + ["warmup"], help="the families to time (all)")
+    parser.add_argument("--parts", nargs="+", choices=["installed", "pure", "editable"],
+                        default=["installed", "pure", "editable"])
     args = parser.parse_args(argv)
-    results = {"import": [_python(IMPORT) for _ in range(args.repeats)], "cold": {}, "warm": {}}
-    print(f"import fasttrack: {_runs(results['import'])}; target 0.5 s")
-    print("\nfirst call per family, new process, import included: empty cache | cache filled")
-    for family in args.families:
-        cold, warm = [], []
-        for _ in range(args.repeats if family != "warmup" else 1):
-            with tempfile.TemporaryDirectory() as cache:
-                cold.append(_python(FAMILY, family, cache=cache))
-                warm.append(_python(FAMILY, family, cache=cache))
-        results["cold"][family], results["warm"][family] = cold, warm
-        target = f" (target {TARGETS[family]:.0f} s)" if family in TARGETS else ""
-        print(f"  {family:<24} {_runs(cold)}{target} | {_runs(warm)}")
-    _python(FIRST_STEP)  # fill the user cache if needed
-    results["first_step"] = [_python(FIRST_STEP) for _ in range(args.repeats)]
-    print(f"\nfirst particle-filter step in a new process, warm cache, import included: "
-          f"{_runs(results['first_step'])}; target 1.5 s")
+    results = {}
+    with tempfile.TemporaryDirectory() as scratch:
+        for part in args.parts:
+            folder = pathlib.Path(scratch) / part
+            results[part] = (pure(folder) if part == "pure" else
+                             globals()[part](folder, args.repeats))
+    print("\n" + table(results))
     if args.json:
         with open(args.json, "w") as f:
             json.dump(results, f, indent=1)

@@ -206,20 +206,9 @@ def cold_table(path):
     """The cold-start measurements of ``bench/cold_start.py --json``, with targets."""
     with open(path) as f:
         cold = json.load(f)
-    import statistics
     sys.path.insert(0, __file__.rsplit("/", 1)[0])
-    from cold_start import TARGETS
-    lines = ["| first call, new process, import included | empty cache | cache filled "
-             "| target |", "|---|---|---|---|"]
-    for family, times in cold["cold"].items():
-        target = TARGETS.get(family)
-        lines.append(f"| {family} | {statistics.median(times):.1f} s "
-                     f"| {statistics.median(cold['warm'][family]):.2f} s "
-                     f"| {f'{target:.0f} s' if target else ''} |")
-    lines.append(f"| `import fasttrack` | | {statistics.median(cold['import']):.2f} s | 0.5 s |")
-    lines.append(f"| first PF step, warm cache | | {statistics.median(cold['first_step']):.2f} s "
-                 f"| 1.5 s |")
-    return "\n".join(lines)
+    from cold_start import table
+    return table(cold)
 
 
 def check(rows):

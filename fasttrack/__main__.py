@@ -54,10 +54,11 @@ def main(argv=None):
                       help="folder for the PNG plots (default: ./fasttrack-demo)")
     demo.add_argument("--no-plots", action="store_true", help="write no plots")
     warm = commands.add_parser(
-        "warmup", help="compile every kernel family into the cache now (for a container "
-                       "image or a CI cache)",
-        description="Compile the kernels of each family into fasttrack's on-disk cache, a "
-                    "line per family as it is ready.")
+        "warmup", help="compile every kernel family into the per-user cache now (an "
+                       "editable install, a changed numba or NumPy, a container image)",
+        description="Compile the kernels of each family into fasttrack's per-user cache, a "
+                    "line per family as it is ready. After `pip install .` the kernels "
+                    "shipped in the package serve already, and this only loads them.")
     warm.add_argument("--cache-dir", help="the cache directory to fill (default: "
                                           "$FASTTRACK_CACHE_DIR, else the user cache dir)")
     warm.add_argument("--families", nargs="+", metavar="FAMILY",

@@ -1,7 +1,14 @@
-"""Compile (or load from the on-disk cache) the kernels of each filter family, by running a
-tiny instance of it."""
+"""Compile (or load from the on-disk cache) the kernels of each filter family, by running tiny
+instances of it: once with every kernel's serial build (small work), once with its parallel
+build (large work). ``pip install .`` runs every family while it builds the wheel
+(:func:`ship`), so that nothing a user calls afterwards compiles."""
 import concurrent.futures
+import contextlib
 import multiprocessing
+import os
+import pathlib
+import shutil
+import tempfile
 import time
 
 import numpy as np
@@ -9,13 +16,25 @@ import numpy as np
 
 def _resamplers():
     import fasttrack as ft
-    particles = ft.ParticleState(np.zeros((2, 16)), log_weight=np.linspace(-3.0, 0.0, 16))
+    from fasttrack.core.particle import gather
+    particles = ft.ParticleState(np.zeros((2, 16)), log_weight=np.linspace(-3.0, 0.0, 16),
+                                 parent=ft.ParticleState(np.ones((2, 16))))
     for resampler in (ft.SystematicResampler(0), ft.StratifiedResampler(0),
-                      ft.MultinomialResampler(0), ft.ResidualResampler(rng=0)):
-        resampler.resample(particles)
+                      ft.MultinomialResampler(0), ft.ResidualResampler(rng=0),
+                      ft.ResidualResampler(residual_method="systematic", rng=0), ft.ESSResampler()):
+        for nparts in (None, 8, 32):
+            resampled = resampler.resample(particles, nparts)
+            _ = resampled.state_vector, resampled.parent.state_vector
+    for method in ("systematic", "stratified", "multinomial"):
+        ft.resampling.resampling_points(8, method, rng=0)
+    for draw in (ft.systematic, ft.stratified, ft.multinomial, ft.residual):  # int64 indices
+        for nparts in (None, 8, 32):
+            draw(particles.log_weight, nparts, rng=0)
+    ft.residual(particles.log_weight, rng=0, method="systematic")
+    gather(particles.state_vector, np.arange(4))  # the drop-in resamplers' int64 indices
     ft.ess(particles.log_weight)
     ft.normalise(particles.log_weight)
-    _ = particles.mean
+    _ = particles.mean, particles.covar
 
 
 def _step(predictor, updater, scenario):
@@ -27,18 +46,31 @@ def _step(predictor, updater, scenario):
 
 def _particle_filter():
     import fasttrack as ft
+    from fasttrack.metrics import position_rmse
     from fasttrack.scenarios import particle_filter_tutorial
     scenario = particle_filter_tutorial(64, steps=2)
-    _step(ft.ParticlePredictor(scenario.transition_model, rng=0),
-          ft.ParticleUpdater(scenario.measurement_model, ft.SystematicResampler(rng=0)), scenario)
+    posterior = _step(ft.ParticlePredictor(scenario.transition_model, rng=0),
+                      ft.ParticleUpdater(scenario.measurement_model,
+                                         ft.SystematicResampler(rng=0)), scenario)
+    _ = posterior.mean, posterior.covar
+    truth = ft.ground_truth(scenario.transition_model, [0, 1, 0, 1], 2, rng=0)
+    ft.detections(truth, scenario.measurement_model, rng=0)
+    position_rmse([posterior], truth[1:])
 
 
 def _kalman():
     import fasttrack as ft
     from fasttrack.scenarios import extended_kalman_tutorial
     scenario = extended_kalman_tutorial(steps=2)
-    _step(ft.ExtendedKalmanPredictor(scenario.transition_model),
-          ft.ExtendedKalmanUpdater(scenario.measurement_model), scenario)
+    for jacobian in ("analytic", "forward", "central"):
+        _step(ft.ExtendedKalmanPredictor(scenario.transition_model),
+              ft.ExtendedKalmanUpdater(scenario.measurement_model, jacobian=jacobian), scenario)
+    detection = ft.Detection([0.0, 1.0], timestamp=scenario.detections[1].timestamp,
+                             measurement_model=ft.LinearGaussian(4, (0, 2), np.eye(2)))
+    prediction = ft.KalmanPredictor(scenario.transition_model).predict(scenario.prior,
+                                                                       detection.timestamp)
+    ft.KalmanUpdater(detection.measurement_model).update(
+        ft.SingleHypothesis(prediction, detection))
 
 
 def _unscented():
@@ -56,58 +88,75 @@ def _batch():
     means = np.tile([0.0, 1.0, 0.0, 1.0], (4, 1))
     covars = np.broadcast_to(np.eye(4), (4, 4, 4)).copy()
     measurements = np.tile([0.0, 49.0], (4, 1))
-    ft.BatchExtendedKalmanFilter(scenario.transition_model, scenario.measurement_model).step(
-        means, covars, measurements, 1.0)
-    unscented = ft.BatchUnscentedKalmanFilter(scenario.transition_model,
-                                              scenario.measurement_model)
-    unscented.step(means, covars, measurements, 1.0)
-    predicted = unscented.predict(means, covars, 1.0)
-    unscented.update(predicted[0], predicted[1], measurements)
+    for kind in (ft.BatchExtendedKalmanFilter, ft.BatchUnscentedKalmanFilter):
+        batch = kind(scenario.transition_model, scenario.measurement_model)
+        batch.step(means, covars, measurements, 1.0)
+        predicted = batch.predict(means, covars, 1.0)
+        batch.update(predicted[0], predicted[1], measurements)
 
 
 def _smoothers():
     import fasttrack as ft
     from fasttrack.scenarios import extended_kalman_tutorial, particle_filter_tutorial
     scenario = extended_kalman_tutorial(steps=3)
-    track = ft.run_filter(ft.ExtendedKalmanPredictor(scenario.transition_model),
-                          ft.ExtendedKalmanUpdater(scenario.measurement_model), scenario.prior,
-                          scenario.detections[1:])
-    smoother = ft.KalmanSmoother(scenario.transition_model)
-    smoother.smooth(track)
-    smoother.smooth_arrays(np.zeros((3, 4)), np.broadcast_to(np.eye(4), (3, 4, 4)), 1.0)
+    for predictor, updater, smoother in (
+            (ft.ExtendedKalmanPredictor, ft.ExtendedKalmanUpdater, ft.ExtendedKalmanSmoother),
+            (ft.UnscentedKalmanPredictor, ft.UnscentedKalmanUpdater,
+             ft.UnscentedKalmanSmoother)):
+        track = ft.run_filter(predictor(scenario.transition_model),
+                              updater(scenario.measurement_model), scenario.prior,
+                              scenario.detections[1:])
+        smoother(scenario.transition_model).smooth(track)
+    cv = ft.ConstantVelocity(0.05)
+    for model in (cv, ft.LinearGaussianTransitionModel(np.eye(3), np.eye(3)),
+                  ft.CombinedLinearGaussianTransitionModel([cv] * 2),
+                  ft.CombinedLinearGaussianTransitionModel([cv] * 3)):
+        d = model.ndim_state
+        ft.KalmanSmoother(model).smooth_arrays(np.zeros((3, d)),
+                                               np.broadcast_to(np.eye(d), (3, d, d)), 1.0)
     scenario = particle_filter_tutorial(64, steps=3)
     track = ft.run_filter(ft.ParticlePredictor(scenario.transition_model, rng=0),
                           ft.ParticleUpdater(scenario.measurement_model,
                                              ft.SystematicResampler(rng=0)),
                           scenario.prior, scenario.detections[1:])
-    ft.ffbs(track, scenario.transition_model, 4, rng=0)
+    for method in ("rejection", "exact"):
+        ft.ffbs(track, scenario.transition_model, 4, rng=0, method=method)
 
 
 def _adaptive_kernel():
     import fasttrack as ft
     from fasttrack.scenarios import adaptive_kernel_tutorial
     scenario = adaptive_kernel_tutorial(8, steps=2)
-    for kernel in (ft.QuadraticKernel(), ft.GaussianKernel()):
-        _step(ft.AdaptiveKernelKalmanPredictor(scenario.transition_model, kernel),
-              ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, kernel, rng=0),
-              scenario)
+    for kernel in (ft.QuadraticKernel(), ft.GaussianKernel(), ft.GaussianKernel(variance=1.0)):
+        posterior = _step(ft.AdaptiveKernelKalmanPredictor(scenario.transition_model, kernel),
+                          ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, kernel,
+                                                         rng=0), scenario)
         kernel(scenario.prior)
+        _ = posterior.mean, posterior.covar
+    ft.KernelParticleState(scenario.prior.state_vector, kernel_covar=np.eye(8))
 
 
 def _multi_target():
     import fasttrack as ft
-    from fasttrack import association
-    from fasttrack.metrics import gospa_over_time
+    from fasttrack import association, metrics
     from fasttrack.scenarios import grid_targets
     scenario = grid_targets(n_targets=4, steps=4, clutter_rate=4.0, seed=0)
-    tracker = ft.MultiTargetTracker(scenario.transition_model, scenario.measurement_model,
-                                    np.zeros(4), np.eye(4), association="nn")
-    tracks = tracker.run(scenario.detections)
-    tracker = ft.MultiTargetTracker(scenario.transition_model, scenario.measurement_model,
-                                    np.zeros(4), np.eye(4))
-    tracks = tracker.run(scenario.detections)
-    gospa_over_time([x[:, [0, 2]] for x in scenario.truths],
-                    [t.means[:, [0, 2]] for t in tracks], 10.0)
+    for method in ("nn", "gnn"):
+        tracker = ft.MultiTargetTracker(scenario.transition_model, scenario.measurement_model,
+                                        np.zeros(4), np.eye(4), association=method)
+        tracks = tracker.run(scenario.detections)
+    truths = [x[:, [0, 2]] for x in scenario.truths]
+    estimates = [t.means[:, [0, 2]] for t in tracks]
+    metrics.gospa(truths[0], estimates[0], 10.0)
+    metrics.gospa_over_time(truths, estimates, 10.0, switching_penalty=1.0,
+                            truth_ids=[np.arange(len(x)) for x in truths],
+                            estimate_ids=[np.arange(len(x)) for x in estimates])
+    metrics.ospa(truths[0], estimates[0], 10.0)
+    metrics.ospa_over_time(truths, estimates, 10.0)
+    costs = np.arange(6.0).reshape(2, 3)
+    association.assign2d(costs)
+    association.assign2d_batch([costs, costs.T])
+    association.gnn_assign(costs, np.ones(2))
     weights = association.pda_weights(np.zeros((2, 2)), np.broadcast_to(np.eye(2), (2, 2, 2)),
                                       np.array([[0.1, 0.0], [0.0, 0.2]]),
                                       clutter_spatial_density=1e-3)
@@ -122,16 +171,38 @@ FAMILIES = {"batch": _batch, "kalman": _kalman, "unscented": _unscented,
             "particle_filter": _particle_filter}
 
 
+@contextlib.contextmanager
+def _parallel_builds():
+    """Every kernel that chooses between its serial and parallel builds runs the parallel one
+    meanwhile, whatever the work."""
+    from . import _jit
+    threaded = [k for k in _jit.kernels() if isinstance(k, _jit.ThreadedKernel)]
+    limits = [k.serial_below for k in threaded]
+    for kernel in threaded:
+        kernel.serial_below = 0
+    try:
+        yield
+    finally:
+        for kernel, limit in zip(threaded, limits):
+            kernel.serial_below = limit
+
+
 def _run(name):
-    """Compile (or load) one family; returns its name and the seconds it took."""
+    """Compile (or load) one family's serial and parallel builds; returns its name and the
+    seconds it took."""
     start = time.perf_counter()
     FAMILIES[name]()
+    with _parallel_builds():
+        FAMILIES[name]()
     return name, time.perf_counter() - start
 
 
 def warmup(families=None, processes=1, report=None, load=True):
     """Compile (or load from the on-disk cache) the kernels of ``families`` now rather than
     on first use.
+
+    After ``pip install .`` they are compiled already (see the README); this is for an
+    editable install, a changed numba or NumPy, or a container image.
 
     Parameters
     ----------
@@ -173,3 +244,28 @@ def warmup(families=None, processes=1, report=None, load=True):
             if report is not None and processes == 1:
                 report(name, seconds)
     return time.perf_counter() - start
+
+
+def ship(destination, processes=2, report=None):
+    """Compile every family, from nothing, into ``destination/<tag>`` with its manifest:
+    the kernels a wheel carries (``fasttrack._jit.cache``). Run by the build backend in a
+    process that imports the package being built.
+
+    Returns
+    -------
+    pathlib.Path
+        The folder written.
+    """
+    from ._jit import cache
+    if os.environ.get(cache.SHIPPED_ENVIRONMENT) != "0":
+        raise RuntimeError(f"ship must run with {cache.SHIPPED_ENVIRONMENT}=0, so that it "
+                           f"compiles every kernel instead of loading shipped ones")
+    folder = pathlib.Path(destination) / cache.tag()
+    with tempfile.TemporaryDirectory() as scratch:
+        os.environ[cache.ENVIRONMENT] = scratch  # the workers' per-user cache
+        warmup(processes=processes, report=report, load=False)
+        compiled, = pathlib.Path(scratch).iterdir()
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copytree(compiled, folder, ignore=shutil.ignore_patterns(".lock"))
+    cache.write_manifest(folder)
+    return folder

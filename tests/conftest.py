@@ -42,3 +42,17 @@ def stonesoup_tutorial(seed, sensor_class=None):
     detections = [Detection(sensor.function(s, noise=True), timestamp=s.timestamp,
                             measurement_model=sensor) for s in truth]
     return transition, sensor, truth, detections
+
+
+def from_python(kernel):
+    """A kernel that calls ``kernel`` (one called only from kernels, which Python cannot
+    call) with its arguments and returns its result; ``kernel`` itself when the JIT is
+    off."""
+    import numba
+    from fasttrack._jit import KernelOnly
+    if not isinstance(kernel, KernelOnly):
+        return kernel
+
+    def call(*args):
+        return kernel(*args)
+    return numba.njit(call)

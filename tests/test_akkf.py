@@ -10,7 +10,7 @@ from fasttrack.metrics import position_rmse
 from fasttrack.scenarios import adaptive_kernel_tutorial
 
 import reference
-from conftest import stream_key
+from conftest import from_python, stream_key
 
 KERNELS = {
     "linear": ft.LinearKernel(),
@@ -387,7 +387,7 @@ def test_ridge_map_is_accurate_where_the_normal_equations_break_down():
     for scale in (1.0, 1e10):
         f = rng.normal(size=(6, 40)) * scale
         f[5] = f[4] * (1 + 1e-9)  # nearly dependent rows
-        got = akkf._ridge_map(f, 1e-3)
+        got = from_python(akkf._ridge_map)(f, 1e-3)
         assert np.isfinite(got).all()
         # (F F^T + lam I) got = F, to rounding relative to |F F^T| |got|
         residual = (f @ f.T + 1e-3 * np.eye(6)) @ got - f
@@ -396,7 +396,7 @@ def test_ridge_map_is_accurate_where_the_normal_equations_break_down():
     f = rng.normal(size=(3, 20))
     want = np.linalg.solve(f @ f.T + 0.5 * np.eye(3), f)
     for route in (akkf._ridge_map, akkf._lq_ridge_map):
-        np.testing.assert_allclose(route(f, 0.5), want, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(from_python(route)(f, 0.5), want, rtol=1e-12, atol=1e-14)
 
 
 def test_weights_that_carry_nothing_are_an_error():

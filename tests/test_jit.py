@@ -15,6 +15,7 @@ from numba.core.registry import CPUDispatcher
 
 import fasttrack
 import fasttrack._jit as jit_pkg
+from fasttrack._jit import cache
 
 import reference
 
@@ -41,6 +42,17 @@ def test_every_kernel_uses_the_factory_options():
             assert not options["fastmath"], name
         else:
             assert set(options["fastmath"]) == set(jit_pkg.FASTMATH), name
+        kernel_only = name.rsplit(".", 1)[1].startswith("_")
+        assert isinstance(dispatcher, jit_pkg.KernelOnly) is kernel_only, name
+        assert all(options.get(k, False) is kernel_only for k in jit_pkg.KERNEL_ONLY), name
+
+
+def test_a_kernel_only_kernel_called_from_python_raises_instead_of_crashing():
+    from fasttrack._jit import smooth
+    with pytest.raises(TypeError, match="_search is called only from other kernels"):
+        smooth._search(np.zeros(3), 2, 0.5)
+    assert isinstance(jit_pkg.serial_twin(fasttrack._jit.weights._power_sums),
+                      jit_pkg.KernelOnly)
 
 
 def test_no_numba_dispatchers_outside_jit():
@@ -139,7 +151,8 @@ def _python(code, **env):
 
 @pytest.mark.slow
 def test_a_damaged_cache_entry_is_compiled_again_and_replaced(tmp_path):
-    env = {"FASTTRACK_CACHE_DIR": str(tmp_path)}  # the first place the cache is looked for
+    env = {"FASTTRACK_CACHE_DIR": str(tmp_path),  # the first place the cache is looked for
+           "FASTTRACK_SHIPPED_KERNELS": "0"}
     first = _python(_SMALL_KERNEL, **env)
     assert first.returncode == 0, first.stderr
     files = {kind: sorted(tmp_path.rglob(f"numeric.wrap_angle-*.{kind}")) for kind in ("nbi", "nbc")}
@@ -226,20 +239,21 @@ _SMALL_CALL = ("import fasttrack._jit.numeric as n; from fasttrack._jit import c
                "print(cache.directory(), n.wrap_angle(7.0))")
 
 
-def test_the_cache_is_per_user_and_never_in_the_package(tmp_path):
+def test_new_entries_are_per_user_and_never_in_the_package(tmp_path):
     before = _package_cache_files()
     env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME",
                                                            "FASTTRACK_CACHE_DIR")}
+    env["FASTTRACK_SHIPPED_KERNELS"] = "0"  # compile, rather than load the shipped kernels
+    folder = f"{fasttrack.__version__}-{cache.tag()}"
     chosen = subprocess.run([sys.executable, "-c", _SMALL_CALL], capture_output=True, text=True,
                             env={**env, "FASTTRACK_CACHE_DIR": str(tmp_path / "mine")}, timeout=600)
     assert chosen.returncode == 0, chosen.stderr
-    assert chosen.stdout.split()[0] == str(tmp_path / "mine" / fasttrack.__version__)
+    assert chosen.stdout.split()[0] == str(tmp_path / "mine" / folder)
     assert list((tmp_path / "mine").rglob("numeric.wrap_angle-*.nbi"))
     home = subprocess.run([sys.executable, "-c", _SMALL_CALL], capture_output=True, text=True,
                           env={**env, "HOME": str(tmp_path / "home")}, timeout=600)
     assert home.returncode == 0, home.stderr
-    assert home.stdout.split()[0] == str(tmp_path / "home" / ".cache" / "fasttrack"
-                                         / fasttrack.__version__)
+    assert home.stdout.split()[0] == str(tmp_path / "home" / ".cache" / "fasttrack" / folder)
     assert _package_cache_files() == before
 
 
@@ -286,7 +300,8 @@ def test_with_nothing_writable_fasttrack_still_runs_and_warns_once(tmp_path):
     blocked = tmp_path / "a-file"
     blocked.write_text("")  # a directory below a file can never be created, even by root
     env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
-    env.update(HOME=str(blocked / "home"), FASTTRACK_CACHE_DIR=str(blocked / "cache"))
+    env.update(HOME=str(blocked / "home"), FASTTRACK_CACHE_DIR=str(blocked / "cache"),
+               FASTTRACK_SHIPPED_KERNELS="0")
     before = _package_cache_files()
     done = subprocess.run([sys.executable, "-c", _ONE_STEP], capture_output=True, text=True,
                           env=env, timeout=600)
@@ -359,12 +374,13 @@ def test_small_work_runs_a_serial_build_and_the_limit_holds():
 def test_the_warmup_command_fills_the_named_cache_with_a_line_per_family(tmp_path):
     done = subprocess.run([sys.executable, "-m", "fasttrack", "warmup", "--cache-dir",
                            str(tmp_path), "--families", "resamplers", "--processes", "1"],
-                          capture_output=True, text=True, timeout=600)
+                          capture_output=True, text=True, timeout=600,
+                          env=dict(os.environ, FASTTRACK_SHIPPED_KERNELS="0"))
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     assert lines[0].startswith("compiling 1 kernel families into " + str(tmp_path))
     assert lines[1].split()[:3] == ["resamplers", "ready", "after"] and lines[-1].startswith("done")
-    assert list((tmp_path / fasttrack.__version__).glob("resample.*.nbc"))
+    assert list((tmp_path / f"{fasttrack.__version__}-{cache.tag()}").glob("resample.*.nbc"))
     wrong = subprocess.run([sys.executable, "-m", "fasttrack", "warmup", "--families", "pf"],
                            capture_output=True, text=True, timeout=600)
     assert wrong.returncode == 2 and "unknown families ['pf']" in wrong.stderr

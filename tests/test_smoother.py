@@ -11,6 +11,7 @@ import fasttrack as ft
 from fasttrack._jit import smooth as kernels
 
 import reference
+from conftest import from_python
 from user_models import coordinated_turn
 
 START = datetime.datetime(2025, 1, 1)
@@ -573,15 +574,17 @@ def test_ffbs_kernel_matches_mirror(max_proposals, min_acceptance):
 
 def test_ffbs_search_takes_the_last_positive_weight_beyond_the_total():
     cumulative = np.array([0.0, 1.0, 2.0, 2.0])
-    assert kernels._search(cumulative, 2, 0.0) == 1
-    assert kernels._search(cumulative, 2, 0.75) == 2
-    assert kernels._search(cumulative, 2, 1.0) == 2  # rounding up to the total
+    search = from_python(kernels._search)
+    assert search(cumulative, 2, 0.0) == 1
+    assert search(cumulative, 2, 0.75) == 2
+    assert search(cumulative, 2, 1.0) == 2  # rounding up to the total
     assert reference._ffbs_categorical(np.array([-np.inf, 0.0, 0.0, -np.inf]), 1.0) == 2
     weights = np.zeros(40)
     weights[[3, 20, 33]] = 1.0
     sums = np.empty(3)
-    assert kernels._block_sums(weights, sums) == 3.0
-    assert [kernels._block_search(weights, sums, target) for target in (0.0, 1.5, 2.0, 3.0)] \
+    assert from_python(kernels._block_sums)(weights, sums) == 3.0
+    block_search = from_python(kernels._block_search)
+    assert [block_search(weights, sums, target) for target in (0.0, 1.5, 2.0, 3.0)] \
         == [3, 20, 33, 33]
 
 

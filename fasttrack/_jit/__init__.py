@@ -14,23 +14,31 @@ Rules for ``parallel=True`` kernels, each learnt from a wrong result:
 - a loop over a literal tuple of coefficients (a Horner polynomial) holds at most 13 of
   them: longer ones are not unrolled, and the loop around them no longer vectorises.
 
-Two properties of the dispatchers made here go beyond Numba's defaults:
+Three properties of the dispatchers made here go beyond Numba's defaults:
 
-- they cache in a per-user directory (:mod:`cache`), where a damaged entry is recompiled
-  and replaced, with a warning, instead of failing every call;
+- a kernel whose name starts with an underscore is called only from other kernels: it is
+  compiled without the wrappers for calls from Python (:class:`KernelOnly`), and tests call
+  it through a kernel of their own;
+- they load from the kernels compiled when the package was built, then from a per-user
+  directory, and save to the per-user one (:mod:`cache`), where a damaged entry is
+  recompiled, with a warning, instead of failing every call;
 - kernels that reach parallel regions choose their thread count per call (one thread for
   small work; see :mod:`fasttrack.threads`), and where Numba's threading layer is its
   ``workqueue`` (no OpenMP or TBB library), which aborts the process when two threads run
   parallel regions at once, their calls from Python are serialised by one process-wide
   lock, so kernels may be called from several threads on every layer.
 """
+import contextlib
 import functools
+import importlib
+import pkgutil
 import threading
+import time
 import types
 
 import numpy as np
 
-from numba.core import config
+from numba.core import config, event
 from numba.core.registry import CPUDispatcher
 
 from . import cache
@@ -47,12 +55,68 @@ OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 
 class Kernel(CPUDispatcher):
-    """A CPU dispatcher that caches through :class:`cache.KernelCache` (in memory only, if
-    no cache directory is writable)."""
+    """A CPU dispatcher that caches through :class:`cache.KernelCache`: the kernels shipped
+    with the package, then a per-user directory."""
 
     def enable_caching(self):
-        if cache.directory() is not None:
-            self._cache = cache.KernelCache(self.py_func)
+        self._cache = cache.KernelCache(self.py_func)
+
+
+def kernels():
+    """Every kernel defined in this package's modules (importing them all)."""
+    for info in pkgutil.iter_modules(__path__, __name__ + "."):
+        module = importlib.import_module(info.name)
+        for value in vars(module).values():
+            if isinstance(value, CPUDispatcher) and value.py_func.__module__ == module.__name__:
+                yield value
+
+
+#: Numba options of a kernel called only from other kernels: no wrappers for calls from
+#: Python (its callers link its code), so its cache entries are smaller.
+KERNEL_ONLY = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+
+
+class KernelOnly(Kernel):
+    """A :class:`Kernel` compiled with :data:`KERNEL_ONLY`: called from Python it would
+    crash, so such a call raises TypeError instead."""
+
+    def __call__(self, *args, **kwargs):
+        raise TypeError(f"{self.py_func.__module__}.{self.py_func.__qualname__} is called only "
+                        f"from other kernels (it has no wrapper for calls from Python)")
+
+
+class Compiled(types.SimpleNamespace):
+    """One compilation of a fasttrack kernel: ``name`` (module.qualified name),
+    ``signature`` (its argument types, as text), ``seconds`` (including the kernels it
+    compiled for its callees meanwhile) and ``own_seconds`` (excluding them)."""
+
+
+class _CompileListener(event.Listener):
+    def __init__(self, found):
+        self.found, self.open = found, []  # open: [start, seconds of nested compiles]
+
+    def on_start(self, ev):
+        self.open.append([time.perf_counter(), 0.0])
+
+    def on_end(self, ev):
+        start, nested = self.open.pop()
+        seconds = time.perf_counter() - start
+        if self.open:
+            self.open[-1][1] += seconds
+        func = ev.data["dispatcher"].py_func
+        if func.__module__.startswith(__name__):
+            self.found.append(Compiled(name=f"{func.__module__}.{func.__qualname__}",
+                                       signature=str(ev.data["args"]), seconds=seconds,
+                                       own_seconds=seconds - nested))
+
+
+@contextlib.contextmanager
+def compiles():
+    """Record the fasttrack kernels compiled (not loaded) meanwhile: yields a list that
+    fills with :class:`Compiled` items, callees before their callers."""
+    found = []
+    with event.install_listener("numba:compile", _CompileListener(found)):
+        yield found
 
 
 def _reaches_parallel(dispatcher, seen=()):
@@ -73,8 +137,9 @@ def _twin(dispatcher, suffix, names, **options):
     twin = types.FunctionType(func.__code__, names, func.__name__, func.__defaults__,
                               func.__closure__)
     twin.__qualname__ = f"{func.__qualname__}_{suffix}"
-    twin_dispatcher = Kernel(py_func=twin, locals={},
-                             targetoptions=dict(dispatcher.targetoptions, **options))
+    kind = KernelOnly if isinstance(dispatcher, KernelOnly) else Kernel
+    twin_dispatcher = kind(py_func=twin, locals={},
+                           targetoptions=dict(dispatcher.targetoptions, **options))
     if OPTIONS["cache"]:
         twin_dispatcher.enable_caching()
     twin_dispatcher.strict = dispatcher.strict
@@ -205,9 +270,12 @@ def jit(parallel=False, strict=False, size=None, serial_below=SERIAL_BELOW_LIGHT
         fastmath = False if strict else set(FASTMATH)
         options = {"nopython": True, "parallel": parallel, "fastmath": fastmath,
                    "nogil": OPTIONS["nogil"], "error_model": OPTIONS["error_model"]}
+        kind = Kernel if size is None else ThreadedKernel
+        if func.__name__.startswith("_"):
+            options.update(KERNEL_ONLY)
+            kind = KernelOnly
         if config.DISABLE_JIT:
             return _uncompiled(func, strict)
-        kind = Kernel if size is None else ThreadedKernel
         dispatcher = kind(py_func=func, locals={}, targetoptions=options)
         if OPTIONS["cache"]:
             dispatcher.enable_caching()
