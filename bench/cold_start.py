@@ -221,7 +221,8 @@ def table(results):
             TARGETS["installed"]["demo --quick"])
         for family, step in done["mismatch"].items():
             row(f"shipped kernels unusable (another CPU): first {family} step",
-                step["seconds"], max(step["compiled"]))
+                step["seconds"], f"{max(step['compiled'])} (said why in "
+                                 f"{step['fallback_warnings']} of {len(step['seconds'])} runs)")
     if "editable" in results:
         done = results["editable"]
         for family, step in done["first_steps"].items():

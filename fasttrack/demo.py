@@ -8,6 +8,7 @@ import time
 import numpy as np
 
 import fasttrack as ft
+from fasttrack._jit import cache
 from fasttrack.metrics import gospa_over_time, position_rmse
 from fasttrack.scenarios import (adaptive_kernel_tutorial, extended_kalman_tutorial,
                                  grid_targets, particle_filter_tutorial)
@@ -254,7 +255,10 @@ def run(quick=False, out="fasttrack-demo"):
     cores, compilation included); ``out`` is the folder of the PNG plots (None: no plots,
     as without matplotlib)."""
     start = time.perf_counter()
-    print(f"fasttrack {ft.__version__}: compiling kernels (cached after the first run)...",
+    shipped = cache.shipped()[0] is not None
+    print(f"fasttrack {ft.__version__}: " + ("loading the kernels compiled at install..."
+                                            if shipped else
+                                            "compiling kernels (cached after the first run)..."),
           flush=True)
     families = ["kalman", "adaptive_kernel", "multi_target", "resamplers", "particle_filter"]
     if not quick:
@@ -263,7 +267,8 @@ def run(quick=False, out="fasttrack-demo"):
     def ready(family, seconds):
         print(f"  {family:<16} ready after {time.perf_counter() - start:5.1f} s", flush=True)
 
-    print(f"  all ready in {ft.warmup(families, processes=2, report=ready):.1f} s\n")
+    seconds = ft.warmup(families, processes=1 if shipped else 2, report=ready)
+    print(f"  all ready in {seconds:.1f} s\n")
     plots = None
     if out is not None:
         try:
