@@ -33,11 +33,13 @@ import time
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 #: A first step of each kernel family, timed from interpreter start (import included);
-#: prints the seconds and the number of fasttrack kernels compiled.
+#: prints, as JSON, the seconds, the fasttrack kernels compiled, the seconds spent in LLVM
+#: (Numba's llvm_lock events) and the five kernels whose own compilation took longest.
 FIRST_STEP = """
-import sys, time
+import json, sys, time
 start = time.perf_counter()
 import numpy as np
+from numba.core import event
 import fasttrack as ft
 from fasttrack._jit import compiles
 from fasttrack.scenarios import (adaptive_kernel_tutorial, extended_kalman_tutorial,
@@ -46,7 +48,8 @@ def step(predictor, updater, scenario):
     d = scenario.detections[1]
     return updater.update(ft.SingleHypothesis(predictor.predict(scenario.prior, d.timestamp), d))
 family = sys.argv[1]
-with compiles() as found:
+llvm = []
+with compiles() as found, event.install_timer("numba:llvm_lock", llvm.append):
     if family == "particle filter":
         s = particle_filter_tutorial(1000)
         step(ft.ParticlePredictor(s.transition_model, rng=1),
@@ -68,7 +71,10 @@ with compiles() as found:
         tracker = ft.MultiTargetTracker(s.transition_model, s.measurement_model, np.zeros(4),
                                         np.diag([100.0, 1.0, 100.0, 1.0]))
         tracker.step(s.detections[0], 0.0)
-print(time.perf_counter() - start, len(found))
+top = sorted(found, key=lambda c: -c.own_seconds)[:5]
+print(json.dumps({"seconds": time.perf_counter() - start, "compiled": len(found),
+                  "llvm_seconds": sum(llvm),
+                  "top": [[c.name.split("._jit.")[1], round(c.own_seconds, 2)] for c in top]}))
 """
 
 FAMILIES = ["particle filter", "extended Kalman filter", "unscented Kalman filter", "AKKF",
@@ -108,9 +114,9 @@ class Environment:
         return seconds, done.stdout, done.stderr
 
     def first_step(self, family, **extra):
+        """The JSON record of :data:`FIRST_STEP`, and the warnings printed."""
         _, out, err = self.run("-c", FIRST_STEP, family, **extra)
-        seconds, compiled = out.split()[-2:]
-        return float(seconds), int(compiled), err
+        return json.loads(out.splitlines()[-1]), err
 
     def site_packages(self):
         _, out, _ = self.run("-c", "import sysconfig; print(sysconfig.get_path('purelib'))")
@@ -126,16 +132,22 @@ def _first_steps(environment, repeats, empty_cache, **extra):
     from an empty per-user cache if ``empty_cache``."""
     found = {}
     for family in FAMILIES:
-        seconds, compiled, warnings = [], [], 0
+        records, warnings = [], 0
         for attempt in range(repeats):
             cache = environment.folder / f"cache-{family}-{attempt}"
             settings = dict(extra, FASTTRACK_CACHE_DIR=str(cache)) if empty_cache else extra
-            s, c, err = environment.first_step(family, **settings)
-            seconds.append(s)
-            compiled.append(c)
+            record, err = environment.first_step(family, **settings)
+            records.append(record)
             warnings += err.count("cannot be used")
-        found[family] = {"seconds": seconds, "compiled": compiled, "fallback_warnings": warnings}
-        print(f"  {family:<24} {_runs(seconds)}; kernels compiled {compiled}", flush=True)
+        found[family] = {key: [r[key] for r in records]
+                         for key in ("seconds", "compiled", "llvm_seconds")}
+        found[family].update(fallback_warnings=warnings, top=records[0]["top"])
+        line = f"  {family:<24} {_runs(found[family]['seconds'])}; kernels compiled " \
+               f"{found[family]['compiled']}"
+        if records[0]["compiled"]:
+            line += (f"; LLVM {statistics.median(found[family]['llvm_seconds']):.1f} s; "
+                     f"longest: {', '.join(f'{n} {t} s' for n, t in records[0]['top'])}")
+        print(line, flush=True)
     return found
 
 

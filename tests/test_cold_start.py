@@ -237,7 +237,8 @@ def test_a_damaged_index_is_replaced_by_the_next_save(tmp_path):
 
 
 _SAME_KERNEL = {"int64": "ft.systematic(np.zeros(8), rng=0)",
-                "int32": "ft.SystematicResampler(rng=0).resample(ft.ParticleState(np.zeros((1, 8))))"}
+                "int32": "ft.SystematicResampler(rng=0).resample("
+                         "ft.ParticleState(np.zeros((1, 8))))"}
 
 
 @pytest.mark.slow
@@ -262,7 +263,7 @@ def test_processes_compiling_other_signatures_of_one_kernel_at_once_lose_no_entr
 def shipped_at(tmp_path, monkeypatch):
     """Point :func:`cache.shipped` at ``tmp_path / "_kernels"`` (no installed copy)."""
     monkeypatch.setattr(cache, "SHIPPED", tmp_path / "_kernels")
-    monkeypatch.setattr(cache, "_installed_kernels", lambda: None)
+    monkeypatch.setattr(cache, "_installed_kernels", lambda: [])
     monkeypatch.delenv(cache.SHIPPED_ENVIRONMENT, raising=False)
     cache.shipped.cache_clear()
     yield tmp_path / "_kernels"
@@ -276,9 +277,11 @@ def test_shipped_kernels_are_used_only_with_a_matching_manifest(shipped_at, monk
     folder.mkdir(parents=True)
     cache.shipped.cache_clear()
     assert cache.shipped()[0] is None  # a folder without its manifest is unfinished
-    (folder / cache.MANIFEST).write_text("{not json")
-    cache.shipped.cache_clear()
-    assert "cannot be read" in cache.shipped()[1]
+    for damaged in ("{not json", "[]", '{"source_stamp": 1, "cpu": 2}'):
+        (folder / cache.MANIFEST).write_text(damaged)
+        cache.shipped.cache_clear()
+        assert "cannot be read" in cache.shipped()[1] or "other fasttrack sources" in \
+            cache.shipped()[1], damaged
     cache.write_manifest(folder)
     cache.shipped.cache_clear()
     assert cache.shipped() == (folder, None)

@@ -161,12 +161,11 @@ def write_manifest(path):
 
 
 def _installed_kernels():
-    """The shipped kernels' folder of fasttrack's installed distribution, or None."""
-    try:
-        found = importlib.metadata.distribution("fasttrack").locate_file("fasttrack/_kernels")
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    return pathlib.Path(found).resolve()
+    """The shipped kernels' folders of the fasttrack distributions on ``sys.path`` (a source
+    checkout's build metadata counts as one too, without kernels)."""
+    found = (dist.locate_file("fasttrack/_kernels")
+             for dist in importlib.metadata.distributions(name="fasttrack"))
+    return [pathlib.Path(folder).resolve() for folder in found]
 
 
 def _mismatch(recorded):
@@ -194,22 +193,20 @@ def shipped():
     reason)`` saying why there are none (reason None when they are switched off)."""
     if os.environ.get(SHIPPED_ENVIRONMENT, "1") == "0":
         return None, None
-    roots = [SHIPPED] + [root for root in [_installed_kernels()] if root not in (None, SHIPPED)]
+    roots = list(dict.fromkeys([SHIPPED] + _installed_kernels()))
     reasons = []
     for root in roots:
         folder = root / tag()
         try:
-            recorded = json.loads((folder / MANIFEST).read_text())
+            reason = _mismatch(json.loads((folder / MANIFEST).read_text()))
         except FileNotFoundError:
             others = sorted(p.parent.name for p in root.glob(f"*/{MANIFEST}"))
             if others:
                 reasons.append(f"they were compiled for {', '.join(others)}, and this process "
                                f"runs {tag()}")
             continue
-        except (OSError, ValueError) as error:
-            reasons.append(f"their manifest {folder / MANIFEST} cannot be read ({error})")
-            continue
-        reason = _mismatch(recorded)
+        except (OSError, ValueError, TypeError, LookupError, AttributeError) as error:
+            reason = f"their manifest {folder / MANIFEST} cannot be read ({error!r})"
         if reason is None:
             return folder, None
         reasons.append(reason)
