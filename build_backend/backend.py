@@ -1,8 +1,8 @@
 """fasttrack's build backend: setuptools' own, plus compiled kernels in the wheel.
 
 ``build_wheel`` builds the wheel with setuptools, compiles every kernel family of that
-wheel's code on this machine (``fasttrack._warmup.ship``, in a separate process, on two
-cores) into ``fasttrack/_kernels/<tag>``, adds them to the wheel and tags it for this
+wheel's code on this machine (``fasttrack._warmup.ship``, in separate processes, one a
+core) into ``fasttrack/_kernels/<tag>``, adds them to the wheel and tags it for this
 interpreter and platform, since it now carries machine code for this CPU. The sdist,
 editable installs and metadata are setuptools' own.
 
@@ -43,8 +43,16 @@ print(f"fasttrack: kernels compiled into {ship(sys.argv[1], report=report)}", fl
 
 
 def _compiling(config_settings):
-    value = (config_settings or {}).get(SETTING, os.environ.get(ENVIRONMENT, "1"))
-    return str(value).strip().lower() not in ("0", "false", "no", "off")
+    """Whether to compile: the ``compile-kernels`` setting, else :data:`ENVIRONMENT`, else
+    yes (1, true, yes, on; 0, false, no, off; anything else is a ValueError naming it)."""
+    settings = config_settings or {}
+    name, value = (SETTING, settings[SETTING]) if SETTING in settings else \
+        (ENVIRONMENT, os.environ.get(ENVIRONMENT, "1"))
+    switch = str(value).strip().lower()
+    if switch not in ("0", "1", "false", "true", "no", "yes", "off", "on"):
+        raise ValueError(f"{name} must be true or false (or 1/0, yes/no, on/off), "
+                         f"got {value!r}")
+    return switch in ("1", "true", "yes", "on")
 
 
 def _for_setuptools(config_settings):

@@ -246,10 +246,11 @@ def warmup(families=None, processes=1, report=None, load=True):
     return time.perf_counter() - start
 
 
-def ship(destination, processes=2, report=None):
-    """Compile every family, from nothing, into ``destination/<tag>`` with its manifest:
-    the kernels a wheel carries (``fasttrack._jit.cache``). Run by the build backend in a
-    process that imports the package being built.
+def ship(destination, processes=None, report=None):
+    """Compile every family, from nothing, in ``processes`` worker processes (default: one a
+    core) into ``destination/<tag>`` with its manifest: the kernels a wheel carries
+    (``fasttrack._jit.cache``). Run by the build backend in a process that imports the
+    package being built.
 
     Returns
     -------
@@ -257,13 +258,13 @@ def ship(destination, processes=2, report=None):
         The folder written.
     """
     from ._jit import cache
-    if os.environ.get(cache.SHIPPED_ENVIRONMENT) != "0":
+    if cache.shipped_enabled():
         raise RuntimeError(f"ship must run with {cache.SHIPPED_ENVIRONMENT}=0, so that it "
                            f"compiles every kernel instead of loading shipped ones")
     folder = pathlib.Path(destination) / cache.tag()
     with tempfile.TemporaryDirectory() as scratch:
         os.environ[cache.ENVIRONMENT] = scratch  # the workers' per-user cache
-        warmup(processes=processes, report=report, load=False)
+        warmup(processes=processes or os.cpu_count() or 1, report=report, load=False)
         compiled, = pathlib.Path(scratch).iterdir()
         folder.parent.mkdir(parents=True, exist_ok=True)
         shutil.copytree(compiled, folder, ignore=shutil.ignore_patterns(".lock"))

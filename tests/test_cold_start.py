@@ -288,6 +288,10 @@ def test_shipped_kernels_are_used_only_with_a_matching_manifest(shipped_at, monk
     monkeypatch.setenv(cache.SHIPPED_ENVIRONMENT, "0")
     cache.shipped.cache_clear()
     assert cache.shipped() == (None, None)  # switched off: nothing to say
+    monkeypatch.setenv(cache.SHIPPED_ENVIRONMENT, "flase")
+    cache.shipped.cache_clear()
+    with pytest.raises(ValueError, match="FASTTRACK_SHIPPED_KERNELS must be 0 or 1.*'flase'"):
+        cache.shipped()
 
 
 def test_a_manifest_names_what_differs():
@@ -322,6 +326,11 @@ def test_the_backend_compiles_unless_switched_off(backend, monkeypatch):
     monkeypatch.setenv("FASTTRACK_COMPILE_KERNELS", "0")
     assert not backend._compiling(None)
     assert backend._compiling({"compile-kernels": "1"})  # the setting wins
+    with pytest.raises(ValueError, match="compile-kernels must be true or false.*'maybe'"):
+        backend._compiling({"compile-kernels": "maybe"})
+    monkeypatch.setenv("FASTTRACK_COMPILE_KERNELS", "nein")
+    with pytest.raises(ValueError, match="FASTTRACK_COMPILE_KERNELS must be true or false"):
+        backend._compiling(None)
     assert backend._for_setuptools({"compile-kernels": "0", "--build-option": "x"}) == \
         {"--build-option": "x"}
 
@@ -385,3 +394,17 @@ def test_switched_off_the_wheel_is_pure_and_the_sdist_is_source_only(backend, tm
         names = archive.getnames()
     assert any(n.endswith("build_backend/backend.py") for n in names)
     assert not [n for n in names if n.endswith((".nbi", ".nbc")) or "_kernels" in n]
+
+
+def test_a_copy_without_kernels_borrows_an_installed_copys_and_one_with_kernels_does_not(
+        shipped_at, tmp_path, monkeypatch):
+    installed = tmp_path / "site-packages" / "fasttrack" / "_kernels"
+    (installed / cache.tag()).mkdir(parents=True)
+    cache.write_manifest(installed / cache.tag())
+    monkeypatch.setattr(cache, "_installed_kernels", lambda: [installed])
+    assert cache.shipped() == (installed / cache.tag(), None)  # a source checkout
+    (shipped_at / "numba0.1.0-numpy1.0-cpython-30").mkdir(parents=True)
+    (shipped_at / "numba0.1.0-numpy1.0-cpython-30" / cache.MANIFEST).write_text("{}")
+    cache.shipped.cache_clear()
+    assert cache.shipped()[0] is None  # its own kernels, compiled for another numba
+    assert "compiled for numba0.1.0-numpy1.0-cpython-30" in cache.shipped()[1]

@@ -7,9 +7,8 @@ compiles every kernel family on the machine that will run them and puts the resu
 Python implementation), with a manifest of what they were compiled for: the kernel sources'
 digest, the CPU (Numba's target triple, CPU name and features) and the Numba settings that
 change generated code (:func:`settings`). They are never written to, so a read-only
-``site-packages`` works. A copy of fasttrack imported from elsewhere (a source checkout)
-reads the installed distribution's shipped kernels if they were compiled from the same
-sources. When they cannot serve (an editable install, another numba or NumPy, another CPU,
+``site-packages`` works. A copy of fasttrack without kernels of its own (a source checkout)
+reads those of an installed distribution if they were compiled from the same sources. When they cannot serve (an editable install, another numba or NumPy, another CPU,
 other ``NUMBA_*`` settings, other sources), kernels are compiled on first use as below, and
 the first compilation in a process says why, once. ``FASTTRACK_SHIPPED_KERNELS=0`` ignores
 them.
@@ -187,13 +186,23 @@ def _mismatch(recorded):
     return None
 
 
+def shipped_enabled():
+    """Whether :data:`SHIPPED_ENVIRONMENT` lets the shipped kernels be read (unset, 1, true,
+    yes, on; 0, false, no, off do not; anything else is a ValueError naming it)."""
+    value = os.environ.get(SHIPPED_ENVIRONMENT, "1").strip().lower()
+    if value not in ("0", "1", "false", "true", "no", "yes", "off", "on"):
+        raise ValueError(f"{SHIPPED_ENVIRONMENT} must be 0 or 1 (or false/true, no/yes, "
+                         f"off/on), got {os.environ[SHIPPED_ENVIRONMENT]!r}")
+    return value in ("1", "true", "yes", "on")
+
+
 @functools.lru_cache(maxsize=None)
 def shipped():
     """``(folder, None)`` with the shipped kernels this process can load, or ``(None,
     reason)`` saying why there are none (reason None when they are switched off)."""
-    if os.environ.get(SHIPPED_ENVIRONMENT, "1") == "0":
+    if not shipped_enabled():
         return None, None
-    roots = list(dict.fromkeys([SHIPPED] + _installed_kernels()))
+    roots = [SHIPPED] if SHIPPED.is_dir() else list(dict.fromkeys(_installed_kernels()))
     reasons = []
     for root in roots:
         folder = root / tag()
