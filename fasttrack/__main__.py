@@ -88,7 +88,11 @@ def _warmup(args):
     if unknown:
         print(f"unknown families {unknown}; valid: {', '.join(FAMILIES)}", file=sys.stderr)
         return 2
+    from ._jit import cache
     start = time.perf_counter()
+    if cache.shipped()[0] is not None:
+        print("the kernels shipped with fasttrack serve these families: loading them, and "
+              "compiling only what they lack", flush=True)
     print(f"compiling {len(families)} kernel families into "
           f"{os.environ.get('FASTTRACK_CACHE_DIR') or 'the user cache directory'}", flush=True)
 

@@ -408,3 +408,33 @@ def test_a_copy_without_kernels_borrows_an_installed_copys_and_one_with_kernels_
     cache.shipped.cache_clear()
     assert cache.shipped()[0] is None  # its own kernels, compiled for another numba
     assert "compiled for numba0.1.0-numpy1.0-cpython-30" in cache.shipped()[1]
+
+
+#: Kernels no first step reaches: error paths and kernels the library does not call.
+_UNSHIPPED = {"unscented.sigma_points", "unscented.unscented_moments", "weights.log_sum_exp"}
+
+
+def test_every_kernel_a_first_step_can_reach_is_shipped():
+    from fasttrack import _jit
+    from fasttrack._jit import smooth
+    _shipped_or_skip()
+    shipped = {path.name.split("-")[0] for path in cache.shipped()[0].glob("*.nbi")}
+    wanted = [f"smooth.rts__DIMENSION{d}" for d in smooth.UNROLLED_DIMENSIONS]
+    for kernel in _jit.kernels():
+        name = f"{kernel.py_func.__module__.rsplit('.', 1)[1]}.{kernel.py_func.__qualname__}"
+        if name.endswith("_function") or name.startswith("user.") or name in _UNSHIPPED:
+            continue  # compiled for each user's function; not reached by a first step
+        wanted.append(name)
+        if isinstance(kernel, _jit.ThreadedKernel):
+            wanted.append(f"{name}_serial")
+    assert sorted(set(wanted) - shipped) == []
+
+
+def test_warmup_after_install_loads_the_shipped_kernels_and_compiles_nothing(tmp_path):
+    _shipped_or_skip()
+    done = subprocess.run([sys.executable, "-m", "fasttrack", "warmup", "--cache-dir",
+                           str(tmp_path), "--families", "resamplers", "--processes", "1"],
+                          capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("the kernels shipped with fasttrack serve these families")
+    assert not list(tmp_path.rglob("*.nbc"))
