@@ -4,6 +4,7 @@ import json
 import os
 import pathlib
 import re
+import runpy
 import subprocess
 import sys
 
@@ -13,15 +14,19 @@ from fasttrack._jit import cache
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
-#: Runs a program (argv[1], as __main__) and prints, last, the fasttrack kernels it compiled.
+#: Runs a program (argv[1], as __main__, or -c and a snippet) with its arguments, and prints,
+#: last, the fasttrack kernels it compiled.
 _COUNTING = """
 import json, runpy, sys
 from fasttrack._jit import compiles
 program = sys.argv[1]
-sys.argv = sys.argv[1:]
+if program == "-c":  # a snippet, and its arguments
+    code, sys.argv = sys.argv[2], ["-c"] + sys.argv[3:]
+else:
+    sys.argv = sys.argv[1:]
 with compiles() as found:
     if program == "-c":
-        exec(compile(sys.argv[1], "<snippet>", "exec"), {"__name__": "__main__"})
+        exec(compile(code, "<snippet>", "exec"), {"__name__": "__main__"})
     else:
         runpy.run_path(program, run_name="__main__")
 print(json.dumps([c.__dict__ for c in found]))
@@ -59,6 +64,9 @@ def _programs():
     programs.update({name: ["-c", code] for name, code in _guide_snippets().items()})
     programs["README"] = ["-c", _readme_snippet()]
     programs["particle filter at 1e5"] = ["-c", _LARGE]
+    bench = runpy.run_path(str(ROOT / "bench" / "cold_start.py"))
+    programs.update({f"first {family} step": ["-c", bench["FIRST_STEP"], family]
+                     for family in bench["FAMILIES"]})
     return programs
 
 

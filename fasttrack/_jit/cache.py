@@ -8,10 +8,10 @@ Python implementation), with a manifest of what they were compiled for: the kern
 digest, the CPU (Numba's target triple, CPU name and features) and the Numba settings that
 change generated code (:func:`settings`). They are never written to, so a read-only
 ``site-packages`` works. A copy of fasttrack without kernels of its own (a source checkout)
-reads those of an installed distribution if they were compiled from the same sources. When they cannot serve (an editable install, another numba or NumPy, another CPU,
-other ``NUMBA_*`` settings, other sources), kernels are compiled on first use as below, and
-the first compilation in a process says why, once. ``FASTTRACK_SHIPPED_KERNELS=0`` ignores
-them.
+reads those of an installed distribution if they were compiled from the same sources. When
+they cannot serve (an editable install, another numba or NumPy, another CPU, other
+``NUMBA_*`` settings, other sources), kernels are compiled on first use as below, and the
+first compilation in a process says why, once. ``FASTTRACK_SHIPPED_KERNELS=0`` ignores them.
 
 **Per-user kernels.** New entries go to the first writable one of
 
@@ -326,7 +326,7 @@ class KernelCache(FunctionCache):
 
     _impl_class = _Impl
 
-    def __init__(self, py_func):  # Numba's chooses its one folder here; these are lazy
+    def __init__(self, py_func):  # Numba's own picks its one folder here; ours are lazy
         self._name = repr(py_func)
         self._py_func = py_func
         self._impl = self._impl_class(py_func)
@@ -371,10 +371,10 @@ class KernelCache(FunctionCache):
             except Exception as error:  # any unreadable entry: compile instead
                 mend = "reinstall fasttrack to mend it" if store is self._shipped else \
                     "it is replaced"
-                warnings.warn(f"fasttrack: the compile cache entry of {self._py_func.__qualname__} "
-                              f"in {store._cache_path} is damaged ({type(error).__name__}: "
-                              f"{error}); compiling it again ({mend})", RuntimeWarning,
-                              stacklevel=2)
+                warnings.warn(f"fasttrack: the compile cache entry of "
+                              f"{self._py_func.__qualname__} in {store._cache_path} is damaged "
+                              f"({type(error).__name__}: {error}); compiling it again ({mend})",
+                              RuntimeWarning, stacklevel=2)
         _explain_compiling()
         return None
 
