@@ -87,6 +87,17 @@ def settings():
     return {name: repr(getattr(config, name, None)) for name in CODE_SETTINGS}
 
 
+def _outside():
+    """The ``stacklevel`` that makes a warning issued by this function's caller point at the
+    first frame outside fasttrack and Numba (the user's call)."""
+    inside = tuple(os.path.dirname(os.path.realpath(module.__file__)) + os.sep
+                   for module in (sys.modules[__name__.split(".")[0]], numba))
+    frame, level = sys._getframe(2), 2
+    while frame is not None and os.path.realpath(frame.f_code.co_filename).startswith(inside):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
 def _user_cache_root():
     if sys.platform == "win32":
         base = os.environ.get("LOCALAPPDATA") or os.path.expanduser("~\\AppData\\Local")
@@ -127,7 +138,7 @@ def directory():
     warnings.warn(f"fasttrack: no writable directory for its compiled kernels (tried "
                   f"{', '.join(map(str, tried))}); they are compiled in memory in every "
                   f"process. Set {ENVIRONMENT} to a writable directory to keep them.",
-                  RuntimeWarning, stacklevel=2)
+                  RuntimeWarning, stacklevel=_outside())
     return None
 
 
@@ -233,7 +244,7 @@ def _explain_compiling():
         warnings.warn(f"fasttrack: compiling kernels on first use (seconds per filter family) "
                       f"because the kernels shipped with fasttrack cannot be used: {reason}. "
                       f"`python -m fasttrack warmup` compiles every family now, for later "
-                      f"processes too.", RuntimeWarning, stacklevel=4)
+                      f"processes too.", RuntimeWarning, stacklevel=_outside())
 
 
 @contextlib.contextmanager
@@ -374,7 +385,7 @@ class KernelCache(FunctionCache):
                 warnings.warn(f"fasttrack: the compile cache entry of "
                               f"{self._py_func.__qualname__} in {store._cache_path} is damaged "
                               f"({type(error).__name__}: {error}); compiling it again ({mend})",
-                              RuntimeWarning, stacklevel=2)
+                              RuntimeWarning, stacklevel=_outside())
         _explain_compiling()
         return None
 
