@@ -91,7 +91,8 @@ def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
 def _compile_kernels(tree):
     """Compile every kernel family of the package in ``tree`` into its ``_kernels``."""
     path = os.pathsep.join(p for p in (str(tree), os.environ.get("PYTHONPATH")) if p)
-    env = dict(os.environ, PYTHONPATH=path, FASTTRACK_SHIPPED_KERNELS="0")
+    env = dict(os.environ, PYTHONPATH=path, FASTTRACK_SHIPPED_KERNELS="0",
+               PYTHONDONTWRITEBYTECODE="1")  # nothing but the kernels added to the tree
     done = subprocess.run([sys.executable, "-c", _SHIP, str(tree / "fasttrack" / "_kernels")],
                           cwd=tree, env=env)
     if done.returncode:
