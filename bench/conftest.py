@@ -1,5 +1,5 @@
-"""Benchmark setup: fasttrack, the NumPy reference (tests/reference.py) and Stone Soup run
-the same workloads in the same session; ``python bench/report.py`` turns the saved JSON into
+"""Benchmark setup: fasttrack, the NumPy reference (tests/reference/) and Stone Soup run the
+same workloads in the same session; ``python bench/report.py`` turns the saved JSON into
 speed-up ratios.
 
 Run:  python -m pytest bench --benchmark-json=bench/results/latest.json

@@ -12,7 +12,7 @@ import pytest
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
-from fasttrack.association.jpda import jpda_marginals, pda_weights
+from fasttrack.core.jpda import jpda_marginals, pda_weights
 
 N = 100
 PROB_DETECT, PROB_GATE = 0.9, 0.99

@@ -5,8 +5,9 @@ import pytest
 
 import fasttrack as ft
 
-import reference
-from conftest import SIZES, run, workload
+import reference.resample
+import reference.weights
+from .conftest import SIZES, run, workload
 
 SCHEMES = {
     "systematic": (lambda: ft.SystematicResampler(rng=0), "systematic", False),
@@ -50,7 +51,8 @@ def test_numpy_reference(benchmark, scheme, n):
     benchmark.group = f"resample-{scheme} N={n}"
     log_w, x = workload(n)
     _, method, residual = SCHEMES[scheme]
-    out = run(benchmark, lambda: x[:, reference.draw(log_w, n, method, residual, 12345)], n)
+    out = run(benchmark, lambda: x[:, reference.resample.draw(log_w, n, method, residual, 12345)],
+              n)
     assert out.shape == x.shape
 
 
@@ -91,7 +93,7 @@ def test_ess_check_fasttrack(benchmark, n):
 def test_ess_check_numpy_reference(benchmark, n):
     benchmark.group = f"resample-ess N={n}"
     log_w, _ = workload(n)
-    run(benchmark, lambda: reference.ess(log_w, log_w.max()) < n / 2, n)
+    run(benchmark, lambda: reference.weights.ess(log_w, log_w.max()) < n / 2, n)
 
 
 @pytest.mark.parametrize("n", SIZES)

@@ -13,138 +13,152 @@ import time
 
 import numpy as np
 
+from . import association
+from . import metrics
+from .batch import BatchExtendedKalmanFilter, BatchUnscentedKalmanFilter
+from .core.mixture import segment_logsumexp
+from .core.particle import gather
+from .core.resample import (ess, multinomial, normalise, resampling_points, residual, stratified,
+                            systematic)
+from .filtering import run_filter
+from .kernel import GaussianKernel, QuadraticKernel
+from .models.measurement import LinearGaussian
+from .models.transition import (CombinedLinearGaussianTransitionModel, ConstantVelocity,
+                                LinearGaussianTransitionModel)
+from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
+                        ParticlePredictor, UnscentedKalmanPredictor)
+from .resampler import (ESSResampler, MultinomialResampler, ResidualResampler, StratifiedResampler,
+                        SystematicResampler)
+from .scenarios import (adaptive_kernel_tutorial, extended_kalman_tutorial, grid_targets,
+                        particle_filter_tutorial)
+from .simulate import detections, ground_truth
+from .smoother import ExtendedKalmanSmoother, KalmanSmoother, UnscentedKalmanSmoother, ffbs
+from .tracker import MultiTargetTracker
+from .types.gaussian import Detection
+from .types.kernel import KernelParticleState
+from .types.mixture import GaussianMixture
+from .types.particle import ParticleState
+from .types.tracks import SingleHypothesis
+from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, KalmanUpdater,
+                      ParticleUpdater, UnscentedKalmanUpdater)
 
-def _resamplers():
-    import fasttrack as ft
-    from fasttrack.core.particle import gather
-    particles = ft.ParticleState(np.zeros((2, 16)), log_weight=np.linspace(-3.0, 0.0, 16),
-                                 parent=ft.ParticleState(np.ones((2, 16))))
-    for resampler in (ft.SystematicResampler(0), ft.StratifiedResampler(0),
-                      ft.MultinomialResampler(0), ft.ResidualResampler(rng=0),
-                      ft.ResidualResampler(residual_method="systematic", rng=0), ft.ESSResampler()):
+
+def _resample():
+    particles = ParticleState(np.zeros((2, 16)), log_weight=np.linspace(-3.0, 0.0, 16),
+                              parent=ParticleState(np.ones((2, 16))))
+    for resampler in (SystematicResampler(0), StratifiedResampler(0),
+                      MultinomialResampler(0), ResidualResampler(rng=0),
+                      ResidualResampler(residual_method="systematic", rng=0), ESSResampler()):
         for nparts in (None, 8, 32):
             resampled = resampler.resample(particles, nparts)
             _ = resampled.state_vector, resampled.parent.state_vector
     for method in ("systematic", "stratified", "multinomial"):
-        ft.resampling.resampling_points(8, method, rng=0)
-    for draw in (ft.systematic, ft.stratified, ft.multinomial, ft.residual):  # int64 indices
+        resampling_points(8, method, rng=0)
+    for draw in (systematic, stratified, multinomial, residual):  # int64 indices
         for nparts in (None, 8, 32):
             draw(particles.log_weight, nparts, rng=0)
-    ft.residual(particles.log_weight, rng=0, method="systematic")
+    residual(particles.log_weight, rng=0, method="systematic")
     gather(particles.state_vector, np.arange(4))  # the drop-in resamplers' int64 indices
-    ft.ess(particles.log_weight)
-    ft.normalise(particles.log_weight)
+    ess(particles.log_weight)
+    normalise(particles.log_weight)
     _ = particles.mean, particles.covar
 
 
 def _step(predictor, updater, scenario):
-    import fasttrack as ft
     detection = scenario.detections[1]
     prediction = predictor.predict(scenario.prior, detection.timestamp)
-    return updater.update(ft.SingleHypothesis(prediction, detection))
+    return updater.update(SingleHypothesis(prediction, detection))
 
 
-def _particle_filter():
-    import fasttrack as ft
-    from fasttrack.metrics import position_rmse
-    from fasttrack.scenarios import particle_filter_tutorial
+def _particle():
     scenario = particle_filter_tutorial(64, steps=2)
-    posterior = _step(ft.ParticlePredictor(scenario.transition_model, rng=0),
-                      ft.ParticleUpdater(scenario.measurement_model,
-                                         ft.SystematicResampler(rng=0)), scenario)
+    posterior = _step(ParticlePredictor(scenario.transition_model, rng=0),
+                      ParticleUpdater(scenario.measurement_model, SystematicResampler(rng=0)),
+                      scenario)
     _ = posterior.mean, posterior.covar
-    truth = ft.ground_truth(scenario.transition_model, [0, 1, 0, 1], 2, rng=0)
-    ft.detections(truth, scenario.measurement_model, rng=0)
-    position_rmse([posterior], truth[1:])
+    truth = ground_truth(scenario.transition_model, [0, 1, 0, 1], 2, rng=0)
+    detections(truth, scenario.measurement_model, rng=0)
+    metrics.position_rmse([posterior], truth[1:])
 
 
 def _kalman():
-    import fasttrack as ft
-    from fasttrack.scenarios import extended_kalman_tutorial
     scenario = extended_kalman_tutorial(steps=2)
     for jacobian in ("analytic", "forward", "central"):
-        _step(ft.ExtendedKalmanPredictor(scenario.transition_model),
-              ft.ExtendedKalmanUpdater(scenario.measurement_model, jacobian=jacobian), scenario)
-    detection = ft.Detection([0.0, 1.0], timestamp=scenario.detections[1].timestamp,
-                             measurement_model=ft.LinearGaussian(4, (0, 2), np.eye(2)))
-    prediction = ft.KalmanPredictor(scenario.transition_model).predict(scenario.prior,
-                                                                       detection.timestamp)
-    ft.KalmanUpdater(detection.measurement_model).update(
-        ft.SingleHypothesis(prediction, detection))
+        _step(ExtendedKalmanPredictor(scenario.transition_model),
+              ExtendedKalmanUpdater(scenario.measurement_model, jacobian=jacobian), scenario)
+    detection = Detection([0.0, 1.0], timestamp=scenario.detections[1].timestamp,
+                          measurement_model=LinearGaussian(4, (0, 2), np.eye(2)))
+    prediction = KalmanPredictor(scenario.transition_model).predict(scenario.prior,
+                                                                    detection.timestamp)
+    KalmanUpdater(detection.measurement_model).update(
+        SingleHypothesis(prediction, detection))
+    _stack(BatchExtendedKalmanFilter(scenario.transition_model, scenario.measurement_model))
 
 
 def _unscented():
-    import fasttrack as ft
-    from fasttrack.scenarios import extended_kalman_tutorial
     scenario = extended_kalman_tutorial(steps=2)
-    _step(ft.UnscentedKalmanPredictor(scenario.transition_model),
-          ft.UnscentedKalmanUpdater(scenario.measurement_model), scenario)
+    _step(UnscentedKalmanPredictor(scenario.transition_model),
+          UnscentedKalmanUpdater(scenario.measurement_model), scenario)
+    _stack(BatchUnscentedKalmanFilter(scenario.transition_model, scenario.measurement_model))
 
 
-def _batch():
-    import fasttrack as ft
-    from fasttrack.scenarios import extended_kalman_tutorial
-    scenario = extended_kalman_tutorial(steps=2)
+def _stack(batch):
+    """A step, a prediction and an update of a stack of 4 filters."""
     means = np.tile([0.0, 1.0, 0.0, 1.0], (4, 1))
     covars = np.broadcast_to(np.eye(4), (4, 4, 4)).copy()
     measurements = np.tile([0.0, 49.0], (4, 1))
-    for kind in (ft.BatchExtendedKalmanFilter, ft.BatchUnscentedKalmanFilter):
-        batch = kind(scenario.transition_model, scenario.measurement_model)
-        batch.step(means, covars, measurements, 1.0)
-        predicted = batch.predict(means, covars, 1.0)
-        batch.update(predicted[0], predicted[1], measurements)
+    batch.step(means, covars, measurements, 1.0)
+    predicted = batch.predict(means, covars, 1.0)
+    batch.update(predicted[0], predicted[1], measurements)
 
 
-def _smoothers():
-    import fasttrack as ft
-    from fasttrack.scenarios import extended_kalman_tutorial, particle_filter_tutorial
+def _smooth():
     scenario = extended_kalman_tutorial(steps=3)
     for predictor, updater, smoother in (
-            (ft.ExtendedKalmanPredictor, ft.ExtendedKalmanUpdater, ft.ExtendedKalmanSmoother),
-            (ft.UnscentedKalmanPredictor, ft.UnscentedKalmanUpdater,
-             ft.UnscentedKalmanSmoother)):
-        track = ft.run_filter(predictor(scenario.transition_model),
-                              updater(scenario.measurement_model), scenario.prior,
-                              scenario.detections[1:])
+            (ExtendedKalmanPredictor, ExtendedKalmanUpdater, ExtendedKalmanSmoother),
+            (UnscentedKalmanPredictor, UnscentedKalmanUpdater,
+             UnscentedKalmanSmoother)):
+        track = run_filter(predictor(scenario.transition_model),
+                           updater(scenario.measurement_model), scenario.prior,
+                           scenario.detections[1:])
         smoother(scenario.transition_model).smooth(track)
-    cv = ft.ConstantVelocity(0.05)
-    for model in (cv, ft.LinearGaussianTransitionModel(np.eye(3), np.eye(3)),
-                  ft.CombinedLinearGaussianTransitionModel([cv] * 2),
-                  ft.CombinedLinearGaussianTransitionModel([cv] * 3)):
+    cv = ConstantVelocity(0.05)
+    for model in (cv, LinearGaussianTransitionModel(np.eye(3), np.eye(3)),
+                  CombinedLinearGaussianTransitionModel([cv] * 2),
+                  CombinedLinearGaussianTransitionModel([cv] * 3)):
         d = model.ndim_state
-        ft.KalmanSmoother(model).smooth_arrays(np.zeros((3, d)),
-                                               np.broadcast_to(np.eye(d), (3, d, d)), 1.0)
+        KalmanSmoother(model).smooth_arrays(np.zeros((3, d)),
+                                            np.broadcast_to(np.eye(d), (3, d, d)), 1.0)
     scenario = particle_filter_tutorial(64, steps=3)
-    track = ft.run_filter(ft.ParticlePredictor(scenario.transition_model, rng=0),
-                          ft.ParticleUpdater(scenario.measurement_model,
-                                             ft.SystematicResampler(rng=0)),
-                          scenario.prior, scenario.detections[1:])
+    track = run_filter(ParticlePredictor(scenario.transition_model, rng=0),
+                       ParticleUpdater(scenario.measurement_model, SystematicResampler(rng=0)),
+                       scenario.prior, scenario.detections[1:])
     for method in ("rejection", "exact"):
-        ft.ffbs(track, scenario.transition_model, 4, rng=0, method=method)
+        ffbs(track, scenario.transition_model, 4, rng=0, method=method)
 
 
-def _adaptive_kernel():
-    import fasttrack as ft
-    from fasttrack.scenarios import adaptive_kernel_tutorial
+def _akkf():
     scenario = adaptive_kernel_tutorial(8, steps=2)
-    for kernel in (ft.QuadraticKernel(), ft.GaussianKernel(), ft.GaussianKernel(variance=1.0)):
-        posterior = _step(ft.AdaptiveKernelKalmanPredictor(scenario.transition_model, kernel),
-                          ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, kernel,
-                                                         rng=0), scenario)
+    for kernel in (QuadraticKernel(), GaussianKernel(), GaussianKernel(variance=1.0)):
+        posterior = _step(AdaptiveKernelKalmanPredictor(scenario.transition_model, kernel),
+                          AdaptiveKernelKalmanUpdater(scenario.measurement_model, kernel,
+                                                      rng=0), scenario)
         kernel(scenario.prior)
         _ = posterior.mean, posterior.covar
-    ft.KernelParticleState(scenario.prior.state_vector, kernel_covar=np.eye(8))
+    KernelParticleState(scenario.prior.state_vector, kernel_covar=np.eye(8))
 
 
-def _multi_target():
-    import fasttrack as ft
-    from fasttrack import association, metrics
-    from fasttrack.scenarios import grid_targets
+def _gating():
     scenario = grid_targets(n_targets=4, steps=4, clutter_rate=4.0, seed=0)
     for method in ("nn", "gnn"):
-        tracker = ft.MultiTargetTracker(scenario.transition_model, scenario.measurement_model,
-                                        np.zeros(4), np.eye(4), association=method)
+        tracker = MultiTargetTracker(scenario.transition_model, scenario.measurement_model,
+                                     np.zeros(4), np.eye(4), association=method)
         tracks = tracker.run(scenario.detections)
+    return scenario, tracks
+
+
+def _assign():
+    scenario, tracks = _gating()
     truths = [x[:, [0, 2]] for x in scenario.truths]
     estimates = [t.means[:, [0, 2]] for t in tracks]
     metrics.gospa(truths[0], estimates[0], 10.0)
@@ -157,6 +171,16 @@ def _multi_target():
     association.assign2d(costs)
     association.assign2d_batch([costs, costs.T])
     association.gnn_assign(costs, np.ones(2))
+
+
+def _mixture():
+    mixture = GaussianMixture(np.zeros((3, 2)), np.broadcast_to(np.eye(2), (3, 2, 2)),
+                              np.log([0.2, 0.3, 0.5]), [0, 1, 0])
+    mixture.reduce()
+    segment_logsumexp(mixture.log_weights, np.array([0, 2, 3]))
+
+
+def _jpda():
     weights = association.pda_weights(np.zeros((2, 2)), np.broadcast_to(np.eye(2), (2, 2, 2)),
                                       np.array([[0.1, 0.0], [0.0, 0.2]]),
                                       clutter_spatial_density=1e-3)
@@ -165,10 +189,9 @@ def _multi_target():
 
 
 #: Families, slowest to compile first (so that a pool balances them).
-FAMILIES = {"batch": _batch, "kalman": _kalman, "unscented": _unscented,
-            "adaptive_kernel": _adaptive_kernel,
-            "multi_target": _multi_target, "smoothers": _smoothers, "resamplers": _resamplers,
-            "particle_filter": _particle_filter}
+FAMILIES = {"kalman": _kalman, "unscented": _unscented, "akkf": _akkf, "smooth": _smooth,
+            "gating": _gating, "assign": _assign, "jpda": _jpda, "mixture": _mixture,
+            "resample": _resample, "particle": _particle}
 
 
 @contextlib.contextmanager

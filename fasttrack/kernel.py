@@ -9,7 +9,8 @@ import numbers
 import numpy as np
 
 from . import _validate
-from ._jit import gram as _gram
+from .core import akkf as _akkf
+from .core.kinds import GAUSSIAN, POLYNOMIAL
 from .models.base import state_columns
 
 __all__ = [
@@ -23,7 +24,8 @@ NEGLIGIBLE = 1e-6
 
 
 class Kernel:
-    """Base class: a kernel kind and its parameter array (see ``fasttrack._jit.gram``)."""
+    """Base class: a kernel kind and its parameter array (see ``fasttrack._jit.gram``);
+    ``spec`` gives them to the array layer."""
 
     _kind = None
 
@@ -54,14 +56,11 @@ class Kernel:
                              f"got {x1.shape[0]} and {x2.shape[0]}")
         angles = self.angle_mask(x1.shape[0], angle_components)
         others = np.empty((x1.shape[0], 0)) if state2 is None else x2
-        params = _gram.resolve(self._kind, self._parameters(), angles, x1, others)
-        out = np.empty((x1.shape[1], x2.shape[1]))
-        _gram.gram(self._kind, params, angles, x1, x2, out)
-        return out
+        return _akkf.gram(self._kind, self._parameters(), angles, x1, x2, others)
 
     @staticmethod
     def angle_mask(ndim, angle_components=()):
-        """A (ndim,) bool array flagging ``angle_components``.
+        """A (ndim,) bool array flagging ``angle_components`` (rows in [0, ndim)).
 
         Parameters
         ----------
@@ -75,18 +74,29 @@ class Kernel:
         bool ndarray
             Of length ``ndim``.
         """
-        mask = np.zeros(ndim, dtype=np.bool_)
-        for row in angle_components:
-            if not (isinstance(row, numbers.Integral) and 0 <= row < ndim):
-                raise ValueError(f"angle_components must be rows in [0, {ndim}), "
-                                 f"got {tuple(angle_components)}")
-            mask[row] = True
-        return mask
+        return _akkf.angle_mask(ndim, angle_components)
 
-    def _spec(self, angles, x1, x2):
+    def spec(self, angles, x1, x2):
         """``(kind, params)`` for a filter's Gram matrices of the points ``x1`` and ``x2``
-        (together), with any length scale from the data resolved; raises ValueError if the
-        kernel cannot carry information between these points."""
+        (together), with any length scale from the data resolved.
+
+        Parameters
+        ----------
+        angles : (d,) bool ndarray
+            Rows of the points that are angles.
+        x1, x2 : (d, A), (d, B) float64 ndarray
+            The points, one per column.
+
+        Returns
+        -------
+        kind : int64
+        params : float64 ndarray
+
+        Raises
+        ------
+        ValueError
+            If the kernel cannot carry information between these points.
+        """
         return self._kind, self._parameters()
 
 
@@ -103,7 +113,7 @@ class PolynomialKernel(Kernel):
         Inverse scale of the inner product, > 0.
     """
 
-    _kind = _gram.POLYNOMIAL
+    _kind = POLYNOMIAL
 
     def __init__(self, power, c=1.0, ialpha=10.0):
         self._power = _validate.count(power, "power")
@@ -213,7 +223,7 @@ class GaussianKernel(Kernel):
         the points, > 0.
     """
 
-    _kind = _gram.GAUSSIAN
+    _kind = GAUSSIAN
 
     def __init__(self, variance=None, width=100.0):
         self._width = _validate.positive(width, "width")
@@ -234,10 +244,10 @@ class GaussianKernel(Kernel):
     def _parameters(self):
         return self._params
 
-    def _spec(self, angles, x1, x2):
+    def spec(self, angles, x1, x2):
         if self.variance is None:
-            return self._kind, _gram.resolve(self._kind, self._params, angles, x1, x2)
-        median = _gram.median_variance(angles, np.hstack((x1, x2)))
+            return self._kind, _akkf.resolve(self._kind, self._params, angles, x1, x2)
+        median = _akkf.median_variance(angles, np.hstack((x1, x2)))
         typical = np.exp(-median / (2.0 * self.variance))
         if typical < NEGLIGIBLE:
             raise ValueError(

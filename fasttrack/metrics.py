@@ -14,7 +14,7 @@ each). OSPA (Schuhmacher, Vo and Vo, 2008) is ``((min sum min(d, c)^p + c^p |m -
 max(n, m))^(1/p)``, and for ``p = inf`` the smallest largest pair distance (``c`` if
 n != m). Distances are Euclidean over the columns given (pick the position components
 beforehand); the assignment is exact (the compiled solver of
-:mod:`fasttrack.association.assignment`).
+:mod:`fasttrack.core.assign`).
 
 These match Stone Soup 1.9.1's ``GOSPAMetric`` and ``OSPAMetric`` (``compute_over_time``,
 default ``Euclidean`` measure, i.e. over whatever components the arrays hold) step for step,
@@ -29,7 +29,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._jit import assign as _assign
+from .core import metric as _metric
 from ._validate import _describe, non_negative, positive, real
 
 __all__ = ["GOSPAResult", "gospa", "gospa_over_time", "ospa", "ospa_over_time",
@@ -296,9 +296,7 @@ def gospa(truths, estimates, c, p=1, alpha=2):
     (t, t_offsets), (e, e_offsets) = _one_step(truths, "truths"), _one_step(estimates,
                                                                            "estimates")
     t, e = _same_components(t, e)
-    assignment = np.empty(t.shape[0], dtype=np.int64)
-    out = np.empty((1, 4))
-    _assign.gospa_steps(t, t_offsets, e, e_offsets, c, p, alpha, assignment, out)
+    out, assignment = _metric.gospa(t, t_offsets, e, e_offsets, c, p, alpha)
     distance, localisation, missed, false = (float(v) for v in out[0])
     return GOSPAResult(distance, localisation, missed, false, 0.0, assignment)
 
@@ -360,12 +358,9 @@ def gospa_over_time(truths, estimates, c, p=1, alpha=2, switching_penalty=0.0, *
         raise ValueError(f"truths have {t_offsets.size - 1} steps and estimates "
                          f"{e_offsets.size - 1}: they must be the same")
     t, e = _same_components(t, e)
-    steps = t_offsets.size - 1
-    assignment = np.empty(t.shape[0], dtype=np.int64)
-    out = np.empty((steps, 4))
-    _assign.gospa_steps(t, t_offsets, e, e_offsets, c, p, alpha, assignment, out)
+    out, assignment = _metric.gospa(t, t_offsets, e, e_offsets, c, p, alpha)
     distance = out[:, 0].copy()
-    switching = np.zeros(steps)
+    switching = np.zeros(t_offsets.size - 1)
     if truth_ids is not None or estimate_ids is not None or switching_penalty > 0:
         t_ids, n_ids = _ids(truth_ids, t_offsets, t_mask, "truth_ids", "truths")
         e_ids, _ = _ids(estimate_ids, e_offsets, e_mask, "estimate_ids", "estimates")
@@ -374,7 +369,7 @@ def gospa_over_time(truths, estimates, c, p=1, alpha=2, switching_penalty=0.0, *
             found = assignment >= 0
             first = np.repeat(e_offsets[:-1], np.diff(t_offsets))
             assigned[found] = e_ids[first[found] + assignment[found]]
-            _assign.switching_loss(t_ids, t_offsets, e_offsets, assigned, n_ids, switching)
+            switching = _metric.switching(t_ids, t_offsets, e_offsets, assigned, n_ids)
             switching = switching_penalty * switching ** (1.0 / p)
             distance = (distance ** alpha + switching ** alpha) ** (1.0 / alpha)
     if t_mask is not None:
@@ -435,9 +430,7 @@ def _ospa(t, t_offsets, e, e_offsets, c, p, stonesoup_pairs):
         raise ValueError(f"truths have {t_offsets.size - 1} steps and estimates "
                          f"{e_offsets.size - 1}: they must be the same")
     t, e = _same_components(t, e)
-    out = np.empty(t_offsets.size - 1)
-    _assign.ospa_steps(t, t_offsets, e, e_offsets, c, p, bool(stonesoup_pairs), out)
-    return out
+    return _metric.ospa(t, t_offsets, e, e_offsets, c, p, stonesoup_pairs)
 
 
 def ospa_over_time(truths, estimates, c, p=1, stonesoup_pairs=False, *, truth_counts=None,

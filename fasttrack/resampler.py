@@ -7,7 +7,7 @@ import numpy as np
 from . import _buffers
 from . import random as _random
 from .core import particle as _particle
-from .resampling import ResidualMethod, draw
+from .core.resample import ResidualMethod, draw
 from .types import as_particle_state
 
 

@@ -20,9 +20,8 @@ import datetime
 import numpy as np
 
 from . import _validate
-from ._jit import jacobian as _jacobian
-from ._jit import smooth as _smooth
 from .core import kalman as _kalman
+from .core import smooth as _smooth
 from .core import unscented as _unscented
 from .models.base import check_model
 from .models.transition import TransitionModel
@@ -263,11 +262,9 @@ class KalmanSmoother:
                     recompute[t] = 2
         matrices, step = self._steps(models, intervals, x, covar, x_pred, covar_pred,
                                      recompute)
-        x_out, covar_out = np.empty_like(x), np.empty_like(covar)
-        status = _smooth.rts_kernel(d)(x, covar, x_pred, covar_pred, recompute,
-                                       np.array([m[0] for m in matrices]),
-                                       np.array([m[1] for m in matrices]), step, x_out,
-                                       covar_out)
+        x_out, covar_out, status = _smooth.rts(x, covar, x_pred, covar_pred, recompute,
+                                               np.array([m[0] for m in matrices]),
+                                               np.array([m[1] for m in matrices]), step)
         if status:
             t = (status - 1) % n
             raise ValueError(f"the predicted covariance of track[{offset + t}] is not "
@@ -377,9 +374,8 @@ class KalmanSmoother:
         matrices = np.array([np.asarray(model.matrix(dt), dtype=np.float64) for dt in values])
         noises = np.array([np.asarray(model.covar(dt), dtype=np.float64) for dt in values])
         step = np.ascontiguousarray(np.append(step, 0), dtype=np.int64)
-        x_out, covar_out = np.empty_like(x), np.empty_like(covar)
-        status = _smooth.rts_kernel(d)(x, covar, x_pred, covar_pred, recompute, matrices,
-                                       noises, step, x_out, covar_out)
+        x_out, covar_out, status = _smooth.rts(x, covar, x_pred, covar_pred, recompute,
+                                               matrices, noises, step)
         if status:
             k, t = divmod(status - 1, n)
             where = f"time {t}" if single else f"track {k}, time {t}"
@@ -434,13 +430,7 @@ class ExtendedKalmanSmoother(KalmanSmoother):
         if hasattr(model, "matrix"):
             return super()._linearise(model, dt, x, covar, need_prediction)
         d = x.shape[0]
-        f = np.empty((d, d))
-        code = _jacobian.transition_jacobian_function(
-            model.transition_function, dt, np.ascontiguousarray(x[:, 0]),
-            self.jacobian == "central", f)
-        if code:
-            from . import _errors
-            _errors.check(code, model._function, x, dt)
+        f = _kalman.transition_jacobian(model, dt, x, self.jacobian)
         prediction = None
         if need_prediction:
             prediction = _kalman.predict(model, dt, x, covar, self.jacobian)
@@ -579,7 +569,7 @@ def ffbs(particle_states, transition_model, n_paths, rng=None, method="rejection
     intervals = _track_intervals(states, 0) if n_times > 1 else np.empty(0)
     mean_next = np.empty((max(n_times - 1, 0), d, shape[1]))
     for t in range(n_times - 1):
-        mean_next[t] = transition_model._mean(x[t], intervals[t])
+        mean_next[t] = transition_model.spec(intervals[t]).mean(x[t])
     durations, step = np.unique(intervals, return_inverse=True)
     roots = np.empty((durations.size, d, d))
     for k, dt in enumerate(durations):
@@ -591,9 +581,6 @@ def ffbs(particle_states, transition_model, n_paths, rng=None, method="rejection
                              f"definite for the transition density") from None
         roots[k] = np.linalg.inv(lower)
     roots = np.ascontiguousarray(roots[step.reshape(-1)])
-    source = np.random.default_rng(_random.stream_key(rng))
-    max_proposals = _smooth.MAX_PROPOSALS if method == "rejection" else 0
-    index = np.empty((n_times, m), dtype=np.int64)
-    _smooth.ffbs(x, log_weights, mean_next, roots, source, max_proposals,
-                 _smooth.PROPOSAL_COST / shape[1], index)
+    index = _smooth.ffbs(x, log_weights, mean_next, roots, m, _random.stream_key(rng),
+                         method == "rejection")
     return np.take_along_axis(x, index[:, None, :], axis=2)

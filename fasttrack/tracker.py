@@ -1,62 +1,15 @@
 """A multi-target tracker on arrays: every track set is (K, d) means and (K, d, d)
 covariances, advanced a scan at a time by batched predict, gate, assignment and update."""
-import dataclasses
-
 import numpy as np
 
 from . import _validate
-from .association.gating import gate
-from .association.neighbour import global_nearest_neighbour, nearest_neighbour
-from .batch import BatchExtendedKalmanFilter
+from .association import gate, global_nearest_neighbour, nearest_neighbour
+from .batch import check_models
+from .core import kalman as _kalman
 from .models.measurement import LinearGaussian
+from .types.mixture import TrackSet
 
 _ASSOCIATORS = {"gnn": global_nearest_neighbour, "nn": nearest_neighbour}
-
-
-@dataclasses.dataclass
-class TrackSet:
-    """Tracks as arrays.
-
-    Attributes
-    ----------
-    ids : (K,) int64 ndarray
-        Track identities, unique over the tracker's life.
-    means : (K, d) float64 ndarray
-    covars : (K, d, d) float64 ndarray
-    updates : (K,) int64 ndarray
-        Number of detections each track has been updated with (its first one included).
-    misses : (K,) int64 ndarray
-        Scans since each track's last detection.
-    ages : (K,) int64 ndarray
-        Scans since each track's first detection.
-    """
-
-    ids: np.ndarray
-    means: np.ndarray
-    covars: np.ndarray
-    updates: np.ndarray
-    misses: np.ndarray
-    ages: np.ndarray
-
-    @classmethod
-    def empty(cls, d):
-        """No tracks of dimension ``d``."""
-        none = np.empty(0, dtype=np.int64)
-        return cls(none, np.empty((0, d)), np.empty((0, d, d)), none.copy(), none.copy(),
-                   none.copy())
-
-    def __len__(self):
-        return self.ids.size
-
-    def take(self, keep):
-        """The tracks selected by a boolean mask or index array."""
-        return TrackSet(*[field[keep] for field in dataclasses.astuple(self)])
-
-    @staticmethod
-    def concatenate(first, second):
-        """The tracks of both sets."""
-        return TrackSet(*[np.concatenate((a, b)) for a, b in
-                          zip(dataclasses.astuple(first), dataclasses.astuple(second))])
 
 
 class MultiTargetTracker:
@@ -107,7 +60,9 @@ class MultiTargetTracker:
         if not isinstance(measurement_model, LinearGaussian):
             raise TypeError(f"measurement_model must be a LinearGaussian (tracks start from "
                             f"its inverse), got {type(measurement_model).__name__}")
-        self.batch = BatchExtendedKalmanFilter(transition_model, measurement_model)
+        check_models(transition_model, measurement_model)
+        self.transition_model = transition_model
+        self.measurement_model = measurement_model
         d = transition_model.ndim_state
         mean = _validate.finite_array(prior_mean, "prior_mean").reshape(-1)
         if mean.shape != (d,):
@@ -151,14 +106,16 @@ class MultiTargetTracker:
         taken = np.zeros(detections.shape[0], dtype=np.bool_)
         if len(tracks) == 0:
             return tracks, taken
-        means, covars, z_hats, innovation = self.batch.predict(tracks.means, tracks.covars, dt)
+        means, covars, z_hats, innovation = _kalman.stack_predict(
+            self.transition_model, self.measurement_model, np.full(len(tracks), dt),
+            tracks.means, tracks.covars)
         pool = np.flatnonzero(available)
         result = gate(z_hats, innovation, detections[pool], self.missed_distance ** 2)
         chosen = self._associate(result, self.missed_distance)
         hit = chosen >= 0
         if hit.any():
-            means[hit], covars[hit] = self.batch.update(means[hit], covars[hit],
-                                                        detections[pool[chosen[hit]]])
+            means[hit], covars[hit] = _kalman.stack_update(
+                self.measurement_model, means[hit], covars[hit], detections[pool[chosen[hit]]])
             taken[pool[chosen[hit]]] = True
         return TrackSet(tracks.ids, means, covars, tracks.updates + hit,
                         np.where(hit, 0, tracks.misses + 1), tracks.ages + 1), taken
@@ -187,7 +144,7 @@ class MultiTargetTracker:
         TrackSet
             The confirmed tracks after the scan.
         """
-        m = self.batch.measurement_model.ndim_meas
+        m = self.measurement_model.ndim_meas
         detections = _validate.finite_array(detections, "detections").reshape(-1, m)
         time = float(time)
         dt = 0.0 if self.time is None else time - self.time

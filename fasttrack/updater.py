@@ -155,7 +155,7 @@ class KalmanUpdater:
         if not isinstance(prediction, GaussianState):
             raise TypeError(f"the prediction must be a GaussianState, "
                             f"got {type(prediction).__name__}")
-        if model._ndim_state != prediction.state_vector.shape[0]:
+        if model.ndim_state != prediction.state_vector.shape[0]:
             raise ValueError(f"the measurement model expects {model.ndim_state} state "
                              f"dimensions, the prediction has {prediction.ndim}")
         return model
@@ -292,7 +292,7 @@ class UnscentedKalmanUpdater(KalmanUpdater):
             return
         check_model(model, MeasurementModel, "measurement model")
         _unscented.check_measurement(model)
-        d = model._ndim_state
+        d = model.ndim_state
         if d not in self._kappas:
             self._kappas[d] = _unscented.scaling(self.alpha, self.kappa, d)
         self._checked = model
@@ -315,7 +315,7 @@ class UnscentedKalmanUpdater(KalmanUpdater):
 
     def _update(self, model, prediction, z):
         return _unscented.update(model, prediction.state_vector, prediction.covar, z,
-                                 self.alpha, self.beta, self._kappas[model._ndim_state],
+                                 self.alpha, self.beta, self._kappas[model.ndim_state],
                                  self.use_joseph_cov)
 
 
@@ -371,7 +371,7 @@ class AdaptiveKernelKalmanUpdater:
         if model.ndim_state != prediction.ndim:
             raise ValueError(f"the measurement model expects {model.ndim_state} state "
                              f"dimensions, the prediction has {prediction.ndim}")
-        y = model.wrap(model._predict(prediction.state_vector))
+        y = model.wrap(_particle.measure(model.spec, prediction.state_vector))
         return KernelParticleStateMeasurementPrediction._trusted(
             y, prediction.weight, prediction._factors, prediction.timestamp)
 

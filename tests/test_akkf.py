@@ -9,7 +9,8 @@ from fasttrack._jit import akkf, gram
 from fasttrack.metrics import position_rmse
 from fasttrack.scenarios import adaptive_kernel_tutorial
 
-import reference
+import reference.akkf
+import reference.gram
 from conftest import from_python, stream_key
 
 KERNELS = {
@@ -26,8 +27,8 @@ def _points(rng, d, n, scale=1.0):
 
 def _reference_gram(kernel, x1, x2, angles=()):
     out = np.empty((x1.shape[1], x2.shape[1]))
-    reference.gram(kernel._kind, kernel._parameters(), ft.Kernel.angle_mask(x1.shape[0], angles),
-                   x1, x2, out)
+    reference.gram.gram(kernel._kind, kernel._parameters(),
+                        ft.Kernel.angle_mask(x1.shape[0], angles), x1, x2, out)
     return out
 
 
@@ -114,7 +115,7 @@ def test_factor_matches_reference_and_reproduces_the_gram_matrix(name):
     x = _points(np.random.default_rng(4), 3, 50, scale=0.5)
     angles = ft.Kernel.angle_mask(3)
     f = gram.factor(kernel._kind, kernel._parameters(), angles, x)
-    expected = reference.factor(kernel._kind, kernel._parameters(), angles, x)
+    expected = reference.gram.factor(kernel._kind, kernel._parameters(), angles, x)
     assert f.shape == expected.shape
     np.testing.assert_allclose(f, expected, atol=1e-10 * np.abs(expected).max())
     k = kernel(x)
@@ -152,24 +153,24 @@ def test_filter_kernels_match_dense_reference(name, m, dense):
     for cycle in range(2):
         arguments = (kind, params, state_angles, proposal, x, w, *factors, lam)
         w, lt, v1t, v2t = akkf.predict_embedding(*arguments)
-        w_ref, s_ref = reference.predict_embedding(*arguments)
+        w_ref, s_ref = reference.akkf.predict_embedding(*arguments)
         factors = (lt, 1.0 / m, v1t, v2t)
         _assert_close(w, w_ref)
         _assert_close(ft.types.dense_kernel_covar(factors), s_ref)
-        _assert_close(akkf.sandwich(x, *factors), reference.sandwich(x, *factors))
+        _assert_close(akkf.sandwich(x, *factors), reference.akkf.sandwich(x, *factors))
         x = proposal + 0.05
         y = np.vstack([np.arctan2(x[2], x[0]), x[1]])
         z = np.array([[0.4], [0.1]])
         proposal, expected = np.empty_like(x), np.empty_like(x)
         arguments = (kind, params, meas_angles, y, z, w, *factors, lam, x, stream_key(cycle))
         w, lt, v1t, v2t = akkf.update_embedding(*arguments, proposal)
-        w_ref, s_ref = reference.update_embedding(*arguments, expected)
+        w_ref, s_ref = reference.akkf.update_embedding(*arguments, expected)
         factors = (lt, 1.0 / m, v1t, v2t)
         _assert_close(w, w_ref)
         _assert_close(ft.types.dense_kernel_covar(factors), s_ref)
         np.testing.assert_allclose(proposal, expected, rtol=1e-7, atol=1e-9)
         again = np.empty_like(x)
-        reference.draw_proposal(x, w, *factors, stream_key(cycle), again)
+        reference.akkf.draw_proposal(x, w, *factors, stream_key(cycle), again)
         np.testing.assert_allclose(proposal, again, rtol=1e-7, atol=1e-9)
 
 
@@ -181,7 +182,7 @@ def test_dense_kernel_covariance_of_factors():
     rng = np.random.default_rng(9)
     factors = (rng.normal(size=(3, 7)), 0.3, rng.normal(size=(2, 7)), rng.normal(size=(2, 7)))
     np.testing.assert_allclose(ft.types.dense_kernel_covar(factors),
-                               reference.dense_covariance(*factors), rtol=1e-12, atol=1e-13)
+                               reference.akkf.dense_covariance(*factors), rtol=1e-12, atol=1e-13)
 
 
 def test_proposal_is_distributed_as_the_posterior_embedding():
@@ -409,5 +410,5 @@ def test_weights_that_carry_nothing_are_an_error():
         check_weights(np.array([np.nan, 1.0]), "updated")
     check_weights(np.array([1e-300, 0.0]), "predicted")  # tiny but informative: allowed
     for w in (np.array([1.0, -3.0, np.inf]), np.array([np.nan, 2.0]), np.zeros(3), np.array([-2.0, 1e-300])):
-        got, want = akkf.largest_magnitude(w), reference.largest_magnitude(w)
+        got, want = akkf.largest_magnitude(w), reference.akkf.largest_magnitude(w)
         assert got == want or (np.isnan(got) and np.isnan(want))

@@ -116,13 +116,24 @@ def test_results_do_not_depend_on_the_thread_count_or_the_serial_builds():
 
 
 def test_every_kernel_has_a_mirror_with_the_same_arguments():
+    """The kernel ``fasttrack._jit.<module>.<name>`` has its mirror ``<name>``, defined (not
+    imported) in ``reference.<module>`` (tests/reference/<module>.py); every mirror module
+    names a kernel module."""
     import inspect
+    kernel_modules = {info.name for info in pkgutil.iter_modules(jit_pkg.__path__)}
+    mirror_modules = {info.name for info in pkgutil.iter_modules(reference.__path__)}
+    stray = sorted(mirror_modules - kernel_modules)
+    assert not stray, f"tests/reference modules without a kernel module: {stray}"
     for name, dispatcher in _dispatchers(jit_pkg):
-        short = name.rsplit(".", 1)[1]
+        module, short = name[len("fasttrack._jit."):].rsplit(".", 1)
         if short.startswith("_"):
             continue  # private helpers are covered through the kernels that call them
-        mirror = getattr(reference, short, None)
-        assert mirror is not None, f"{name} has no mirror in tests/reference.py"
+        assert module in mirror_modules, f"{name} has no module tests/reference/{module}.py"
+        mirrors = importlib.import_module(f"reference.{module}")
+        mirror = getattr(mirrors, short, None)
+        assert mirror is not None, f"{name} has no mirror in tests/reference/{module}.py"
+        assert mirror.__module__ == mirrors.__name__, (
+            f"{name}'s mirror is imported into tests/reference/{module}.py, not defined there")
         assert (list(inspect.signature(mirror).parameters)
                 == list(inspect.signature(dispatcher.py_func).parameters)), name
 
@@ -373,13 +384,13 @@ def test_small_work_runs_a_serial_build_and_the_limit_holds():
 @pytest.mark.slow
 def test_the_warmup_command_fills_the_named_cache_with_a_line_per_family(tmp_path):
     done = subprocess.run([sys.executable, "-m", "fasttrack", "warmup", "--cache-dir",
-                           str(tmp_path), "--families", "resamplers", "--processes", "1"],
+                           str(tmp_path), "--families", "resample", "--processes", "1"],
                           capture_output=True, text=True, timeout=600,
                           env=dict(os.environ, FASTTRACK_SHIPPED_KERNELS="0"))
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     assert lines[0].startswith("compiling 1 kernel families into " + str(tmp_path))
-    assert lines[1].split()[:3] == ["resamplers", "ready", "after"] and lines[-1].startswith("done")
+    assert lines[1].split()[:3] == ["resample", "ready", "after"] and lines[-1].startswith("done")
     assert list((tmp_path / f"{fasttrack.__version__}-{cache.tag()}").glob("resample.*.nbc"))
     wrong = subprocess.run([sys.executable, "-m", "fasttrack", "warmup", "--families", "pf"],
                            capture_output=True, text=True, timeout=600)

@@ -5,7 +5,7 @@ import pytest
 
 from fasttrack._jit import likelihood, sensor
 
-import reference
+import reference.likelihood
 from user_models import bearing_range_from_50_0
 
 
@@ -25,7 +25,7 @@ def test_measure_and_log_likelihood_match_mirrors(kind, mapping, n):
     angles = np.array([kind != sensor.SELECT] + [False] * (m - 1))
     got, want = np.empty((m, n)), np.empty((m, n))
     likelihood.measure(kind, x, mapping, offset, rotation, got)
-    reference.measure(kind, x, mapping, offset, rotation, want)
+    reference.likelihood.measure(kind, x, mapping, offset, rotation, want)
     np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13)
     covar = np.array([[0.3, 0.1], [0.1, 2.0]])[:m, :m]
     whiten = np.linalg.inv(np.linalg.cholesky(covar))
@@ -35,8 +35,8 @@ def test_measure_and_log_likelihood_match_mirrors(kind, mapping, n):
     got_w, want_w = np.empty(n), np.empty(n)
     top = likelihood.log_likelihood(kind, z, x, mapping, offset, rotation, angles, whiten, log_norm,
                                     log_w, got_w)
-    top_ref = reference.log_likelihood(kind, z, x, mapping, offset, rotation, angles, whiten,
-                                       log_norm, log_w, want_w)
+    top_ref = reference.likelihood.log_likelihood(kind, z, x, mapping, offset, rotation, angles,
+                                                  whiten, log_norm, log_w, want_w)
     np.testing.assert_allclose(got_w, want_w, rtol=1e-10)
     assert top == pytest.approx(top_ref, rel=1e-12)
 
@@ -46,7 +46,7 @@ def test_user_measurement_kernels_match_mirrors():
     angles = np.array([True, False])
     got, want = np.empty((2, 2500)), np.empty((2, 2500))
     likelihood.measure_function(bearing_range_from_50_0, x, angles, got)
-    reference.measure_function(bearing_range_from_50_0, x, angles, want)
+    reference.likelihood.measure_function(bearing_range_from_50_0, x, angles, want)
     np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13)
     whiten = np.diag([1.0, 10.0])
     log_w = np.zeros(2500)
@@ -54,6 +54,6 @@ def test_user_measurement_kernels_match_mirrors():
     z = np.array([-3.1, 9.0])
     assert likelihood.log_likelihood_function(bearing_range_from_50_0, z, x, angles, whiten, -1.0, log_w,
                                               got_w) == pytest.approx(
-        reference.log_likelihood_function(bearing_range_from_50_0, z, x, angles, whiten, -1.0, log_w,
-                                          want_w), rel=1e-12)
+        reference.likelihood.log_likelihood_function(bearing_range_from_50_0, z, x, angles,
+                                                     whiten, -1.0, log_w, want_w), rel=1e-12)
     np.testing.assert_allclose(got_w, want_w, rtol=1e-10)

@@ -4,7 +4,7 @@ import pytest
 
 from fasttrack._jit import propagate
 
-import reference
+import reference.propagate
 from user_models import coordinated_turn
 
 
@@ -20,7 +20,7 @@ def test_propagate_linear_matches_mirror(n):
     f = np.array([[1, 2.0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 2.0], [0, 0, 0, 1]])
     got, want = np.empty_like(x), np.empty_like(x)
     propagate.propagate_linear(x, f, _noise_root(), 42, got)
-    reference.propagate_linear(x, f, _noise_root(), 42, want)
+    reference.propagate.propagate_linear(x, f, _noise_root(), 42, want)
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
     quiet = np.empty_like(x)
     propagate.propagate_linear(x, f, np.zeros((4, 4)), 42, quiet)
@@ -32,12 +32,12 @@ def test_propagate_odd_dimension_and_user_function():
     root = np.diag([1.0, 0.0, 2.0])
     got, want = np.empty_like(x), np.empty_like(x)
     propagate.propagate_linear(x, np.eye(3), root, 7, got)
-    reference.propagate_linear(x, np.eye(3), root, 7, want)
+    reference.propagate.propagate_linear(x, np.eye(3), root, 7, want)
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
     x4 = np.random.default_rng(2).normal(size=(4, 5000))
     got, want = np.empty_like(x4), np.empty_like(x4)
     propagate.propagate_function(coordinated_turn, 2.0, x4, _noise_root(), 9, got)
-    reference.propagate_function(coordinated_turn, 2.0, x4, _noise_root(), 9, want)
+    reference.propagate.propagate_function(coordinated_turn, 2.0, x4, _noise_root(), 9, want)
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
 
 

@@ -1,5 +1,5 @@
 """JPDA: PDA hypothesis weights and exact marginals by EHM, against brute-force enumeration
-(tests/reference.py) and Stone Soup's PDAHypothesiser, JPDA and JPDAwithEHM."""
+(tests/reference/jpda.py) and Stone Soup's PDAHypothesiser, JPDA and JPDAwithEHM."""
 import datetime
 import json
 import os
@@ -12,15 +12,15 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-import reference
+import reference.jpda
 from fasttrack._jit import jpda as kernels
-from fasttrack.association.jpda import MAX_NODES, jpda_marginals, pda_weights
+from fasttrack.core.jpda import MAX_NODES, jpda_marginals, pda_weights
 
 
 def brute(weights):
     """Marginals by enumeration (the mirror), or None when no joint event is feasible."""
     out = np.empty_like(weights)
-    status, _ = reference.ehm_marginals(weights, MAX_NODES, out)
+    status, _ = reference.jpda.ehm_marginals(weights, MAX_NODES, out)
     return out if status == 0 else None
 
 
@@ -95,7 +95,7 @@ def test_kernel_matches_its_mirror():
         w = random_cluster(rng, rng.integers(1, 6), rng.integers(0, 6))
         got, expected = np.empty_like(w), np.empty_like(w)
         assert kernels.ehm_marginals(w, MAX_NODES, got) == (0, 0)
-        assert reference.ehm_marginals(w, MAX_NODES, expected) == (0, 0)
+        assert reference.jpda.ehm_marginals(w, MAX_NODES, expected) == (0, 0)
         np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
 
 
@@ -177,7 +177,7 @@ _THREAD_SCRIPT = r"""
 import json, sys
 import numpy as np
 from fasttrack._jit import jpda
-from fasttrack.association.jpda import jpda_marginals, pda_weights
+from fasttrack.core.jpda import jpda_marginals, pda_weights
 if sys.argv[1:] == ["parallel"]:
     jpda.ehm_marginals_batch.serial_below = 0
     jpda.pda_weight_matrix.serial_below = 0
@@ -285,7 +285,7 @@ def test_pda_weight_kernel_matches_its_mirror(kwargs):
     got, expected = np.empty((5, 10)), np.empty((5, 10))
     s1, s2 = np.empty(5, np.int64), np.empty(5, np.int64)
     kernels.pda_weight_matrix(*args, got, s1)
-    reference.pda_weight_matrix(*args, expected, s2)
+    reference.jpda.pda_weight_matrix(*args, expected, s2)
     np.testing.assert_array_equal(s1, s2)
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=0)
     assert (got[:, 1:] > 0).any()

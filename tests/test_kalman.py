@@ -9,7 +9,9 @@ import fasttrack as ft
 from fasttrack._jit import jacobian as jac_kernels
 from fasttrack._jit import kalman as kernels
 
-import reference
+import reference.jacobian
+import reference.kalman
+import reference.status
 from conftest import stonesoup_tutorial
 from user_models import bearing_range_from_50_0, coordinated_turn
 
@@ -40,10 +42,10 @@ def test_jacobians_match_mirrors_and_each_other(sensor, x):
     results = {}
     for method in (jac_kernels.ANALYTIC, jac_kernels.FORWARD, jac_kernels.CENTRAL):
         got, want = np.empty((sensor.ndim_meas, 4)), np.empty((sensor.ndim_meas, 4))
-        args = (sensor.kind, x, sensor._mapping, sensor._offset, sensor._rotation, sensor._angles,
+        args = (sensor.kind, x, sensor.spec.mapping, sensor.spec.offset, sensor.spec.rotation, sensor.spec.angles,
                 method)
         jac_kernels.measurement_jacobian(*args, got)
-        reference.measurement_jacobian(*args, want)
+        reference.jacobian.measurement_jacobian(*args, want)
         # finite differences amplify the last bit of atan2 (NumPy's and libm's may differ)
         tolerance = 1e-12 if method == jac_kernels.ANALYTIC else 4e-16 * np.pi / 1e-8
         np.testing.assert_allclose(got, want, rtol=1e-9, atol=tolerance)
@@ -65,8 +67,8 @@ def test_forward_jacobian_is_stone_soups():
     exact = 0
     for x in list(rng.normal(0, 30, (20, 4))) + [np.array([-10.0, 0.0, -1e-9, 0.0]) + [50, 0, 0, 0]]:
         got = np.empty((2, 4))
-        jac_kernels.measurement_jacobian(ours.kind, x, ours._mapping, ours._offset, ours._rotation,
-                                         ours._angles, jac_kernels.FORWARD, got)
+        jac_kernels.measurement_jacobian(ours.kind, x, ours.spec.mapping, ours.spec.offset, ours.spec.rotation,
+                                         ours.spec.angles, jac_kernels.FORWARD, got)
         want = theirs.jacobian(State(x.reshape(-1, 1)))
         # the same steps, points and wrapping: equal up to one ulp of atan2 over the step
         steps = np.maximum(1e8 * np.spacing(x), 1e-8)
@@ -81,11 +83,12 @@ def test_user_function_jacobians_match_mirrors():
         got, want = np.empty((2, 4)), np.empty((2, 4))
         angles = np.array([True, False])
         jac_kernels.measurement_jacobian_function(bearing_range_from_50_0, x, angles, central, got)
-        reference.measurement_jacobian_function(bearing_range_from_50_0, x, angles, central, want)
+        reference.jacobian.measurement_jacobian_function(bearing_range_from_50_0, x, angles,
+                                                         central, want)
         np.testing.assert_allclose(got, want, rtol=1e-12)
         got, want = np.empty((4, 4)), np.empty((4, 4))
         jac_kernels.transition_jacobian_function(coordinated_turn, 2.0, x, central, got)
-        reference.transition_jacobian_function(coordinated_turn, 2.0, x, central, want)
+        reference.jacobian.transition_jacobian_function(coordinated_turn, 2.0, x, central, want)
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
 
 
@@ -96,10 +99,11 @@ def test_kalman_kernels_match_mirrors():
     x = np.array([[1.0], [0.8], [2.0], [1.2]])
     covariance = PRIOR_COVAR + 0.1
     for dt in (1.0, 0.3, -2.0):
-        kind, rates, matrix, covar = transition._kalman_spec(dt)
+        kind, rates, matrix, covar = transition.spec(dt).kalman()
         outs = [(np.empty((4, 1)), np.empty((4, 4))) for _ in range(2)]
         assert kernels.predict_one(kind, rates, matrix, covar, dt, x, covariance, *outs[0]) == 0
-        assert reference.predict_one(kind, rates, matrix, covar, dt, x, covariance, *outs[1]) == 0
+        assert reference.kalman.predict_one(kind, rates, matrix, covar, dt, x, covariance,
+                                            *outs[1]) == 0
         for a, b in zip(*outs):
             np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-15)
     z = np.array([[0.05], [48.0]])
@@ -107,22 +111,24 @@ def test_kalman_kernels_match_mirrors():
         for joseph in (False, True):
             outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
                      np.empty((4, 2))) for _ in range(2)]
-            args = (*sensor._kalman_args, method, joseph, x, covariance, z)
-            assert kernels.update_one(*args, *outs[0]) == reference.update_one(*args, *outs[1]) == 0
+            args = (*sensor.spec.sensor, method, joseph, x, covariance, z)
+            assert (kernels.update_one(*args, *outs[0])
+                    == reference.kalman.update_one(*args, *outs[1]) == 0)
             rtol = 1e-10 if method == 0 else 1e-7  # finite differences: see above
             for a, b in zip(*outs):
                 np.testing.assert_allclose(a, b, rtol=rtol, atol=1e-12)
     outs = [(np.empty((4, 1)), np.empty((4, 4))) for _ in range(2)]
     q = np.eye(4) * 0.01
     assert kernels.predict_function(coordinated_turn, 1.0, q, False, x, covariance, *outs[0]) == 0
-    reference.predict_function(coordinated_turn, 1.0, q, False, x, covariance, *outs[1])
+    reference.kalman.predict_function(coordinated_turn, 1.0, q, False, x, covariance, *outs[1])
     for a, b in zip(*outs):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
     outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
              np.empty((4, 2))) for _ in range(2)]
     z_ub = np.array([[0.05], [48.0]])
     args = (bearing_range_from_50_0, NOISE, np.array([True, False]), True, False, x, covariance, z_ub)
-    assert kernels.update_function(*args, *outs[0]) == reference.update_function(*args, *outs[1]) == 0
+    assert (kernels.update_function(*args, *outs[0])
+            == reference.kalman.update_function(*args, *outs[1]) == 0)
     for a, b in zip(*outs):
         np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
 
@@ -278,8 +284,9 @@ def test_batch_step_equals_the_class_api_and_its_mirror(joseph):
         np.testing.assert_allclose(got_means[k], state.state_vector[:, 0], rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(got_covars[k], state.covar, rtol=1e-12, atol=1e-13)
     want_means, want_covars, status = np.empty_like(means), np.empty_like(covars), np.empty(300, int)
-    reference.batch_step(*transition._kalman_spec(1.0), intervals, *sensor._kalman_args, 0, joseph,
-                         means, covars, measurements, want_means, want_covars, status)
+    reference.kalman.batch_step(*transition.spec(1.0).kalman(), intervals, *sensor.spec.sensor, 0,
+                                joseph, means, covars, measurements, want_means, want_covars,
+                                status)
     np.testing.assert_allclose(got_means, want_means, rtol=1e-10)
     np.testing.assert_allclose(got_covars, want_covars, rtol=1e-10, atol=1e-12)
 
@@ -301,8 +308,8 @@ def test_batch_run_equals_stepping_and_its_mirror():
         np.testing.assert_allclose(run_covars[t], p, rtol=1e-13)
     want_means, want_covars = np.empty_like(run_means), np.empty_like(run_covars)
     status = [None] * 130
-    reference.batch_run(*transition._kalman_spec(1.0), intervals, *sensor._kalman_args, 0, False,
-                        means, covars, measurements, want_means, want_covars, status)
+    reference.kalman.batch_run(*transition.spec(1.0).kalman(), intervals, *sensor.spec.sensor, 0,
+                               False, means, covars, measurements, want_means, want_covars, status)
     np.testing.assert_allclose(run_means, want_means, rtol=1e-9)
     np.testing.assert_allclose(run_covars, want_covars, rtol=1e-9, atol=1e-12)
     same = batch.run(means, covars, measurements, 1.0)  # one interval for all
@@ -442,11 +449,12 @@ def test_covariance_checks_of_the_kernels_match_the_mirror():
     covars[4] = np.zeros((4, 4))  # zero: fine
     covars[5] = [[1.0, 1.0, 0, 0], [1.0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]]  # rank 3: fine
     covars[6] = [[0.0, 1e-3, 0, 0], [1e-3, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]]  # indefinite
-    args = (*transition._kalman_spec(1.0), intervals, *sensor._kalman_args, 0, True, means, covars,
+    args = (*transition.spec(1.0).kalman(), intervals, *sensor.spec.sensor, 0, True, means, covars,
             measurements)
     got, want = np.empty(8, dtype=np.int64), np.empty(8, dtype=np.int64)
     kernels.batch_step(*args, np.empty_like(means), np.empty_like(covars), got)
-    reference.batch_step(*args, np.empty_like(means), np.empty_like(covars), want)
+    reference.kalman.batch_step(*args, np.empty_like(means), np.empty_like(covars), want)
     np.testing.assert_array_equal(got, want)
-    np.testing.assert_array_equal(got, [0, 0, reference.PRIOR_NOT_PSD, reference.PRIOR_NOT_SYMMETRIC,
-                                        0, 0, reference.PRIOR_NOT_PSD, 0])
+    np.testing.assert_array_equal(got, [0, 0, reference.status.PRIOR_NOT_PSD,
+                                        reference.status.PRIOR_NOT_SYMMETRIC, 0, 0,
+                                        reference.status.PRIOR_NOT_PSD, 0])

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import fasttrack as ft
+from fasttrack.core.particle import propagate
 
 from user_models import bearing_range_from_50_0
 
@@ -88,9 +89,10 @@ def test_transition_parameters_are_honoured_everywhere():
     mixed.function(x, time_interval=1.0)  # memoises F
     general.transition_matrix = [[1.0, 2.0], [0.0, 1.0]]
     np.testing.assert_allclose(mixed.function(x, time_interval=1.0)[:2], [[1, 2], [0, 1]] @ x[:2])
-    np.testing.assert_allclose(mixed._propagate(x, 1.0, 3), ft.CombinedLinearGaussianTransitionModel(
+    fresh = ft.CombinedLinearGaussianTransitionModel(
         [ft.LinearGaussianTransitionModel([[1.0, 2.0], [0.0, 1.0]], np.eye(2) * 0.1),
-         ft.ConstantVelocity(0.05)])._propagate(x, 1.0, 3))
+         ft.ConstantVelocity(0.05)])
+    np.testing.assert_allclose(propagate(mixed.spec(1.0), x, 3), propagate(fresh.spec(1.0), x, 3))
     combined.model_list = [ft.ConstantVelocity(1.0), ft.ConstantVelocity(1.0)]
     np.testing.assert_allclose(combined.covar(1.0), _cv(1.0).covar(1.0))
     with pytest.raises(ValueError, match="model_list must keep 4 state dimensions"):

@@ -12,7 +12,8 @@ from fasttrack._jit import kalman as kalman_kernels
 from fasttrack._jit import unscented as kernels
 from fasttrack.scenarios import extended_kalman_tutorial
 
-import reference
+import reference.numeric
+import reference.unscented
 from user_models import bearing_range_from_50_0, coordinated_turn
 
 START = datetime.datetime(2026, 1, 1)
@@ -110,7 +111,7 @@ def test_sigma_points_match_the_mirror(singular):
     covariance = np.diag([2.0, 0.0, 1.0, 0.0]) if singular else _random_covariance(rng, 4)
     outs = [(np.empty((4, 4)), np.empty((4, 9)), np.empty(9), np.empty(9)) for _ in range(2)]
     kernels.sigma_points(x, covariance, 0.5, 2.0, -1.0, *outs[0])
-    reference.sigma_points(x, covariance, 0.5, 2.0, -1.0, *outs[1])
+    reference.unscented.sigma_points(x, covariance, 0.5, 2.0, -1.0, *outs[1])
     for a, b in zip(*outs):
         np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-15)
     assert outs[0][2].sum() == pytest.approx(1.0)
@@ -119,14 +120,14 @@ def test_sigma_points_match_the_mirror(singular):
 def test_moments_match_the_mirror_with_an_angle_row():
     rng = np.random.default_rng(2)
     points = rng.normal(size=(4, 9))
-    transformed = np.vstack([reference.wrap_angle(np.pi + 0.3 * rng.normal(size=9)),
+    transformed = np.vstack([reference.numeric.wrap_angle(np.pi + 0.3 * rng.normal(size=9)),
                              rng.normal(10.0, 1.0, 9)])
     wm, wc = np.full(9, 0.1), np.full(9, 0.1)
     wm[0], wc[0] = 0.2, 1.95
     angles = np.array([True, False])
     outs = [(np.empty((2, 1)), np.empty((2, 2)), np.empty((4, 2))) for _ in range(2)]
     kernels.unscented_moments(points, transformed, wm, wc, angles, NOISE, *outs[0])
-    reference.unscented_moments(points, transformed, wm, wc, angles, NOISE, *outs[1])
+    reference.unscented.unscented_moments(points, transformed, wm, wc, angles, NOISE, *outs[1])
     for a, b in zip(*outs):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
     assert abs(outs[0][0][0, 0]) > 3.0  # the circular mean, near +-pi, not near 0
@@ -137,13 +138,13 @@ def test_predict_kernel_matches_the_mirror(cv):
     rng = np.random.default_rng(3)
     x, covariance = rng.normal(size=(4, 1)), _random_covariance(rng, 4)
     model = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
-    kind, rates, matrix, noise = model._kalman_spec(1.5)
+    kind, rates, matrix, noise = model.spec(1.5).kalman()
     if not cv:
         kind, matrix, noise = kalman_kernels.FIXED, model.matrix(1.5), model.covar(1.5)
     outs = [(np.empty((4, 1)), np.empty((4, 4))) for _ in range(2)]
     args = (kind, rates, matrix, noise, 1.5, 0.5, 2.0, -1.0, x, covariance)
     assert kernels.unscented_predict(*args, *outs[0]) == 0
-    assert reference.unscented_predict(*args, *outs[1]) == 0
+    assert reference.unscented.unscented_predict(*args, *outs[1]) == 0
     for a, b in zip(*outs):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-13)
 
@@ -162,9 +163,9 @@ def test_update_kernel_matches_the_mirror(sensor, joseph):
     z = np.array([[3.1], [40.0]])[:m] if sensor != "linear" else np.array([[9.0], [0.0]])
     outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((m, 1)), np.empty((m, m)),
              np.empty((4, m))) for _ in range(2)]
-    args = (*model._kalman_args, 0.5, 2.0, -1.0, joseph, x, covariance, z)
+    args = (*model.spec.sensor, 0.5, 2.0, -1.0, joseph, x, covariance, z)
     assert kernels.unscented_update(*args, *outs[0]) == 0
-    assert reference.unscented_update(*args, *outs[1]) == 0
+    assert reference.unscented.unscented_update(*args, *outs[1]) == 0
     for a, b in zip(*outs):
         np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
 
@@ -305,7 +306,7 @@ def test_bad_states_models_and_measurements_are_refused():
     sensor = _sensor()  # a NaN detection is refused by Detection; the kernel checks too
     outs = (np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
             np.empty((4, 2)))
-    assert kernels.unscented_update(*sensor._kalman_args, 0.5, 2.0, -1.0, False,
+    assert kernels.unscented_update(*sensor.spec.sensor, 0.5, 2.0, -1.0, False,
                                     prediction.state_vector, prediction.covar,
                                     np.array([[np.nan], [40.0]]), *outs) == 4
     with pytest.raises(TypeError, match="transition_model"):
@@ -368,7 +369,7 @@ def test_user_function_kernels_match_their_mirrors():
         outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((rows, 4))) for _ in range(2)]
         args = (coordinated_turn, 2.0, q, 0.5, 2.0, -1.0, x, covariance)
         assert kernels.unscented_predict_function(*args, *outs[0]) == 0
-        assert reference.unscented_predict_function(*args, *outs[1]) == 0
+        assert reference.unscented.unscented_predict_function(*args, *outs[1]) == 0
         for a, b in zip(*outs):
             np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
     for joseph in (False, True):
@@ -377,7 +378,7 @@ def test_user_function_kernels_match_their_mirrors():
         args = (bearing_range_from_50_0, NOISE, np.array([True, False]), 0.5, 2.0, -1.0,
                 joseph, x, covariance, np.array([[3.1], [25.0]]))
         assert kernels.unscented_update_function(*args, *outs[0]) == 0
-        assert reference.unscented_update_function(*args, *outs[1]) == 0
+        assert reference.unscented.unscented_update_function(*args, *outs[1]) == 0
         for a, b in zip(*outs):
             np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
 
@@ -431,13 +432,13 @@ def test_batch_kernel_matches_the_mirror(stages, sensor):
     covars[17, 0, 1] += 1.0  # not symmetric
     covars[250] = np.diag([1.0, -1.0, 1.0, 1.0])  # indefinite
     model = _sensor() if sensor == "bearing-range" else ft.LinearGaussian(4, (0, 2), NOISE)
-    spec = _transition()._kalman_spec(1.0)
+    spec = _transition().spec(1.0).kalman()
     dts = rng.uniform(0.5, 2.0, k)
     outs = [(np.empty((k, 4)), np.empty((k, 4, 4)), np.empty((k, 2)), np.empty((k, 2, 2)),
              np.zeros(k, np.int64)) for _ in range(2)]
-    args = (*spec, dts, *model._kalman_args, 0.5, 2.0, -1.0, False, stages, means, covars, z)
+    args = (*spec, dts, *model.spec.sensor, 0.5, 2.0, -1.0, False, stages, means, covars, z)
     kernels.batch_unscented(*args, *outs[0])
-    reference.batch_unscented(*args, *outs[1])
+    reference.unscented.batch_unscented(*args, *outs[1])
     np.testing.assert_array_equal(outs[0][4], outs[1][4])
     good = outs[1][4] == 0
     assert good.sum() == k - 2

@@ -13,7 +13,9 @@ from numba import njit
 import fasttrack as ft
 from fasttrack._jit import user
 
-import reference
+import reference.likelihood
+import reference.propagate
+import reference.user
 from user_models import bearing_range_from_50_0, coordinated_turn
 
 NOISE = np.diag([np.radians(0.2), 1.0])
@@ -168,28 +170,27 @@ def test_kernels_check_outputs_as_their_mirrors_do():
     for values, rows, cols in [(x[:2], 2, 2500), (x[:1], 2, 2500), (x[:2, :5], 2, 4),
                                (np.where(x > 3, np.inf, x)[:2], 2, 2500)]:
         values = np.ascontiguousarray(values)
-        assert user.output_status(values, rows, cols) == reference.output_status(values, rows,
-                                                                                 cols)
-    np.testing.assert_array_equal(user.columns(x, 3, 17), reference.columns(x, 3, 17))
+        assert (user.output_status(values, rows, cols)
+                == reference.user.output_status(values, rows, cols))
+    np.testing.assert_array_equal(user.columns(x, 3, 17), reference.user.columns(x, 3, 17))
     for codes in ([0, 0, 0], [0, 6, 7], [7]):
         codes = np.array(codes, dtype=np.int64)
-        assert user.first_failure(codes) == reference.first_failure(codes)
+        assert user.first_failure(codes) == reference.user.first_failure(codes)
     from fasttrack._jit import likelihood, propagate
     for function in (bearing_range_from_50_0, one_row):
         got, want = np.empty((2, 2500)), np.empty((2, 2500))
         angles = np.array([True, False])
         assert likelihood.measure_function(function, x, angles, got) == \
-            reference.measure_function(function, x, angles, want)
+            reference.likelihood.measure_function(function, x, angles, want)
         got_w, want_w = np.empty(2500), np.empty(2500)
         top, code = likelihood.log_likelihood_function(function, np.zeros(2), x, angles,
                                                        np.eye(2), -1.0, np.zeros(2500), got_w)
-        assert code == reference.log_likelihood_function(function, np.zeros(2), x, angles,
-                                                         np.eye(2), -1.0, np.zeros(2500),
-                                                         want_w)[1]
+        assert code == reference.likelihood.log_likelihood_function(
+            function, np.zeros(2), x, angles, np.eye(2), -1.0, np.zeros(2500), want_w)[1]
     for function in (coordinated_turn, short_transition):
         got, want = np.empty_like(x), np.empty_like(x)
         assert propagate.propagate_function(function, 1.0, x, np.eye(4), 5, got) == \
-            reference.propagate_function(function, 1.0, x, np.eye(4), 5, want)
+            reference.propagate.propagate_function(function, 1.0, x, np.eye(4), 5, want)
 
 
 ROW_CASES = textwrap.dedent("""

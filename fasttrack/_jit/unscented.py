@@ -21,8 +21,8 @@ symmetric).
 import numpy as np
 
 from . import jit
-from .kalman import (FILTERS_PER_BLOCK, _check_covariance, _correct, _from_block, _solve,
-                     _to_block, _transition)
+from .kalman import FILTERS_PER_BLOCK, _correct, _from_block, _to_block, _transition
+from .linalg import _check_covariance, _solve
 from .numeric import copy_into, fill, sin_cos_turns, wrap_angle
 from .sensor import _predict_block
 from .status import (OK, PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,

@@ -4,11 +4,59 @@ A set is its (d, M) particles, (M,) weights and the factors ``(L, sigma, V1, V2)
 kernel covariance ``L L^T + sigma (I - V1 V2^T)(I - V1 V2^T)^T`` (see
 :mod:`fasttrack.types`).
 """
+import numbers
+
 import numpy as np
 
 from .. import random as _random
 from .._jit import akkf as _akkf
-from ..kernel import Kernel
+from .._jit import gram as _gram
+from .kinds import MATRIX
+
+
+def angle_mask(ndim, angle_components=()):
+    """A (ndim,) bool array flagging ``angle_components`` (rows in [0, ndim))."""
+    mask = np.zeros(ndim, dtype=np.bool_)
+    for row in angle_components:
+        if not (isinstance(row, numbers.Integral) and 0 <= row < ndim):
+            raise ValueError(f"angle_components must be rows in [0, {ndim}), "
+                             f"got {tuple(angle_components)}")
+        mask[row] = True
+    return mask
+
+
+def resolve(kind, params, angles, x1, x2):
+    """The kernel parameters with any length scale from the data (the points ``x1`` and
+    ``x2`` together, (d, A) and (d, B)) resolved."""
+    return _gram.resolve(kind, params, angles, x1, x2)
+
+
+def median_variance(angles, x):
+    """The median squared distance between the columns of ``x`` (d, N), angle rows
+    wrapped."""
+    return _gram.median_variance(angles, x)
+
+
+def gram(kind, params, angles, x1, x2, others):
+    """The (A, B) Gram matrix of the kernel ``(kind, params)`` between the columns of
+    ``x1`` (d, A) and ``x2`` (d, B); a length scale from the data comes from ``x1`` and
+    ``others`` (d, C) together."""
+    params = _gram.resolve(kind, params, angles, x1, others)
+    out = np.empty((x1.shape[1], x2.shape[1]))
+    _gram.gram(kind, params, angles, x1, x2, out)
+    return out
+
+
+def covariance(x, factors):
+    """``X S X^T`` (d, d) of particles ``x`` (d, M) and the factors of the kernel
+    covariance S."""
+    return _akkf.sandwich(x, *factors)
+
+
+def factor_matrix(s):
+    """The pivoted Cholesky factor ``Lt`` (r, M) of a positive semi-definite (M, M) ``s``
+    (``Lt^T Lt = s``)."""
+    return _gram.factor(MATRIX, np.empty(0), np.zeros(0, dtype=np.bool_), s)
 
 
 def check_weights(weight, which):
@@ -29,12 +77,12 @@ def predict(model, kernel, dt, proposal, x, weight, factors, lambda_predictor):
     particles moved through the transition ``model`` (noise-free), and the weights and
     kernel covariance carried over from the prior set ``(x, weight, factors)`` by the
     embedding of ``kernel`` (a fasttrack :class:`~fasttrack.kernel.Kernel` on states)."""
-    angles = Kernel.angle_mask(x.shape[0])
-    kind, params = kernel._spec(angles, proposal, x)
+    angles = angle_mask(x.shape[0])
+    kind, params = kernel.spec(angles, proposal, x)
     w, lt, v1t, v2t = _akkf.predict_embedding(kind, params, angles, proposal, x, weight,
                                               *factors, lambda_predictor)
     check_weights(w, "predicted")
-    return model._mean(proposal, dt), w, (lt, 1.0 / w.size, v1t, v2t)
+    return model.spec(dt).mean(proposal), w, (lt, 1.0 / w.size, v1t, v2t)
 
 
 def update(model, kernel, y, z, x, weight, factors, lambda_updater, rng):
@@ -42,9 +90,9 @@ def update(model, kernel, y, z, x, weight, factors, lambda_updater, rng):
     for predicted particles ``x`` (d, M) with measurements ``y`` (m, M): the weights and
     kernel covariance from the embedding of ``kernel`` (on measurements, the ``model``'s
     angle components wrapped), and new proposal particles (d, M) drawn from ``rng``."""
-    angles = model._angles
+    angles = model.spec.angles
     z = z.reshape(-1, 1)
-    kind, params = kernel._spec(angles, y, z)
+    kind, params = kernel.spec(angles, y, z)
     proposal = np.empty_like(x)
     w, lt, v1t, v2t = _akkf.update_embedding(kind, params, angles, y, z, weight, *factors,
                                              lambda_updater, x, _random.stream_key(rng),

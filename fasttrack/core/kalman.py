@@ -4,7 +4,8 @@ import numpy as np
 from .. import _errors
 from .._jit import jacobian as _jacobian
 from .._jit import kalman as _kalman
-from ..models.measurement import NonlinearGaussianMeasurement
+from . import stack as _stack
+from .kinds import FUNCTION, SELECT
 
 #: Jacobian methods by name: the built-in sensors' analytic Jacobian, or finite differences
 #: (forward: Stone Soup's rule).
@@ -30,17 +31,29 @@ def predict(model, dt, x, covar, jacobian="forward"):
     """
     d = x.shape[0]
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
-    if hasattr(model, "matrix"):
-        kind, rates, matrix, noise = model._kalman_spec(dt)
-        status = _kalman.predict_one(kind, rates, matrix, noise, dt, x, covar, x_out,
-                                     covar_out)
-    else:
-        status = _kalman.predict_function(model.transition_function, dt,
-                                          np.ascontiguousarray(model.covar(dt)),
+    spec = model.spec(dt)
+    if spec.kind == FUNCTION:
+        status = _kalman.predict_function(spec.function.function, dt, spec.noise,
                                           jacobian == "central", x, covar, x_out, covar_out)
+    else:
+        status = _kalman.predict_one(*spec.kalman(), dt, x, covar, x_out, covar_out)
     if status:
-        _errors.check(status, model._function, x, dt)
+        _errors.check(status, spec.function, x, dt)
     return x_out, covar_out
+
+
+def transition_jacobian(model, dt, x, jacobian="forward"):
+    """The finite-difference Jacobian (d, d) at ``x`` (d, 1) of a function-built
+    transition ``model`` over ``dt`` seconds (``jacobian`` 'forward' or 'central'). Raises
+    ValueError naming the user's function if it returns a bad output."""
+    spec = model.spec(dt)
+    d = x.shape[0]
+    out = np.empty((d, d))
+    status = _jacobian.transition_jacobian_function(
+        spec.function.function, dt, np.ascontiguousarray(x[:, 0]), jacobian == "central", out)
+    if status:
+        _errors.check(status, spec.function, x, dt)
+    return out
 
 
 def update(model, x, covar, z, jacobian="analytic", joseph=True):
@@ -53,17 +66,110 @@ def update(model, x, covar, z, jacobian="analytic", joseph=True):
     selects the Joseph-form covariance. Raises ValueError when the step is undefined (see
     :mod:`fasttrack._errors`).
     """
-    m, d = model._ndim_meas, model._ndim_state
+    spec = model.spec
+    m, d = spec.ndim_meas, spec.ndim_state
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
     z_hat, s, cross = np.empty((m, 1)), np.empty((m, m)), np.empty((d, m))
     arguments = (x, covar, z, x_out, covar_out, z_hat, s, cross)
-    if isinstance(model, NonlinearGaussianMeasurement):
-        status = _kalman.update_function(model.measurement_function, model._noise_covar,
-                                         model._angles, jacobian == "central", joseph,
+    if spec.kind == FUNCTION:
+        status = _kalman.update_function(spec.function.function, spec.noise_covar,
+                                         spec.angles, jacobian == "central", joseph,
                                          *arguments)
     else:
-        status = _kalman.update_one(*model._kalman_args, JACOBIANS[jacobian], joseph,
-                                    *arguments)
+        status = _kalman.update_one(*spec.sensor, JACOBIANS[jacobian], joseph, *arguments)
     if status:
-        _errors.check(status, model._function, x)
+        _errors.check(status, spec.function, x)
     return x_out, covar_out, z_hat, s, cross
+
+
+# -- stacks of K filters: (K, d) means, (K, d, d) covariances ----------------------------
+
+
+def stack_predict(transition_model, model, intervals, means, covars, jacobian="analytic",
+                  by_interval=False):
+    """``(means, covars, z_hats, S)``: K filters predicted ``intervals`` (K,) seconds ahead
+    through a linear ``transition_model``, and their measurements by ``model``: (K, d),
+    (K, d, d), (K, m) and the innovation covariances ``H P H^T + R`` (K, m, m), H the
+    measurement Jacobian (``jacobian``) at each predicted mean.
+
+    A transition whose F depends on the interval outside constant-velocity blocks needs
+    one interval for all filters: ``by_interval`` predicts each group of equal intervals in
+    turn, else it is a ValueError. Raises ValueError naming the first filter whose
+    prediction is undefined."""
+    if by_interval and means.shape[0] and not _stack.one_transition(transition_model,
+                                                                     intervals):
+        out = None
+        for interval in np.unique(intervals):
+            rows = np.flatnonzero(intervals == interval)
+            part = stack_predict(transition_model, model, intervals[rows], means[rows],
+                                 covars[rows], jacobian)
+            out = out or [np.empty((means.shape[0],) + a.shape[1:]) for a in part]
+            for whole, values in zip(out, part):
+                whole[rows] = values
+        return tuple(out)
+    k, d = means.shape
+    sensor = model.spec
+    out = (np.empty((k, d)), np.empty((k, d, d)), np.empty((k, sensor.ndim_meas)),
+           np.empty((k, sensor.ndim_meas, sensor.ndim_meas)))
+    status = np.zeros(k, dtype=np.int64)
+    if k == 0:
+        return out
+    if sensor.kind == SELECT and np.all(intervals == intervals[0]):
+        spec = transition_model.spec(float(intervals[0]))
+        fixed = (spec.matrix, spec.noise, sensor.mapping, sensor.noise_covar)
+
+        def run(lo, hi):
+            _kalman.linear_predict(*fixed, means[lo:hi], covars[lo:hi],
+                                   *[a[lo:hi] for a in out], status[lo:hi])
+
+    else:
+        transition = _stack.transition(transition_model, intervals)
+        measurement = (*sensor.sensor[:5], JACOBIANS[jacobian])
+
+        def run(lo, hi):
+            _kalman.batch_predict(*transition, intervals[lo:hi], *measurement, means[lo:hi],
+                                  covars[lo:hi], *[a[lo:hi] for a in out], status[lo:hi])
+
+    _stack.in_chunks(k, run)
+    _stack.check(status)
+    return out
+
+
+def stack_update(model, means, covars, measurements, jacobian="analytic", joseph=True):
+    """``(means, covars)``: K predicted filters updated with their ``measurements`` (K, m)
+    by ``model``. Raises ValueError naming the first filter whose update is undefined."""
+    k, d = means.shape
+    means_out, covars_out = np.empty_like(means), np.empty_like(covars)
+    status = np.zeros(k, dtype=np.int64)
+    if k == 0:
+        return means_out, covars_out
+    sensor = model.spec
+    if sensor.kind == SELECT:
+        def run(lo, hi):
+            _kalman.linear_update(sensor.mapping, sensor.noise_covar, sensor.angles, joseph,
+                                  means[lo:hi], covars[lo:hi], measurements[lo:hi],
+                                  means_out[lo:hi], covars_out[lo:hi], status[lo:hi])
+
+        _stack.in_chunks(k, run)
+    else:
+        stack_step(_stack.identity(d), np.zeros(k), means, covars, measurements, means_out,
+                   covars_out, status, model=model, jacobian=jacobian, joseph=joseph)
+        status = np.array([_stack.AS_PREDICTION.get(code, code) for code in status], np.int64)
+    _stack.check(status)
+    return means_out, covars_out
+
+
+def stack_step(transition, intervals, means, covars, measurements, means_out, covars_out,
+               status, *, model, jacobian="analytic", joseph=True):
+    """One predict + update of K filters through the kernel ``transition`` (see
+    :func:`fasttrack.core.stack.transition`) over ``intervals`` (K,) seconds, with their
+    ``measurements`` (K, m) by ``model``: writes ``means_out``, ``covars_out`` and each
+    filter's ``status``."""
+    sensor = (*model.spec.sensor, JACOBIANS[jacobian], joseph)
+
+    def run(lo, hi):
+        _kalman.batch_step(*transition, intervals[lo:hi], *sensor, means[lo:hi], covars[lo:hi],
+                           measurements[lo:hi], means_out[lo:hi], covars_out[lo:hi],
+                           status[lo:hi])
+
+    _stack.in_chunks(means.shape[0], run)

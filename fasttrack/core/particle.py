@@ -1,18 +1,63 @@
-"""The particle filter's steps: propagation, weighting, the resampling decision and the
-gather of drawn particles."""
+"""The particle filter's steps: propagation, measurement, weighting, the resampling
+decision and the gather of drawn particles."""
 import numpy as np
 
 from .. import _buffers
+from .. import _errors
 from .. import _validate
 from .. import random as _random
+from .._jit import likelihood as _likelihood
+from .._jit import propagate as _propagate
 from .._jit import resample as _resample
 from .._jit import weights as _weights
+from .kinds import FUNCTION
 
 
 def predict(model, particles, dt, rng):
     """``(d, N)`` particles moved ``dt`` seconds through the transition ``model``, with its
     process noise drawn from ``rng`` (a Generator or RandomState)."""
-    return model._propagate(particles, dt, _random.stream_key(rng))
+    return propagate(model.spec(dt), particles, _random.stream_key(rng))
+
+
+def propagate(spec, x, key):
+    """A new (d, N) array: the states ``x`` (d, N) through the transition ``spec`` (a
+    :class:`~fasttrack.models.spec.TransitionSpec`) plus process noise from the stream
+    ``key``. Raises ValueError naming the user's function if it returns a bad output."""
+    out = _buffers.empty_like(x)
+    if spec.kind == FUNCTION:
+        code = _propagate.propagate_function(spec.function.function, spec.dt, x,
+                                             spec.noise_root, key, out)
+        _errors.check(code, spec.function, x, spec.dt)
+    else:
+        _propagate.propagate_linear(x, spec.matrix, spec.noise_root, key, out)
+    return out
+
+
+def measure(spec, x):
+    """The noise-free measurements (m, N) of states ``x`` (d, N) by the measurement
+    ``spec`` (a :class:`~fasttrack.models.spec.MeasurementSpec`)."""
+    out = np.empty((spec.ndim_meas, x.shape[1]))
+    if spec.kind == FUNCTION:
+        code = _likelihood.measure_function(spec.function.function, x, spec.angles, out)
+        _errors.check(code, spec.function, x)
+    else:
+        _likelihood.measure(spec.kind, x, spec.mapping, spec.offset, spec.rotation, out)
+    return out
+
+
+def log_likelihood(spec, z, x, log_w, out):
+    """``out = log_w + log p(z | x[:, i])`` for the measurement ``spec``, a validated (m,)
+    ``z`` and (d, N) ``x``, with (N,) ``log_w`` and ``out``; returns ``max(out)``."""
+    whiten, log_norm = spec.noise.whitening()
+    if spec.kind != FUNCTION:
+        return _likelihood.log_likelihood(spec.kind, z, x, spec.mapping, spec.offset,
+                                          spec.rotation, spec.angles, whiten, log_norm,
+                                          log_w, out)
+    top, code = _likelihood.log_likelihood_function(spec.function.function, z, x,
+                                                    spec.angles, whiten, log_norm, log_w,
+                                                    out)
+    _errors.check(code, spec.function, x)
+    return top
 
 
 def weigh(model, z, particles, log_weight):
@@ -51,9 +96,27 @@ def resampling_decision(log_weight, threshold=None):
     return ess, ess < (log_w.size / 2 if threshold is None else threshold)
 
 
-def gather(particles, index):
-    """The columns ``particles[:, index]`` as a new C-contiguous ``(d, n)`` array (a parallel
-    gather)."""
-    out = np.empty((particles.shape[0], index.size))
+def gather(particles, index, out=None):
+    """The columns ``particles[:, index]`` as a C-contiguous ``(d, n)`` array (a parallel
+    gather), written into ``out`` if given, else a new array."""
+    if out is None:
+        out = np.empty((particles.shape[0], index.size))
     _resample.take_columns(particles, index, out)
     return out
+
+
+def mean(particles, log_weight):
+    """The (d, 1) weighted mean of (d, N) ``particles`` with (N,) unnormalised
+    ``log_weight``, in one pass."""
+    out = np.empty(particles.shape[0])
+    _weights.weighted_mean(particles, log_weight, log_weight.max(), out)
+    return out.reshape(-1, 1)
+
+
+def mean_covar(particles, log_weight):
+    """``(mean, covar)``, (d, 1) and (d, d): the weighted mean and covariance
+    ``sum w (x - mean)(x - mean)^T / sum w`` of (d, N) ``particles``, in two passes."""
+    d = particles.shape[0]
+    mean_out, covar = np.empty(d), np.empty((d, d))
+    _weights.weighted_mean_covar(particles, log_weight, log_weight.max(), mean_out, covar)
+    return mean_out.reshape(d, 1), covar

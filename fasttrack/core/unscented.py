@@ -5,7 +5,8 @@ import numpy as np
 
 from .. import _errors
 from .._jit import unscented as _unscented
-from ..models.measurement import NonlinearGaussianMeasurement
+from . import stack as _stack
+from .kinds import FUNCTION
 
 
 def check_parameters(alpha, beta, kappa):
@@ -40,7 +41,7 @@ def scaling(alpha, kappa, d):
 def check_transition(model):
     """A TypeError unless ``model`` is a built-in linear transition or one built from a
     user's Numba function (the kinds the kernels know)."""
-    if not (hasattr(model, "_kalman_spec") or hasattr(model, "transition_function")):
+    if not hasattr(model, "spec"):
         raise TypeError(f"transition_model: the unscented Kalman filter supports the built-in "
                         f"transition models and NonlinearGaussianTransitionModel, got "
                         f"{type(model).__name__}")
@@ -49,13 +50,15 @@ def check_transition(model):
 def check_measurement(model):
     """A TypeError unless ``model`` is a built-in measurement model (LinearGaussian, a polar
     sensor, or a NonlinearGaussianMeasurement of a user's function)."""
-    if not (isinstance(model, NonlinearGaussianMeasurement) or hasattr(model, "_kalman_args")):
+    try:
+        model.spec
+    except (AttributeError, NotImplementedError):
         raise TypeError(f"the unscented Kalman filter supports the built-in measurement "
                         f"models (LinearGaussian, the polar sensors and "
-                        f"NonlinearGaussianMeasurement), got {type(model).__name__}")
+                        f"NonlinearGaussianMeasurement), got {type(model).__name__}") from None
 
 
-def _function_error(status, model, x, covar, alpha, beta, kappa, dt=None):
+def _function_error(status, function, x, covar, alpha, beta, kappa, dt=None):
     """Raise the error of ``status``; one about the user's function names it, with the
     sigma points it was called on."""
     if status in _errors.FUNCTION_CODES:
@@ -63,7 +66,7 @@ def _function_error(status, model, x, covar, alpha, beta, kappa, dt=None):
         points = np.empty((d, n))
         _unscented.sigma_points(x, covar, alpha, beta, kappa, np.empty((d, d)), points,
                                 np.empty(n), np.empty(n))
-        _errors.check(status, model._function, points, dt)
+        _errors.check(status, function, points, dt)
     _errors.check(status)
 
 
@@ -75,12 +78,12 @@ def predict(model, dt, x, covar, alpha, beta, kappa):
     not symmetric positive semi-definite or the user's function returns a wrong shape or
     non-finite values."""
     d = x.shape[0]
-    if not hasattr(model, "_kalman_spec"):
-        return _through_function(model, dt, x, covar, alpha, beta, kappa, np.empty((0, d)))
+    spec = model.spec(dt)
+    if spec.kind == FUNCTION:
+        return _through_function(spec, x, covar, alpha, beta, kappa, np.empty((0, d)))
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
-    kind, rates, matrix, noise = model._kalman_spec(dt)
-    status = _unscented.unscented_predict(kind, rates, matrix, noise, dt, alpha, beta, kappa,
-                                          x, covar, x_out, covar_out)
+    status = _unscented.unscented_predict(*spec.kalman(), dt, alpha, beta, kappa, x, covar,
+                                          x_out, covar_out)
     if status:
         _errors.check(status)
     return x_out, covar_out
@@ -91,17 +94,17 @@ def transition_moments(model, dt, x, covar, alpha, beta, kappa):
     covariance C (d, d) of the sigma points of ``(x, covar)`` and their transition."""
     d = x.shape[0]
     cross = np.empty((d, d))
-    return _through_function(model, dt, x, covar, alpha, beta, kappa, cross) + (cross,)
+    return _through_function(model.spec(dt), x, covar, alpha, beta, kappa, cross) + (cross,)
 
 
-def _through_function(model, dt, x, covar, alpha, beta, kappa, cross):
+def _through_function(spec, x, covar, alpha, beta, kappa, cross):
     d = x.shape[0]
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
     status = _unscented.unscented_predict_function(
-        model.transition_function, dt, np.ascontiguousarray(model.covar(dt)), alpha, beta,
-        kappa, x, covar, x_out, covar_out, cross)
+        spec.function.function, spec.dt, spec.noise, alpha, beta, kappa, x, covar, x_out,
+        covar_out, cross)
     if status:
-        _function_error(status, model, x, covar, alpha, beta, kappa, dt)
+        _function_error(status, spec.function, x, covar, alpha, beta, kappa, spec.dt)
     return x_out, covar_out
 
 
@@ -110,17 +113,77 @@ def update(model, x, covar, z, alpha, beta, kappa, joseph=False):
     ``model`` (see :func:`check_measurement`); ``kappa`` is resolved (a float, see
     :func:`scaling`). Raises ValueError when the step is undefined (see
     :mod:`fasttrack._errors`)."""
-    m, d = model._ndim_meas, model._ndim_state
+    spec = model.spec
+    m, d = spec.ndim_meas, spec.ndim_state
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
     z_hat, s, cross = np.empty((m, 1)), np.empty((m, m)), np.empty((d, m))
     outputs = (x, covar, z, x_out, covar_out, z_hat, s, cross)
-    if isinstance(model, NonlinearGaussianMeasurement):
+    if spec.kind == FUNCTION:
         status = _unscented.unscented_update_function(
-            model.measurement_function, model._noise_covar, model._angles, alpha, beta, kappa,
+            spec.function.function, spec.noise_covar, spec.angles, alpha, beta, kappa,
             joseph, *outputs)
     else:
-        status = _unscented.unscented_update(*model._kalman_args, alpha, beta, kappa, joseph,
+        status = _unscented.unscented_update(*spec.sensor, alpha, beta, kappa, joseph,
                                              *outputs)
     if status:
-        _function_error(status, model, x, covar, alpha, beta, kappa)
+        _function_error(status, spec.function, x, covar, alpha, beta, kappa)
     return x_out, covar_out, z_hat, s, cross
+
+
+# -- stacks of K filters: (K, d) means, (K, d, d) covariances ----------------------------
+
+
+def _stack_stages(stages, transition, intervals, model, parameters, means, covars,
+                  measurements, outputs, status):
+    """:func:`fasttrack._jit.unscented.batch_unscented` over the K filters in chunks;
+    ``parameters`` are ``(alpha, beta, kappa, joseph)``, ``outputs`` means, covars,
+    z_hats, innovation_covars ((K, 0) arrays where a stage does not write them)."""
+    settings = (*model.spec.sensor, *parameters, stages)
+
+    def run(lo, hi):
+        _unscented.batch_unscented(*transition, intervals[lo:hi], *settings, means[lo:hi],
+                                   covars[lo:hi], measurements[lo:hi],
+                                   *[a[lo:hi] for a in outputs], status[lo:hi])
+
+    _stack.in_chunks(means.shape[0], run)
+
+
+def stack_predict(transition_model, model, intervals, means, covars, parameters):
+    """``(means, covars, z_hats, S)`` of K filters predicted ``intervals`` (K,) seconds
+    ahead by the unscented transform (``parameters`` = ``(alpha, beta, kappa, joseph)``,
+    kappa resolved), with their predicted measurements by ``model`` and innovation
+    covariances. Raises ValueError naming the first failed filter."""
+    k, d = means.shape
+    m = model.spec.ndim_meas
+    out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))
+    status = np.zeros(k, dtype=np.int64)
+    if k:
+        _stack_stages(_unscented.PREDICT | _unscented.MEASURE,
+                      _stack.transition(transition_model, intervals), intervals, model,
+                      parameters, means, covars, np.empty((k, 0)), out, status)
+        _stack.check(status)
+    return out
+
+
+def stack_update(model, means, covars, measurements, parameters):
+    """``(means, covars)``: K predicted filters updated with their ``measurements`` (K, m)
+    by ``model`` (see :func:`stack_predict`)."""
+    k, d = means.shape
+    means_out, covars_out = np.empty_like(means), np.empty_like(covars)
+    status = np.zeros(k, dtype=np.int64)
+    if k:
+        _stack_stages(_unscented.UPDATE, _stack.identity(d), np.zeros(k), model, parameters,
+                      means, covars, measurements,
+                      (means_out, covars_out, np.empty((k, 0)), np.empty((k, 0, 0))), status)
+        _stack.check(status)
+    return means_out, covars_out
+
+
+def stack_step(transition, intervals, means, covars, measurements, means_out, covars_out,
+               status, *, model, parameters):
+    """One unscented predict + update of K filters (see
+    :func:`fasttrack.core.kalman.stack_step`)."""
+    k = means.shape[0]
+    _stack_stages(_unscented.PREDICT | _unscented.UPDATE, transition, intervals, model,
+                  parameters, means, covars, measurements,
+                  (means_out, covars_out, np.empty((k, 0)), np.empty((k, 0, 0))), status)

@@ -10,7 +10,6 @@ from .. import _errors
 from .. import _validate
 from .. import random as _random
 from .._jit import status as _status
-from .._jit.user import output_status
 
 
 def check_model(model, kind, name):
@@ -188,7 +187,10 @@ class UserFunction:
         """The checked output for (d, n) C-contiguous float64 ``states`` (and the interval
         ``dt`` in seconds, for a transition)."""
         values = self._raw(states, dt)
-        _errors.check(output_status(values, self.rows, states.shape[1]), self, states, dt)
+        if np.shape(values) != (self.rows, states.shape[1]):
+            _errors.check(_status.FUNCTION_SHAPE, self, states, dt)
+        if not np.isfinite(values).all():
+            _errors.check(_status.FUNCTION_NOT_FINITE, self, states, dt)
         return values
 
     def _shape_message(self, got, states_shape):

@@ -9,12 +9,11 @@ cannot be changed in place behind the model's back; the dimensions (``ndim_state
 """
 import numpy as np
 
-from .. import _errors
 from .. import _validate
-from .._jit import likelihood as _kernels
-from .._jit import sensor as _sensor
+from ..core import particle as _particle
 from .base import (UserFunction, check_rows, gaussian_noise, read_only, scalar_or_array,
                    state_columns, wrap_angle)
+from .spec import BEARING, BEARING_RANGE, FUNCTION, SELECT, MeasurementSpec
 
 __all__ = [
     "MeasurementModel", "LinearGaussian", "CartesianToBearingRange", "Cartesian2DToBearing",
@@ -95,7 +94,23 @@ class MeasurementModel:
         self._refresh()
 
     def _refresh(self):
-        """Recompute what the kernels are given after a parameter changed."""
+        """Forget the spec after a parameter changed."""
+        self.__dict__.pop("_spec", None)
+
+    @property
+    def spec(self):
+        """The :class:`~fasttrack.models.spec.MeasurementSpec` the array layer reads (rebuilt
+        after a parameter changes)."""
+        spec = self.__dict__.get("_spec")
+        if spec is None:
+            spec = self._spec = self._build_spec()
+        return spec
+
+    def _build_spec(self):
+        raise NotImplementedError
+
+    def _predict(self, x):
+        return _particle.measure(self.spec, x)
 
     def covar(self, **kwargs):
         """R (m, m).
@@ -274,7 +289,7 @@ class MeasurementModel:
         float
             The largest entry of ``out``.
         """
-        raise NotImplementedError
+        return _particle.log_likelihood(self.spec, z, x, log_w, out)
 
 
 class _KernelModel(MeasurementModel):
@@ -282,21 +297,10 @@ class _KernelModel(MeasurementModel):
 
     kind = None
 
-    def _refresh(self):
-        if "_mapping" in self.__dict__:
-            self._kalman_args = (self.kind, self._mapping, self._offset, self._rotation,
-                                 self._noise_covar, self._angles)
-
-    def _predict(self, x):
-        out = np.empty((self.ndim_meas, x.shape[1]))
-        _kernels.measure(self.kind, x, self._mapping, self._offset, self._rotation, out)
-        return out
-
-    def log_likelihood(self, z, x, log_w, out):
-        whiten, log_norm = self._noise.whitening()
-        return _kernels.log_likelihood(self.kind, z, x, self._mapping, self._offset,
-                                       self._rotation, self._angles, whiten, log_norm, log_w,
-                                       out)
+    def _build_spec(self):
+        return MeasurementSpec(self.kind, self._mapping, self._offset, self._rotation,
+                               self._noise_covar, self._angles, self._noise, None,
+                               self._ndim_state, self._ndim_meas)
 
 
 class LinearGaussian(_KernelModel):
@@ -311,7 +315,7 @@ class LinearGaussian(_KernelModel):
     noise_covar : (m, m) array_like
     """
 
-    kind = _sensor.SELECT
+    kind = SELECT
 
     def __init__(self, ndim_state, mapping, noise_covar):
         ndim_state = _validate.count(ndim_state, "ndim_state")
@@ -421,10 +425,6 @@ class _PolarSensor(_KernelModel):
         """The (3, 3) rotation of ``rotation_offset`` (derived, read-only)."""
         return self._rotation_matrix
 
-    def _refresh(self):
-        if "_rotation" in self.__dict__ and "_offset" in self.__dict__:
-            super()._refresh()
-
 
 class CartesianToBearingRange(_PolarSensor):
     """z = (bearing, range) of the position ``x[mapping]`` seen from a sensor at
@@ -444,7 +444,7 @@ class CartesianToBearingRange(_PolarSensor):
         position into the sensor's plane; :meth:`inverse_function` needs them zero.
     """
 
-    kind = _sensor.BEARING_RANGE
+    kind = BEARING_RANGE
     _NDIM_MEAS = 2
 
     def inverse_function(self, detection):
@@ -498,7 +498,7 @@ class Cartesian2DToBearing(_PolarSensor):
         :class:`CartesianToBearingRange`.
     """
 
-    kind = _sensor.BEARING
+    kind = BEARING
     _NDIM_MEAS = 1
 
 
@@ -534,16 +534,8 @@ class NonlinearGaussianMeasurement(MeasurementModel):
     measurement_function = property(lambda self: self._function.function,
                                     doc="The user's function h (fixed).")
 
-    def _predict(self, x):
-        out = np.empty((self.ndim_meas, x.shape[1]))
-        code = _kernels.measure_function(self.measurement_function, x, self._angles, out)
-        _errors.check(code, self._function, x)
-        return out
-
-    def log_likelihood(self, z, x, log_w, out):
-        whiten, log_norm = self._noise.whitening()
-        top, code = _kernels.log_likelihood_function(self.measurement_function, z, x,
-                                                     self._angles, whiten, log_norm, log_w,
-                                                     out)
-        _errors.check(code, self._function, x)
-        return top
+    def _build_spec(self):
+        none = np.empty(0)
+        return MeasurementSpec(FUNCTION, none.astype(np.int64), none, none.reshape(0, 0),
+                               self._noise_covar, self._angles, self._noise, self._function,
+                               self._ndim_state, self._ndim_meas)

@@ -12,14 +12,11 @@ import itertools
 
 import numpy as np
 
-from .. import _buffers
-from .. import _errors
 from .. import _validate
 from ..types import seconds
-from .._jit import kalman as _kalman
-from .._jit import propagate as _kernels
 from .base import (UserFunction, check_rows, gaussian_noise, read_only, scalar_or_array,
                    state_columns)
+from .spec import CV, FIXED, FUNCTION, TransitionSpec
 
 __all__ = [
     "TransitionModel", "LinearGaussianTransitionModel", "ConstantVelocity",
@@ -31,16 +28,22 @@ class TransitionModel:
     """Base class: ``function``, ``rvs``, ``logpdf`` and ``pdf`` from ``_mean`` and ``covar``.
 
     Subclasses define ``ndim_state``, ``covar(time_interval)``, ``_mean(x, dt)`` and
-    ``_propagate(x, dt, key)`` (all particles through the transition with noise, in a kernel).
+    ``spec(dt)``, the :class:`~fasttrack.models.spec.TransitionSpec` the array layer reads.
     """
 
     ndim_state = None
+    #: Whether F and Q are the same for every time interval.
+    time_invariant = False
     #: The checked user function (:class:`~fasttrack.models.base.UserFunction`) of a model
     #: built from one, else None.
     _function = None
 
     def _noise(self, dt):
         return gaussian_noise(self.covar(dt), f"{type(self).__name__}.covar")
+
+    def _covar(self, dt):
+        """Q(dt) as a C-contiguous float64 array for the kernels."""
+        return np.ascontiguousarray(self.covar(dt), dtype=np.float64)
 
     def _columns(self, state, name="state"):
         x = state_columns(state, name)
@@ -145,10 +148,6 @@ class TransitionModel:
         return seconds(time_interval)
 
 
-_NO_RATES = np.empty(0)
-_NO_MATRIX = np.empty((0, 0))
-
-
 @functools.lru_cache(maxsize=64)
 def _rates_array(rates):
     """The rates as an array (shared: kernels only read it)."""
@@ -189,15 +188,6 @@ class _LinearGaussian(TransitionModel):
             self.__dict__["_matrix_memo"] = memo
         return memo[1]
 
-    def _covar(self, dt):
-        """Q(dt) as a C-contiguous float64 array for the kernels."""
-        return np.ascontiguousarray(self.covar(dt), dtype=np.float64)
-
-    def _propagate(self, x, dt, key):
-        out = _buffers.empty_like(x)
-        _kernels.propagate_linear(x, self._matrix(dt), self._noise(dt).root, key, out)
-        return out
-
     def jacobian(self, state=None, time_interval=None):
         """The transition matrix F(dt) (d, d) (the model is linear).
 
@@ -211,14 +201,24 @@ class _LinearGaussian(TransitionModel):
         """
         return self.matrix(self._seconds(time_interval))
 
-    def _kalman_spec(self, dt):
-        """``(kind, rates, F, Q)`` for the Kalman kernels: CV blocks when every part is a
-        :class:`ConstantVelocity` (F and Q are built in the kernel, for any interval),
-        else FIXED with F(dt) and Q(dt)."""
+    def spec(self, dt):
+        """What the array layer reads: CV blocks when every part is a
+        :class:`ConstantVelocity` (the kernels build F and Q for any interval), else FIXED
+        with F(dt) and Q(dt).
+
+        Parameters
+        ----------
+        dt : float
+            The time interval, seconds.
+
+        Returns
+        -------
+        fasttrack.models.spec.TransitionSpec
+        """
         rates = self._cv_rates()
         if rates is not None:
-            return _kalman.CV, _rates_array(rates), _NO_MATRIX, _NO_MATRIX
-        return _kalman.FIXED, _NO_RATES, self._matrix(dt), self._covar(dt)
+            return TransitionSpec(self, dt, CV, _rates_array(rates))
+        return TransitionSpec(self, dt, FIXED)
 
     def _cv_rates(self):
         """The rates q of the constant-velocity blocks, as a tuple, or None if a part is
@@ -235,6 +235,8 @@ class LinearGaussianTransitionModel(_LinearGaussian):
     covariance_matrix : (d, d) array_like
         Symmetric positive semi-definite.
     """
+
+    time_invariant = True
 
     def __init__(self, transition_matrix, covariance_matrix):
         matrix = _validate.finite_array(transition_matrix, "transition_matrix", 2)
@@ -471,9 +473,16 @@ class NonlinearGaussianTransitionModel(TransitionModel):
     def _mean(self, x, dt):
         return self._function(x, dt)
 
-    def _propagate(self, x, dt, key):
-        out = _buffers.empty_like(x)
-        code = _kernels.propagate_function(self.transition_function, dt, x,
-                                           self._noise(dt).root, key, out)
-        _errors.check(code, self._function, x, dt)
-        return out
+    def spec(self, dt):
+        """What the array layer reads: FUNCTION, with the checked user function.
+
+        Parameters
+        ----------
+        dt : float
+            The time interval, seconds.
+
+        Returns
+        -------
+        fasttrack.models.spec.TransitionSpec
+        """
+        return TransitionSpec(self, dt, FUNCTION, function=self._function)

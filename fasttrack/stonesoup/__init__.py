@@ -16,20 +16,22 @@ except ImportError as error:  # pragma: no cover - depends on the environment
     raise ImportError("fasttrack.stonesoup needs Stone Soup: pip install 'fasttrack[stonesoup]'"
                       ) from error
 
-from .association import (JPDA, PDA, DistanceGater, DistanceHypothesiser, GlobalNearestNeighbour,
-                          GNNWith2DAssignment, JPDAwithEHM, Mahalanobis, NearestNeighbour,
-                          PDAHypothesiser)
+from .dataassociator import (JPDA, PDA, GlobalNearestNeighbour, GNNWith2DAssignment,
+                             JPDAwithEHM, NearestNeighbour)
+from .deleter import CovarianceBasedDeleter, UpdateTimeStepsDeleter
+from .gater import DistanceGater
+from .hypothesiser import DistanceHypothesiser, PDAHypothesiser
+from .initiator import MultiMeasurementInitiator, SimpleMeasurementInitiator
 from .kernel import (GaussianKernel, LinearKernel, PolynomialKernel, QuadraticKernel,
                      QuarticKernel)
-from .metrics import GOSPAMetric, OSPAMetric
+from .measures import Mahalanobis
+from .metricgenerator import GOSPAMetric, OSPAMetric
 from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
                         ParticlePredictor, UnscentedKalmanPredictor)
 from .resampler import (ESSResampler, MultinomialResampler, ResidualMethod, ResidualResampler,
                         StratifiedResampler, SystematicResampler)
 from .smoother import ExtendedKalmanSmoother, KalmanSmoother, UnscentedKalmanSmoother
-from .tracking import (CovarianceBasedDeleter, MultiMeasurementInitiator,
-                       MultiTargetMixtureTracker, MultiTargetTracker,
-                       SimpleMeasurementInitiator, UpdateTimeStepsDeleter)
+from .tracker import MultiTargetMixtureTracker, MultiTargetTracker
 from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, KalmanUpdater,
                       ParticleUpdater, UnscentedKalmanUpdater)
 

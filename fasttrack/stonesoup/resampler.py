@@ -8,7 +8,7 @@ from stonesoup.resampler.base import Resampler
 from stonesoup.types.array import StateVectors
 from stonesoup.types.state import ParticleState
 
-from .. import resampling as _resampling
+from ..core import resample as _resampling
 from ..core import particle as ft_particle
 from ._convert import floats, global_rng, plain_particles
 

@@ -3,7 +3,8 @@ with (N,) float64 log weights; linear weights are derived on request.
 
 The types live in modules by kind: :mod:`~fasttrack.types.particle`,
 :mod:`~fasttrack.types.kernel` (the AKKF's), :mod:`~fasttrack.types.gaussian` (and
-detections), :mod:`~fasttrack.types.tracks` (tracks and hypotheses) and
+detections), :mod:`~fasttrack.types.mixture` (stacks of Gaussians: mixtures and track sets),
+:mod:`~fasttrack.types.tracks` (tracks and hypotheses) and
 :mod:`~fasttrack.types.base` (timestamps and links); every name is importable from here.
 
 Ownership of history: a state's links to the states it came from (``prior`` of a
@@ -20,6 +21,7 @@ from .base import Link, check_timestamp, seconds, time_interval, weak
 from .gaussian import (Detection, GaussianMeasurementPrediction, GaussianState,
                        GaussianStatePrediction, GaussianStateUpdate, GroundTruthState, State,
                        column_vector)
+from .mixture import GaussianMixture, TrackSet
 from .kernel import (KernelParticleState, KernelParticleStateMeasurementPrediction,
                      KernelParticleStatePrediction, KernelParticleStateUpdate,
                      dense_kernel_covar, factor_kernel_covar, isotropic_factors)
@@ -29,10 +31,10 @@ from .tracks import GroundTruthPath, SingleHypothesis, StateSequence, Track
 
 __all__ = [
     "Detection", "GaussianMeasurementPrediction", "GaussianState", "GaussianStatePrediction",
-    "GaussianStateUpdate", "GroundTruthPath", "GroundTruthState", "KernelParticleState",
+    "GaussianMixture", "GaussianStateUpdate", "GroundTruthPath", "GroundTruthState", "KernelParticleState",
     "KernelParticleStateMeasurementPrediction", "KernelParticleStatePrediction",
     "KernelParticleStateUpdate", "Link", "Particle", "ParticleState", "ParticleStatePrediction",
-    "ParticleStateUpdate", "SingleHypothesis", "State", "StateSequence", "Track",
+    "ParticleStateUpdate", "SingleHypothesis", "State", "StateSequence", "Track", "TrackSet",
     "as_particle_state", "check_timestamp", "column_vector", "dense_kernel_covar",
     "factor_kernel_covar", "isotropic_factors", "seconds", "time_interval", "weak",
 ]

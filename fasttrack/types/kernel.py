@@ -3,8 +3,7 @@ in factored form."""
 import numpy as np
 
 from .. import _validate
-from .._jit import akkf as _akkf
-from .._jit import gram as _gram
+from ..core import akkf as _akkf
 from .base import check_timestamp
 
 __all__ = [
@@ -70,7 +69,7 @@ class KernelParticleState:
     @property
     def covar(self):
         """``X S X^T`` (d, d)."""
-        return _akkf.sandwich(self.state_vector, *self._factors)
+        return _akkf.covariance(self.state_vector, self._factors)
 
     def __len__(self):
         return self.state_vector.shape[1]
@@ -110,7 +109,7 @@ def isotropic_factors(m, sigma):
 def factor_kernel_covar(kernel_covar, m):
     """Factors of a user's S: its pivoted Cholesky factor, checked to reproduce it."""
     s = _validate.covariance(kernel_covar, "kernel_covar", m)
-    lt = _gram.factor(_gram.MATRIX, np.empty(0), np.zeros(0, dtype=np.bool_), s)
+    lt = _akkf.factor_matrix(s)
     scale = max(np.abs(s).max(), np.finfo(float).tiny)
     if np.abs(lt.T @ lt - s).max() > 1e-8 * scale:
         raise ValueError("kernel_covar must be positive semi-definite")

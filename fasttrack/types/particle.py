@@ -7,8 +7,7 @@ import numpy as np
 
 from .. import _buffers
 from .. import _validate
-from .._jit import weights as _weights
-from .._jit.resample import take_columns as _take_columns
+from ..core import particle as _particle
 from .base import Link, check_timestamp
 
 __all__ = ["Particle", "ParticleState", "ParticleStatePrediction", "ParticleStateUpdate"]
@@ -151,8 +150,7 @@ class ParticleState:
 
     def _gather(self):
         source, source_log_weight, idx = self._source
-        columns = _buffers.empty((source.shape[0], idx.size))
-        _take_columns(source, idx, columns)
+        columns = _particle.gather(source, idx, _buffers.empty((source.shape[0], idx.size)))
         self._state_vector, self._log_weight = columns, source_log_weight[idx]
         self._source = None
 
@@ -212,11 +210,7 @@ class ParticleState:
     def mean(self):
         """(d, 1) weighted mean of the particles (computed once, in one pass)."""
         if self._moments is None:
-            d = self.ndim
-            mean = np.empty(d)
-            log_w = self.log_weight
-            _weights.weighted_mean(self.state_vector, log_w, log_w.max(), mean)
-            self._moments = mean.reshape(d, 1), None
+            self._moments = _particle.mean(self.state_vector, self.log_weight), None
         return self._moments[0]
 
     @property
@@ -226,13 +220,9 @@ class ParticleState:
         if self.fixed_covar is not None:
             return self.fixed_covar
         if self._moments is None or self._moments[1] is None:
-            d = self.ndim
-            mean = np.empty(d)
-            covar = np.empty((d, d))
-            log_w = self.log_weight
-            _weights.weighted_mean_covar(self.state_vector, log_w, log_w.max(), mean, covar)
+            mean, covar = _particle.mean_covar(self.state_vector, self.log_weight)
             known = self._moments  # a mean already read stays what it was
-            self._moments = (mean.reshape(d, 1) if known is None else known[0]), covar
+            self._moments = (mean if known is None else known[0]), covar
         return self._moments[1]
 
     def __getitem__(self, item):

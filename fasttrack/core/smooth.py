@@ -1,0 +1,35 @@
+"""The smoothers' steps on plain arrays: the Rauch-Tung-Striebel recursion over stacks of
+tracks, and forward-filter backward-simulation draws over particle clouds."""
+import numpy as np
+
+from .._jit import smooth as _smooth
+
+
+def rts(x, covar, x_pred, covar_pred, recompute, matrices, noises, step):
+    """``(x_out, covar_out, status)``: the RTS smoother over K tracks of n steps.
+
+    ``x`` (K, n, d) and ``covar`` (K, n, d, d) are the filtered states; ``x_pred`` and
+    ``covar_pred`` the one-step predictions (recomputed from ``matrices`` (S, d, d) and
+    ``noises`` (S, d, d) where ``recompute`` (n,) uint8 says so); ``step`` (n,) int64 the
+    index of each step's (F, Q). ``status`` is 0, or ``1 + k n + t`` for the first track k
+    and time t whose predicted covariance is not positive definite.
+    """
+    x_out, covar_out = np.empty_like(x), np.empty_like(covar)
+    status = _smooth.rts_kernel(x.shape[-1])(x, covar, x_pred, covar_pred, recompute, matrices,
+                                             noises, step, x_out, covar_out)
+    return x_out, covar_out, status
+
+
+def ffbs(x, log_weights, mean_next, whitening, n_paths, key, rejection):
+    """(T, M) int64 particle indices of ``n_paths`` = M trajectories drawn backwards.
+
+    ``x`` (T, d, N) and ``log_weights`` (T, N) are the filtered clouds, ``mean_next``
+    (T - 1, d, N) their noise-free transitions, ``whitening`` (T - 1, d, d) the inverse
+    Cholesky factors of each step's Q; ``key`` seeds the draws, ``rejection`` picks
+    rejection sampling (else exact O(N) draws per path).
+    """
+    index = np.empty((x.shape[0], n_paths), dtype=np.int64)
+    max_proposals = _smooth.MAX_PROPOSALS if rejection else 0
+    _smooth.ffbs(x, log_weights, mean_next, whitening, np.random.default_rng(key),
+                 max_proposals, _smooth.PROPOSAL_COST / x.shape[2], index)
+    return index

@@ -1,0 +1,80 @@
+"""What the Gaussian stacks share: K filters as (K, d) means and (K, d, d) covariances,
+run in chunks over threads, with one int64 status per filter.
+
+:mod:`fasttrack.core.kalman` and :mod:`fasttrack.core.unscented` build their stack steps
+on these; a single Gaussian state is a stack of one.
+"""
+import numpy as np
+
+from .. import _errors
+from .. import threads as _threads
+from .._jit import kalman as _kalman
+from .._jit import status as _status
+from .kinds import FIXED
+
+#: Filters run serially below this many (threads cost more than they save).
+SERIAL_BELOW = 1024
+
+#: An update's "prior" is the caller's prediction: statuses named for it.
+AS_PREDICTION = {_status.PRIOR_NOT_PSD: _status.PREDICTION_NOT_PSD,
+                 _status.PRIOR_NOT_SYMMETRIC: _status.PREDICTION_NOT_SYMMETRIC}
+
+
+def in_chunks(k, run):
+    """``run(lo, hi)`` on chunks of the K filters, in parallel threads."""
+    _threads.in_chunks(run, k, serial_below=SERIAL_BELOW, align=_kalman.FILTERS_PER_BLOCK)
+
+
+def identity(d):
+    """The kernel transition F = I, Q = 0: a step through it (exact) is the update alone."""
+    return FIXED, np.empty(0), np.eye(d), np.zeros((d, d))
+
+
+def one_transition(model, intervals):
+    """Whether one kernel transition of a linear ``model`` serves every interval (seconds)
+    of ``intervals``: CV blocks (built per interval), a time-invariant model, or equal
+    intervals."""
+    spec = model.spec(float(intervals.flat[0]))
+    return spec.kind != FIXED or spec.time_invariant or np.all(intervals == intervals.flat[0])
+
+
+def transition(model, intervals):
+    """``(kind, rates, F, Q)``: the kernel transition of a linear ``model`` for the
+    filters' ``intervals`` (seconds); F and Q of the first interval unless CV blocks."""
+    if not one_transition(model, intervals):
+        raise ValueError(f"{type(model).__name__} mixes constant-velocity and other "
+                         f"parts, so its filters need one common time interval")
+    return model.spec(float(intervals.flat[0])).kalman()
+
+
+def check(status):
+    """Raise the ValueError naming the first failed filter of ``status`` (K,), if any."""
+    failed = np.flatnonzero(status)
+    if failed.size:
+        raise ValueError(f"{failed.size} of {status.size} filters failed; filter "
+                         f"{failed[0]}: {_errors.MESSAGES[status[failed[0]]]}")
+
+
+def run(step, transition_args, intervals, means, covars, measurements):
+    """``(means, covars)`` (T, K, d) and (T, K, d, d): the K filters through T steps of
+    ``step(transition_args, intervals[t], means, covars, measurements[t], means_out,
+    covars_out, status)``. Raises ValueError naming the first failed filter and step."""
+    steps, k, d = measurements.shape[0], means.shape[0], means.shape[1]
+    means_out, covars_out = np.empty((steps, k, d)), np.empty((steps, k, d, d))
+    if steps == 0 or k == 0:
+        return means_out, covars_out
+    status = np.empty(k, dtype=np.int64)
+    failed_at = np.full(k, steps)
+    codes = np.zeros(k, dtype=np.int64)
+    for t in range(steps):  # one compiled step kernel, a call per step
+        step(transition_args, intervals[t], means, covars, measurements[t], means_out[t],
+             covars_out[t], status)
+        new = (status != 0) & (failed_at == steps)
+        failed_at[new], codes[new] = t, status[new]
+        means, covars = means_out[t], covars_out[t]
+    failed = np.flatnonzero(codes)
+    if failed.size:
+        first = failed[0]
+        raise ValueError(f"{failed.size} of {k} filters failed; filter {first} at step "
+                         f"{failed_at[first]}: {_errors.MESSAGES[codes[first]]}")
+    return means_out, covars_out

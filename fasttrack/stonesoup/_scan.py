@@ -1,0 +1,543 @@
+"""The vectorised scan behind the drop-ins of ``stonesoup.hypothesiser``,
+``stonesoup.gater`` and ``stonesoup.dataassociator``.
+
+A scan covers a drop-in hypothesiser (optionally wrapped in drop-in ``DistanceGater``s with a
+Mahalanobis measure) whose predictor is a drop-in ``KalmanPredictor`` /
+``ExtendedKalmanPredictor`` and whose updater is a drop-in ``KalmanUpdater`` /
+``ExtendedKalmanUpdater``, on Stone Soup models fasttrack recognises (see
+``_convert.fast_model``), with a ``Mahalanobis`` measure (or ``Euclidean`` for the distance
+hypothesiser), every detection at the scan's timestamp and sharing one measurement model.
+It stacks every track's state, predicts all of them in one
+:func:`~fasttrack.core.kalman.stack_predict` call, gates the detections
+(:func:`~fasttrack.core.gating.gate`), solves the association on arrays and builds
+Stone Soup's objects only for what is returned. Anything else goes through Stone Soup's own
+code.
+
+Differences from Stone Soup, at the level of rounding: distances come from a Cholesky
+factor rather than a pseudo-inverse, probabilities from the linear-domain exact marginals
+rather than Stone Soup's log-domain sums, so values agree to about 1e-12 relative; exact ties
+(equal distances or equal total costs) may be broken differently.
+"""
+import numpy as np
+from scipy.special import gamma
+from stonesoup.types.array import CovarianceMatrix, StateVector
+from stonesoup.types.detection import MissedDetection
+from stonesoup.types.hypothesis import SingleDistanceHypothesis, SingleProbabilityHypothesis
+from stonesoup.types.multihypothesis import MultipleHypothesis
+from stonesoup.types.numeric import Probability
+from stonesoup.types.prediction import GaussianMeasurementPrediction, GaussianStatePrediction
+from stonesoup.types.state import State, StateMutableSequence
+
+from ..association import (Gate, clusters, gate, global_nearest_neighbour, jpda_marginals,
+                           nearest_neighbour)
+from ..core import kalman as ft_kalman
+from ..core.mixture import segment_logsumexp
+from ..models import LinearGaussian
+from . import predictor as _predictor
+from . import updater as _updater
+from ._convert import fast_model, floats, typed_measurement, zero_control
+from .measures import _measure_kind
+
+
+# -- recognising a hypothesiser the vectorised path computes ---------------------------------
+
+#: The ``hypothesise`` functions the vectorised path computes (those of the drop-in gater
+#: and hypothesisers, not a subclass's own), each with what it computes: "gate",
+#: "distance" or "pda".
+_VECTORISED = {}
+
+
+def vectorised(kind):
+    """Class decorator: the vectorised path computes the class's own ``hypothesise`` as
+    ``kind`` ("gate", "distance" or "pda")."""
+    def register(cls):
+        _VECTORISED[cls.hypothesise] = kind
+        return cls
+    return register
+
+
+class _NotFast(Exception):
+    """Raised inside the vectorised path when the inputs need Stone Soup's code."""
+
+
+class _Recipe:
+    """What a (gated) drop-in hypothesiser computes: its base hypothesiser, the kind of
+    hypotheses ('distance' or 'pda'), the distance measure, the gaters' thresholds, the
+    predictor and updater and the fasttrack transition model."""
+
+    __slots__ = ("base", "kind", "measure", "gates", "predictor", "updater", "transition")
+
+    def __init__(self, base, kind, measure, gates, transition):
+        self.base, self.kind, self.measure, self.gates = base, kind, measure, tuple(gates)
+        self.predictor, self.updater = base.predictor, base.updater
+        self.transition = transition
+
+
+def _recipe(hypothesiser):
+    """The :class:`_Recipe` of ``hypothesiser``, or None if Stone Soup's code must run."""
+    gates = []
+    while _VECTORISED.get(type(hypothesiser).hypothesise) == "gate":
+        if _measure_kind(hypothesiser.measure) != "mahalanobis":
+            return None
+        gates.append(float(hypothesiser.gate_threshold))
+        hypothesiser = hypothesiser.hypothesiser
+    kind = _VECTORISED.get(type(hypothesiser).hypothesise)
+    if kind == "distance":
+        measure = _measure_kind(hypothesiser.measure)
+        if measure is None or hypothesiser.predict_with_measurements \
+                or (gates and measure != "mahalanobis"):
+            return None
+    elif kind == "pda":
+        measure = "mahalanobis"
+        if hypothesiser.include_all and hypothesiser.clutter_spatial_density is None:
+            return None
+    else:
+        return None
+    predictor, updater = hypothesiser.predictor, hypothesiser.updater
+    if type(predictor).predict is not _predictor._Kalman.predict \
+            or type(updater).predict_measurement is not _updater._Kalman.predict_measurement:
+        return None
+    transition = fast_model(predictor.transition_model)
+    if transition is None or not zero_control(predictor.control_model):
+        return None
+    return _Recipe(hypothesiser, kind, measure, gates, transition)
+
+
+def _scan(hypothesiser, tracks, detections, timestamp, kwargs, kind=None, single=False):
+    """The vectorised :class:`_Scan`, or None where Stone Soup's code must run."""
+    if kwargs:
+        return None
+    recipe = _recipe(hypothesiser)
+    if recipe is None or (kind is not None and recipe.kind != kind):
+        return None
+    try:
+        return _Scan(recipe, tracks, detections, timestamp, single)
+    except _NotFast:
+        return None
+
+
+def _prior(track):
+    """The state a predictor predicts from (a track's last state)."""
+    if isinstance(track, StateMutableSequence) and not isinstance(track, State):
+        return track.state
+    return track
+
+
+def _csr_filter(starts, keep):
+    """Track offsets of the candidates kept (``keep`` (n,) bool) of a CSR ``starts``."""
+    owners = np.repeat(np.arange(starts.size - 1), np.diff(starts))
+    counts = np.bincount(owners[keep], minlength=starts.size - 1)
+    out = np.zeros(starts.size, dtype=np.int64)
+    np.cumsum(counts, out=out[1:])
+    return out
+
+
+class _Scan:
+    """One scan of tracks and detections through fasttrack's kernels.
+
+    Holds the predicted states (K, d), (K, d, d), measurements (K, m) and innovation
+    covariances (K, m, m), and the candidate (track, detection) pairs that the
+    hypothesiser keeps, in CSR form (``starts`` (K + 1,), ``candidates`` (n,) detection
+    indices, ascending per track), with their distances (distance hypothesisers) or log
+    weights (PDA). Stone Soup objects are built on request.
+
+    ``single`` (one track, the hypothesiser's own ``hypothesise``) takes the prediction and
+    measurement prediction from the predictor and updater, memoised as Stone Soup's are;
+    otherwise every track is predicted in one batch call.
+
+    Raises
+    ------
+    _NotFast
+        If the inputs are outside the vectorised path.
+    """
+
+    def __init__(self, recipe, tracks, detections, timestamp, single):
+        self.recipe = recipe
+        self.tracks = list(tracks)
+        self.detections = list(detections)
+        self.timestamp = timestamp
+        if timestamp is None or any(d.timestamp != timestamp for d in self.detections):
+            raise _NotFast
+        self._model, self._fast = self._measurement_model()
+        self._predictions = [None] * len(self.tracks)
+        self._measurement_predictions = [None] * len(self.tracks)
+        try:
+            self.priors = [_prior(track) for track in self.tracks]
+        except (AttributeError, IndexError):
+            raise _NotFast from None
+        if any(type(prior) not in _predictor._GAUSSIAN_STATES or prior.timestamp is None
+               for prior in self.priors):
+            raise _NotFast
+        try:
+            if single:
+                self._predict_one()
+            else:
+                self._predict_all()
+            self._measurements = self._detection_array()
+            self._candidates()
+        except (ValueError, TypeError):  # a kernel's error, or input Stone Soup handles
+            raise _NotFast from None
+
+    # -- arrays ------------------------------------------------------------------------------
+
+    def _measurement_model(self):
+        """The one model of every detection (its own, else the updater's) and its fasttrack
+        model; the updater's for no detections."""
+        updater = self.recipe.updater
+        model = None
+        for detection in self.detections:
+            own = detection.measurement_model
+            own = updater.measurement_model if own is None else own
+            if model is None:
+                model = own
+            elif own is not model:
+                raise _NotFast
+        if not self.detections:
+            model = updater.measurement_model
+        fast = None if model is None else updater._fast(model)
+        if fast is None:
+            raise _NotFast
+        return model, fast
+
+    def _predict_one(self):
+        (track,) = self.tracks
+        prediction = self.recipe.predictor.predict(track, timestamp=self.timestamp)
+        self._predictions[0] = prediction
+        self.means = floats(prediction.state_vector).reshape(1, -1)
+        self.covars = floats(prediction.covar)[None]
+        m = self._fast.ndim_meas
+        if not self.detections:
+            self.z_hats, self.innovation_covars = np.zeros((1, m)), np.zeros((1, m, m))
+            return
+        measurement_prediction = self.recipe.updater.predict_measurement(prediction,
+                                                                         self._model)
+        self._measurement_predictions[0] = measurement_prediction
+        self.z_hats = floats(measurement_prediction.state_vector).reshape(1, m)
+        self.innovation_covars = floats(measurement_prediction.covar).reshape(1, m, m)
+
+    def _predict_all(self):
+        transition, d = self.recipe.transition, self.recipe.transition.ndim_state
+        k, m = len(self.priors), self._fast.ndim_meas
+        if k == 0:
+            self.means, self.covars = np.zeros((0, d)), np.zeros((0, d, d))
+            self.z_hats, self.innovation_covars = np.zeros((0, m)), np.zeros((0, m, m))
+            return
+        means = np.array([prior.state_vector for prior in self.priors], dtype=np.float64)
+        covars = np.array([prior.covar for prior in self.priors], dtype=np.float64)
+        if means.shape != (k, d, 1) or covars.shape != (k, d, d) \
+                or not (np.isfinite(means).all() and np.isfinite(covars).all()):
+            raise _NotFast  # Stone Soup's own arithmetic on ragged or non-finite states
+        means = means.reshape(k, d)
+        intervals = np.array([(self.timestamp - prior.timestamp).total_seconds()
+                              for prior in self.priors])
+        self.means, self.covars, self.z_hats, self.innovation_covars = \
+            ft_kalman.stack_predict(transition, self._fast, intervals, means, covars,
+                                    "forward", by_interval=True)
+
+    def _detection_array(self):
+        m = self._fast.ndim_meas
+        if not self.detections:
+            return np.zeros((0, m))
+        z = np.array([d.state_vector for d in self.detections], dtype=np.float64)
+        if z.shape != (len(self.detections), m, 1):
+            raise _NotFast
+        return z.reshape(-1, m)
+
+    def _gate(self, threshold, covars, angles):
+        """Candidates with squared distance below ``threshold`` (+inf: every pair)."""
+        k, m = self.z_hats.shape
+        if self._measurements.shape[0] == 0 or k == 0 or not threshold > 0:
+            return Gate(np.zeros(k + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
+                        np.zeros(0), np.zeros(0), self._measurements.shape[0])
+        if np.isfinite(threshold):
+            return gate(self.z_hats, covars, self._measurements, threshold, angles)
+        return gate(self.z_hats, covars, self._measurements, np.inf, angles, grid_axes=())
+
+    def _candidates(self):
+        """The hypothesiser's candidates and their distances or log weights."""
+        recipe, base = self.recipe, self.recipe.base
+        angles = self._fast.spec.angles
+        if recipe.kind == "distance" and recipe.measure == "euclidean":
+            identity = np.broadcast_to(np.eye(self.z_hats.shape[1]),
+                                       self.innovation_covars.shape)
+            missed = float(base.missed_distance)
+            pairs = self._gate(np.inf if base.include_all else np.nextafter(missed**2, np.inf),
+                               np.ascontiguousarray(identity), None)
+            distances = np.sqrt(pairs.distances2)
+            keep = np.ones(distances.size, dtype=np.bool_) if base.include_all \
+                else distances < missed
+            self._keep(pairs, keep, distances=distances)
+            return
+        gates = np.array(recipe.gates)
+        if recipe.kind == "distance":
+            missed = float(base.missed_distance)
+            threshold = np.inf if base.include_all else missed**2
+            threshold = min([threshold, *(gates**2)])
+            pairs = self._gate(np.nextafter(threshold, np.inf), self.innovation_covars,
+                               angles)
+            distances = np.sqrt(pairs.distances2)
+            keep = np.ones(distances.size, dtype=np.bool_) if base.include_all \
+                else distances < missed
+            for g in gates:
+                keep &= distances < g
+            self._keep(pairs, keep, distances=distances)
+            return
+        self._pda_candidates(gates, angles)
+
+    def _pda_candidates(self, gates, angles):
+        base = self.recipe.base
+        m = self.z_hats.shape[1]
+        gate_threshold = float(base._gate_threshold(base.prob_gate, m))
+        density = base.clutter_spatial_density
+        threshold = np.inf if base.include_all else gate_threshold
+        if density is not None and not base.normalise and gates.size:
+            threshold = min(threshold, *(gates**2))  # no count, no normaliser needs more
+        pairs = self._gate(np.nextafter(threshold, np.inf), self.innovation_covars, angles)
+        distances2 = pairs.distances2
+        inside = distances2 <= gate_threshold
+        in_base = np.ones(distances2.size, dtype=np.bool_) if base.include_all else inside
+        log_weights = pairs.log_likelihoods + Probability._log(base.prob_detect)
+        if density is not None:
+            log_weights = log_weights - Probability._log(density)
+        else:  # Stone Soup's estimate: the gate volume over the detections inside it
+            owners = np.repeat(np.arange(pairs.n_tracks), np.diff(pairs.starts))
+            validated = np.bincount(owners[inside], minlength=pairs.n_tracks)
+            c_z = np.pi**(m / 2) / gamma(m / 2 + 1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                volumes = c_z * gate_threshold**(m / 2) * np.sqrt(
+                    np.linalg.det(self.innovation_covars))
+                log_weights = log_weights + np.log(volumes / validated)[owners]
+        missed = Probability(1 - base.prob_detect * base.prob_gate)
+        self.missed_log_weight = float(missed.log_value)
+        keep = in_base.copy()
+        distances = np.sqrt(distances2)
+        for g in gates:
+            keep &= distances < g
+        self._base_normaliser = None
+        if base.normalise:  # over the hypothesiser's hypotheses: a gater does not renormalise
+            self._base_normaliser = np.logaddexp(self.missed_log_weight, segment_logsumexp(
+                log_weights[in_base], _csr_filter(pairs.starts, in_base)))
+        self._keep(pairs, keep, log_weights=log_weights)
+        self._final_normaliser = None
+
+    def _keep(self, pairs, keep, distances=None, log_weights=None):
+        self.starts = _csr_filter(pairs.starts, keep)
+        self.candidates = np.ascontiguousarray(pairs.detections[keep])
+        self.distances = None if distances is None else np.ascontiguousarray(distances[keep])
+        self.log_weights = None if log_weights is None \
+            else np.ascontiguousarray(log_weights[keep])
+
+    # -- Stone Soup objects ------------------------------------------------------------------
+
+    def prediction(self, k):
+        """Track k's ``GaussianStatePrediction`` (as the drop-in predictor makes it)."""
+        prediction = self._predictions[k]
+        if prediction is None:  # views of the scan's own arrays, one row each
+            prediction = GaussianStatePrediction(
+                self.means[k, :, None].view(StateVector), self.covars[k].view(CovarianceMatrix),
+                self.timestamp, self.recipe.predictor.transition_model, self.priors[k])
+            self._predictions[k] = prediction
+        return prediction
+
+    def measurement_prediction(self, k):
+        """Track k's ``GaussianMeasurementPrediction`` with its cross covariance (as the
+        drop-in updater's ``predict_measurement`` makes it)."""
+        measurement_prediction = self._measurement_predictions[k]
+        if measurement_prediction is None:
+            fast = self._fast
+            if isinstance(fast, LinearGaussian):  # H selects rows: P H^T selects columns
+                z_hat = self.z_hats[k, :, None]
+                covar = self.innovation_covars[k].view(CovarianceMatrix)
+                cross = self.covars[k][:, fast.spec.mapping]
+            else:
+                x = self.means[k].reshape(-1, 1).copy()
+                z_hat, covar, cross = ft_kalman.update(
+                    fast, x, self.covars[k].copy(), np.zeros((fast.ndim_meas, 1)), "forward",
+                    self.recipe.updater.use_joseph_cov)[2:]
+            measurement_prediction = GaussianMeasurementPrediction(
+                typed_measurement(z_hat, fast), covar, self.timestamp, cross)
+            self._measurement_predictions[k] = measurement_prediction
+        return measurement_prediction
+
+    def _missed_detection(self):
+        return MissedDetection(None, self.timestamp)
+
+    def hypotheses(self, k, normalised=False):
+        """Track k's ``MultipleHypothesis``, as the hypothesiser (and its gaters) return
+        it; ``normalised``: its probabilities then normalised to total 1 (as ``PDA``
+        does)."""
+        lo, hi = self.starts[k], self.starts[k + 1]
+        prediction = self.prediction(k)
+        measurement_prediction = self.measurement_prediction(k) if hi > lo else None
+        detections = self.detections
+        base = self.recipe.base
+        if self.recipe.kind == "distance":
+            hypotheses = [SingleDistanceHypothesis(prediction, self._missed_detection(),
+                                                   base.missed_distance)]
+            hypotheses += [SingleDistanceHypothesis(prediction, detections[j], distance,
+                                                    measurement_prediction)
+                           for j, distance in zip(self.candidates[lo:hi],
+                                                  self.distances[lo:hi])]
+            order = np.argsort(np.r_[float(base.missed_distance), self.distances[lo:hi]],
+                               kind="stable")
+            return MultipleHypothesis([hypotheses[i] for i in order])
+        log_weights = np.r_[self.missed_log_weight, self.log_weights[lo:hi]]
+        if normalised:
+            log_weights = log_weights - self.final_normaliser()[k]
+        elif base.normalise:
+            log_weights = log_weights - self._base_normaliser[k]
+        hypotheses = [SingleProbabilityHypothesis(
+            prediction, self._missed_detection(), Probability(log_weights[0], log_value=True))]
+        hypotheses += [SingleProbabilityHypothesis(
+            prediction, detections[j], Probability(log_weight, log_value=True),
+            measurement_prediction)
+            for j, log_weight in zip(self.candidates[lo:hi], log_weights[1:])]
+        if not self.recipe.gates:
+            # normalised above as MultipleHypothesis(normalise=True) normalises (log-sum-exp)
+            return _multiple(hypotheses, normalise=base.normalise)
+        order = np.argsort(-log_weights, kind="stable")  # the gaters' sorting, stable
+        return MultipleHypothesis([hypotheses[i] for i in order])
+
+    def final_normaliser(self):
+        """Per track, ``log`` of the total weight of its hypotheses (after the gaters)."""
+        if self._final_normaliser is None:
+            self._final_normaliser = np.logaddexp(
+                self.missed_log_weight, segment_logsumexp(self.log_weights, self.starts))
+        return self._final_normaliser
+
+    def _distance_hypothesis(self, k, j):
+        """The hypothesis of track k taking detection j (-1: missed)."""
+        prediction = self.prediction(k)
+        if j < 0:
+            return SingleDistanceHypothesis(prediction, self._missed_detection(),
+                                            self.recipe.base.missed_distance)
+        lo, hi = self.starts[k], self.starts[k + 1]
+        q = lo + np.searchsorted(self.candidates[lo:hi], j)
+        return SingleDistanceHypothesis(prediction, self.detections[j], self.distances[q],
+                                        self.measurement_prediction(k))
+
+    def chosen(self, assigned):
+        """``{track: hypothesis}`` of an assignment (K,) of detection indices (-1 missed)."""
+        return {track: self._distance_hypothesis(k, j)
+                for k, (track, j) in enumerate(zip(self.tracks, assigned))}
+
+    # -- solvers -----------------------------------------------------------------------------
+
+    def _missed_costs(self):
+        return np.full(len(self.tracks), float(self.recipe.base.missed_distance))
+
+    def _unopposed(self):
+        """Tracks with no candidate detection."""
+        return np.diff(self.starts) == 0
+
+    def nearest(self):
+        """Stone Soup's ``NearestNeighbour`` assignment (K,)."""
+        return nearest_neighbour(self._pairs(), self._missed_costs(), costs=self.distances)
+
+    def global_nearest(self, enumerated=False):
+        """The minimum-total-distance assignment (K,) (Stone Soup's global nearest
+        neighbour), solved per cluster of the gate graph; None if some cluster has no
+        finite assignment (a missed distance of ``inf``).
+
+        A track with no candidate is missed outright, as ``GNNWith2DAssignment`` does;
+        ``enumerated`` (``GlobalNearestNeighbour``, whose joint hypotheses all cost ``inf``
+        then) gives None instead when the missed distance is ``inf``.
+        """
+        missed = self._missed_costs()
+        if enumerated and np.isinf(missed).any() and self._unopposed().any():
+            return None
+        try:
+            return global_nearest_neighbour(self._pairs(), missed, costs=self.distances)
+        except ValueError:  # no finite assignment: Stone Soup's code says so
+            return None
+
+    def _pairs(self):
+        return Gate(self.starts, self.candidates, np.zeros(self.candidates.size),
+                    np.zeros(self.candidates.size), len(self.detections))
+
+    def _clusters(self):
+        return clusters(self._pairs())
+
+    def marginals(self):
+        """Exact JPDA marginal probabilities: of each track's missed detection (K,) and of
+        each candidate (n,)."""
+        k = len(self.tracks)
+        starts, candidates = self.starts, self.candidates
+        counts = np.diff(starts)
+        owners = np.repeat(np.arange(k), counts)
+        row_max = np.full(k, self.missed_log_weight)
+        np.maximum.at(row_max, owners, self.log_weights)
+        missed = np.exp(self.missed_log_weight - row_max)
+        weights = np.exp(self.log_weights - row_max[owners])
+        totals = missed.copy()
+        np.add.at(totals, owners, weights)
+        marginal_missed, marginal = missed / totals, weights / totals[owners]
+        groups = self._clusters()
+        sizes = np.bincount(groups.track_labels, minlength=groups.n_clusters)
+        shared = np.flatnonzero(sizes > 1)  # clusters of one track: its normalised weights
+        if shared.size == 0:
+            return marginal_missed, marginal
+        track_order = np.argsort(groups.track_labels, kind="stable")
+        track_splits = np.cumsum(sizes)[:-1]
+        members = np.split(track_order, track_splits)
+        column = np.empty(len(self.detections), dtype=np.int64)
+        matrices, rows = [], []
+        for c in shared:
+            tracks = members[c]
+            dets = np.unique(candidates[np.concatenate([np.arange(starts[t], starts[t + 1])
+                                                        for t in tracks])])
+            column[dets] = np.arange(1, dets.size + 1)
+            matrix = np.zeros((tracks.size, dets.size + 1))
+            matrix[:, 0] = missed[tracks]
+            qs = [np.arange(starts[t], starts[t + 1]) for t in tracks]
+            for i, q in enumerate(qs):
+                matrix[i, column[candidates[q]]] = weights[q]
+            matrices.append(matrix)
+            rows.append((tracks, qs))
+        for result, (tracks, qs) in zip(jpda_marginals(matrices), rows):
+            marginal_missed[tracks] = result[:, 0]
+            for i, q in enumerate(qs):
+                marginal[q] = result[i, column[candidates[q]]]
+        return marginal_missed, marginal
+
+    def jpda_hypotheses(self, marginal_missed, marginal, ehm):
+        """``{track: MultipleHypothesis}`` of the JPDA marginals as Stone Soup's ``JPDA``
+        (``ehm`` False: a new missed detection first) or ``JPDAwithEHM`` (the hypothesiser's
+        order) build them, normalised to total 1 in log space as Stone Soup normalises."""
+        out = {}
+        gated = bool(self.recipe.gates)
+        with np.errstate(divide="ignore"):
+            log_missed, log_marginal = np.log(marginal_missed), np.log(marginal)
+        normaliser = np.logaddexp(log_missed, segment_logsumexp(log_marginal, self.starts))
+        log_missed = log_missed - normaliser
+        log_marginal = log_marginal - np.repeat(normaliser, np.diff(self.starts))
+        for k, track in enumerate(self.tracks):
+            lo, hi = self.starts[k], self.starts[k + 1]
+            prediction = self.prediction(k)
+            measurement_prediction = self.measurement_prediction(k) if hi > lo else None
+            hypotheses = [SingleProbabilityHypothesis(
+                prediction, self._missed_detection(), Probability(log_missed[k], log_value=True))]
+            hypotheses += [SingleProbabilityHypothesis(
+                prediction, self.detections[j], Probability(log_p, log_value=True),
+                measurement_prediction)
+                for j, log_p in zip(self.candidates[lo:hi], log_marginal[lo:hi])]
+            if gated:  # the hypothesiser's order: the gaters sort by probability
+                order = list(np.argsort(-np.r_[self.missed_log_weight,
+                                               self.log_weights[lo:hi]], kind="stable"))
+                if not ehm:  # JPDA: the missed detection first, with the first hypothesis's
+                    # measurement prediction
+                    if order[0] != 0:
+                        hypotheses[0].measurement_prediction = measurement_prediction
+                    order = [0] + [i for i in order if i != 0]
+                hypotheses = [hypotheses[i] for i in order]
+            out[track] = _multiple(hypotheses, normalise=True)
+        return out
+
+
+def _multiple(hypotheses, normalise):
+    """``MultipleHypothesis(hypotheses, normalise, 1)`` of hypotheses whose probabilities
+    are already normalised (Stone Soup's ``Probability`` arithmetic would only repeat the
+    log-sum-exp, at a few microseconds a hypothesis)."""
+    multiple = MultipleHypothesis(hypotheses, False, 1)
+    multiple.normalise = normalise
+    return multiple

@@ -1,0 +1,107 @@
+"""Stacks of Gaussians: a mixture (components with log weights and labels) and a set of
+tracks, as arrays: (K, d) means and (K, d, d) covariances."""
+import dataclasses
+
+import numpy as np
+
+from .. import _validate
+from ..core import mixture as _mixture
+
+__all__ = ["GaussianMixture", "TrackSet"]
+
+
+@dataclasses.dataclass(frozen=True)
+class GaussianMixture:
+    """K weighted Gaussian components.
+
+    Parameters
+    ----------
+    means : (K, d) array_like
+    covars : (K, d, d) array_like
+        Symmetric positive semi-definite (not checked: a mixture carries what it is given).
+    log_weights : (K,) array_like, optional
+        Unnormalised log weights, -inf for zero (default: equal weights).
+    labels : (K,) array_like of int, optional
+        A label per component (e.g. its track), default all 0.
+    """
+
+    means: np.ndarray
+    covars: np.ndarray
+    log_weights: np.ndarray = None
+    labels: np.ndarray = None
+
+    def __post_init__(self):
+        means = _validate.finite_array(self.means, "means", 2)
+        k, d = means.shape
+        covars = _validate.finite_array(self.covars, "covars", 3)
+        if covars.shape != (k, d, d):
+            raise ValueError(f"covars must have shape ({k}, {d}, {d}), got {covars.shape}")
+        log_weights = np.zeros(k) if self.log_weights is None else \
+            _validate.float_array(self.log_weights, "log_weights", 1)
+        if log_weights.shape != (k,):
+            raise ValueError(f"log_weights must have shape ({k},), got {log_weights.shape}")
+        if np.isnan(log_weights).any() or (log_weights == np.inf).any():
+            raise ValueError("log_weights must not be NaN or +inf")
+        labels = np.zeros(k, dtype=np.int64) if self.labels is None else np.asarray(self.labels)
+        if labels.shape != (k,) or labels.dtype.kind not in "iu":
+            raise ValueError(f"labels must be {k} integers, got {labels.dtype} of shape "
+                             f"{labels.shape}")
+        for name, value in (("means", means), ("covars", covars), ("log_weights", log_weights),
+                            ("labels", labels.astype(np.int64))):
+            object.__setattr__(self, name, value)
+
+    def __len__(self):
+        return self.means.shape[0]
+
+    def reduce(self):
+        """The mixture with each label's components merged into one Gaussian of the same
+        mean and covariance, weighted by their total (see
+        :func:`fasttrack.core.mixture.moment_match`)."""
+        return GaussianMixture(*_mixture.moment_match(self.means, self.covars,
+                                                      self.log_weights, self.labels))
+
+
+@dataclasses.dataclass
+class TrackSet:
+    """Tracks as arrays.
+
+    Attributes
+    ----------
+    ids : (K,) int64 ndarray
+        Track identities, unique over the tracker's life.
+    means : (K, d) float64 ndarray
+    covars : (K, d, d) float64 ndarray
+    updates : (K,) int64 ndarray
+        Number of detections each track has been updated with (its first one included).
+    misses : (K,) int64 ndarray
+        Scans since each track's last detection.
+    ages : (K,) int64 ndarray
+        Scans since each track's first detection.
+    """
+
+    ids: np.ndarray
+    means: np.ndarray
+    covars: np.ndarray
+    updates: np.ndarray
+    misses: np.ndarray
+    ages: np.ndarray
+
+    @classmethod
+    def empty(cls, d):
+        """No tracks of dimension ``d``."""
+        none = np.empty(0, dtype=np.int64)
+        return cls(none, np.empty((0, d)), np.empty((0, d, d)), none.copy(), none.copy(),
+                   none.copy())
+
+    def __len__(self):
+        return self.ids.size
+
+    def take(self, keep):
+        """The tracks selected by a boolean mask or index array."""
+        return TrackSet(*[field[keep] for field in dataclasses.astuple(self)])
+
+    @staticmethod
+    def concatenate(first, second):
+        """The tracks of both sets."""
+        return TrackSet(*[np.concatenate((a, b)) for a, b in
+                          zip(dataclasses.astuple(first), dataclasses.astuple(second))])

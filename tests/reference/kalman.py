@@ -1,0 +1,199 @@
+"""Mirrors of ``fasttrack._jit.kalman``: Kalman prediction and update of one filter, of
+batches of filters, and of batches of tracks (prediction with measurement, update)."""
+import numpy as np
+
+from .jacobian import (measurement_jacobian, measurement_jacobian_function,
+                       transition_jacobian_function)
+from .likelihood import measure
+from .numeric import wrap_angle
+from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
+                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
+                     PRIOR_NOT_SYMMETRIC)
+from .user import output_status
+
+
+FIXED, CV = 0, 1
+
+
+def _transition(kind, rates, fixed_matrix, fixed_covar, dt, d):
+    if kind == FIXED:
+        return fixed_matrix, fixed_covar
+    blocks_f = [np.array([[1.0, dt], [0.0, 1.0]]) for _ in rates]
+    t = abs(dt)
+    blocks_q = [q * np.array([[t ** 3 / 3, t ** 2 / 2], [t ** 2 / 2, t]]) for q in rates]
+    from scipy.linalg import block_diag
+    return block_diag(*blocks_f), block_diag(*blocks_q)
+
+
+def _positive_definite(a):
+    try:
+        np.linalg.cholesky(a)
+        return True
+    except np.linalg.LinAlgError:
+        return False
+
+
+def _positive_semi_definite(a, tolerance=1e-10):
+    values = np.linalg.eigvalsh(a)
+    return values.min() >= -tolerance * max(values.max(), 0.0)
+
+
+def _covariance_status(a, asymmetric, indefinite):
+    if np.abs(a - a.T).max() > 1e-9 * np.abs(a).max():
+        return asymmetric
+    return OK if _positive_semi_definite(a) else indefinite
+
+
+def predict_one(kind, rates, fixed_matrix, fixed_covar, dt, x, covariance, x_out,
+                covariance_out):
+    f, q = _transition(kind, rates, fixed_matrix, fixed_covar, dt, x.shape[0])
+    x_out[:] = f @ x
+    covariance_out[:] = f @ covariance @ f.T + q
+    return _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+
+
+def predict_function(function, dt, covar, central, x, covariance, x_out, covariance_out):
+    f = np.empty((x.shape[0], x.shape[0]))
+    status = transition_jacobian_function(function, dt, x[:, 0], central, f)
+    if status != OK:
+        return status
+    values = function(np.ascontiguousarray(x), dt)
+    status = output_status(values, x.shape[0], 1)
+    if status != OK:
+        return status
+    x_out[:] = values
+    covariance_out[:] = f @ covariance @ f.T + covar
+    return _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+
+
+def _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out, covariance_out,
+                   innovation_covar, cross):
+    cross[:] = covariance @ h.T
+    innovation_covar[:] = h @ cross + noise
+    if not np.isfinite(z).all():
+        return MEASUREMENT_NOT_FINITE
+    if not _positive_definite(innovation_covar):
+        return INNOVATION_NOT_PD
+    gain = cross @ np.linalg.inv(innovation_covar)
+    innovation = z - z_hat
+    innovation[angles] = wrap_angle(innovation[angles])
+    x_out[:] = x + gain @ innovation
+    if joseph:
+        a = np.eye(x.shape[0]) - gain @ h
+        covariance_out[:] = a @ covariance @ a.T + gain @ noise @ gain.T
+    else:
+        covariance_out[:] = covariance - gain @ innovation_covar @ gain.T
+    return OK
+
+
+def update_one(kind, mapping, offset, rotation, noise, angles, method, joseph, x, covariance,
+               z, x_out, covariance_out, z_hat, innovation_covar, cross):
+    m, d = noise.shape[0], x.shape[0]
+    status = _covariance_status(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    if status != OK:
+        return status
+    measure(kind, x, mapping, offset, rotation, z_hat)
+    h = np.empty((m, d))
+    measurement_jacobian(kind, x[:, 0], mapping, offset, rotation, angles, method, h)
+    if not np.isfinite(h).all():
+        return JACOBIAN_UNDEFINED
+    return _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out,
+                          covariance_out, innovation_covar, cross)
+
+
+def update_function(function, noise, angles, central, joseph, x, covariance, z, x_out,
+                    covariance_out, z_hat, innovation_covar, cross):
+    values = function(np.ascontiguousarray(x))
+    status = output_status(values, noise.shape[0], 1)
+    if status != OK:
+        return status
+    h = np.empty((noise.shape[0], x.shape[0]))
+    status = measurement_jacobian_function(function, x[:, 0], angles, central, h)
+    if status != OK:
+        return status
+    status = _covariance_status(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    if status != OK:
+        return status
+    z_hat[:] = values
+    z_hat[angles] = wrap_angle(z_hat[angles])
+    return _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out,
+                          covariance_out, innovation_covar, cross)
+
+
+def _filter_step(t_spec, dt, m_spec, method, joseph, x, covariance, z):
+    d, m = x.size, z.size
+    x_pred, covariance_pred = np.empty((d, 1)), np.empty((d, d))
+    status = predict_one(*t_spec, dt, x[:, None], covariance, x_pred, covariance_pred)
+    x_out, covariance_out = np.empty((d, 1)), np.empty((d, d))
+    code = update_one(*m_spec, method, joseph, x_pred, covariance_pred, z[:, None], x_out,
+                      covariance_out, np.empty((m, 1)), np.empty((m, m)), np.empty((d, m)))
+    return status or code, x_out[:, 0], covariance_out
+
+
+def batch_step(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
+               rotation, noise, angles, method, joseph, means, covariances, measurements,
+               means_out, covariances_out, status):
+    t_spec = (t_kind, rates, fixed_matrix, fixed_covar)
+    m_spec = (m_kind, mapping, offset, rotation, noise, angles)
+    for k in range(means.shape[0]):
+        status[k], means_out[k], covariances_out[k] = _filter_step(
+            t_spec, dts[k], m_spec, method, joseph, means[k], covariances[k], measurements[k])
+
+
+def batch_run(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset, rotation,
+              noise, angles, method, joseph, mean0, covariance0, measurements, means_out,
+              covariances_out, status):
+    t_spec = (t_kind, rates, fixed_matrix, fixed_covar)
+    m_spec = (m_kind, mapping, offset, rotation, noise, angles)
+    steps = measurements.shape[0]
+    for k in range(mean0.shape[0]):
+        x, covariance = mean0[k], covariance0[k]
+        status[k] = (steps, OK)
+        for t in range(steps):
+            code, x, covariance = _filter_step(t_spec, dts[t, k], m_spec, method, joseph, x,
+                                               covariance, measurements[t, k])
+            means_out[t, k], covariances_out[t, k] = x, covariance
+            if code != OK and status[k][1] == OK:
+                status[k] = (t, code)
+
+
+# --- batches of tracks (prediction with measurement, update) -------------------------------
+
+
+def linear_predict(matrix, covar, mapping, noise, means, covariances, means_out,
+                   covariances_out, z_hats, innovation_covars, status):
+    for k in range(means.shape[0]):
+        status[k] = _covariance_status(covariances[k], PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+        means_out[k] = matrix @ means[k]
+        covariances_out[k] = matrix @ covariances[k] @ matrix.T + covar
+        z_hats[k] = means_out[k][mapping]
+        innovation_covars[k] = covariances_out[k][np.ix_(mapping, mapping)] + noise
+
+
+def linear_update(mapping, noise, angles, joseph, means, covariances, measurements, means_out,
+                  covariances_out, status):
+    d, m = means.shape[1], measurements.shape[1]
+    h = np.zeros((m, d))
+    h[np.arange(m), mapping] = 1.0
+    for k in range(means.shape[0]):
+        x_out = np.empty((d, 1))
+        status[k] = _kalman_update(means[k][:, None], covariances[k], measurements[k][:, None],
+                                   means[k][mapping][:, None], h, noise, angles, joseph, x_out,
+                                   covariances_out[k], np.empty((m, m)), np.empty((d, m)))
+        means_out[k] = x_out[:, 0]
+
+
+def batch_predict(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mapping, offset,
+                  rotation, noise, method, means, covariances, means_out, covariances_out,
+                  z_hats, innovation_covars, status):
+    d, m = means.shape[1], z_hats.shape[1]
+    angles = np.zeros(m, dtype=bool)
+    for k in range(means.shape[0]):
+        x, p = np.empty((d, 1)), np.empty((d, d))
+        status[k] = predict_one(t_kind, rates, fixed_matrix, fixed_covar, dts[k],
+                                means[k][:, None], covariances[k], x, p)
+        z_hat, h = np.empty((m, 1)), np.empty((m, d))
+        measure(m_kind, x, mapping, offset, rotation, z_hat)
+        measurement_jacobian(m_kind, x[:, 0], mapping, offset, rotation, angles, method, h)
+        means_out[k], covariances_out[k] = x[:, 0], p
+        z_hats[k], innovation_covars[k] = z_hat[:, 0], h @ p @ h.T + noise

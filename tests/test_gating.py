@@ -1,0 +1,314 @@
+"""Gating, clustering and nearest-neighbour association against dense mirrors, and the
+batched track prediction and update."""
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import fasttrack as ft
+from fasttrack.core.gating import clusters, gate
+from fasttrack.core.assign import global_nearest_neighbour, nearest_neighbour
+from fasttrack._jit import gating as kernels
+from fasttrack.core import stack
+from fasttrack.core.kalman import JACOBIANS as ft_jacobians
+
+import reference.gating
+import reference.kalman
+
+
+def _scenario(n_tracks, n_detections, spread, seed, m=2):
+    rng = np.random.default_rng(seed)
+    z_hats = rng.uniform(0, spread, (n_tracks, m))
+    roots = rng.normal(0, 1, (n_tracks, m, m)) * rng.uniform(0.3, 2.0, (n_tracks, 1, 1))
+    covars = roots @ roots.transpose(0, 2, 1) + 0.2 * np.eye(m)
+    near = z_hats[rng.integers(0, n_tracks, n_detections)] + rng.normal(0, 1.5, (n_detections, m))
+    far = rng.uniform(-5, spread + 5, (n_detections, m))
+    detections = np.where(rng.random((n_detections, 1)) < 0.7, near, far)
+    return z_hats, covars, detections
+
+
+def _mirror_gate(z_hats, covars, detections, threshold, angles):
+    d2, ll = reference.gating._dense_gate(z_hats, covars, detections, angles, threshold)
+    return d2, np.where(np.isfinite(d2), ll, -np.inf)
+
+
+@pytest.mark.parametrize("grid_axes", [None, (1,), (), (1, 0)])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_gate_equals_the_dense_mirror(seed, grid_axes):
+    z_hats, covars, detections = _scenario(60, 150, 40.0, seed, m=3)
+    result = gate(z_hats, covars, detections, 9.0, grid_axes=grid_axes)
+    d2, ll = _mirror_gate(z_hats, covars, detections, 9.0, np.zeros(3, bool))
+    assert np.isfinite(d2).sum() > 50
+    np.testing.assert_array_equal(np.isfinite(result.dense()), np.isfinite(d2))
+    np.testing.assert_allclose(result.dense()[np.isfinite(d2)], d2[np.isfinite(d2)],
+                               rtol=1e-12)
+    np.testing.assert_allclose(result.dense("log_likelihoods", -np.inf)[np.isfinite(d2)],
+                               ll[np.isfinite(d2)], rtol=1e-12)
+    for k in range(result.n_tracks):  # ascending detections per track
+        assert np.all(np.diff(result.detections[result.starts[k]:result.starts[k + 1]]) > 0)
+
+
+def test_gate_wraps_angles_and_handles_tracks_outside_the_detections():
+    z_hats = np.array([[np.pi - 0.01, 10.0], [-np.pi + 0.02, 500.0], [0.0, -300.0]])
+    covars = np.broadcast_to(np.diag([0.01, 4.0]), (3, 2, 2)).copy()
+    covars[2] *= 1e6  # a gate wider than the whole grid
+    detections = np.array([[-np.pi + 0.01, 10.5], [np.pi - 0.03, 499.0], [0.0, 10.0]])
+    angles = np.array([True, False])
+    result = gate(z_hats, covars, detections, 16.0, angles=angles)
+    d2, _ = _mirror_gate(z_hats, covars, detections, 16.0, angles)
+    np.testing.assert_array_equal(np.isfinite(result.dense()), np.isfinite(d2))
+    assert result.dense()[0, 0] < 1 and result.dense()[1, 1] < 1  # across the +-pi seam
+    assert list(result.detections[result.starts[2]:]) == [0, 1, 2]
+
+
+def test_gate_kernels_match_their_mirrors():
+    z_hats, covars, detections = _scenario(30, 80, 30.0, 5)
+    axes, angles = np.array([0, 1]), np.zeros(2, bool)
+    origin, cell, shape = np.array([-5.0, -5.0]), 2.5, np.array([16, 16])
+    keys, want = np.empty(80, np.int64), np.empty(80, np.int64)
+    kernels.cell_keys(detections, axes, origin, cell, shape, keys)
+    reference.gating.cell_keys(detections, axes, origin, cell, shape, want)
+    np.testing.assert_array_equal(keys, want)
+    order = np.argsort(keys, kind="stable")
+    grid = (z_hats, covars, detections, order, keys[order].copy(), axes, angles, origin, cell,
+            shape, 9.0)
+    none = np.empty(0, np.int64), np.empty(0), np.empty(0)
+    starts, want_starts = np.empty(31, np.int64), np.empty(31, np.int64)
+    status = np.empty(30, np.int64)
+    kernels.gate(*grid, False, starts, *none, status)
+    reference.gating.gate(*grid, False, want_starts, *none, status)
+    np.testing.assert_array_equal(starts, want_starts)
+    n = starts[-1]
+    got = np.empty(n, np.int64), np.empty(n), np.empty(n)
+    ref = np.empty(n, np.int64), np.empty(n), np.empty(n)
+    kernels.gate(*grid, True, starts, *got, status)
+    reference.gating.gate(*grid, True, starts, *ref, status)
+    np.testing.assert_array_equal(got[0], ref[0])
+    np.testing.assert_allclose(got[1], ref[1], rtol=1e-12)
+    np.testing.assert_allclose(got[2], ref[2], rtol=1e-12)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 12), st.integers(0, 15), st.floats(2.0, 30.0), st.integers(0, 2**31))
+def test_every_gated_pair_is_in_one_cluster_and_clusters_match_the_mirror(k, m, spread, seed):
+    z_hats, covars, detections = _scenario(k, m, spread, seed)
+    result = gate(z_hats, covars, detections, 9.0)
+    groups = clusters(result)
+    np.testing.assert_array_equal(groups.detection_labels[result.detections],
+                                  groups.track_labels[result.tracks()])
+    labels = np.empty(k + m, np.int64)
+    n = reference.gating.clusters(result.starts, result.detections, m, labels)
+    assert groups.n_clusters == n
+    np.testing.assert_array_equal(np.r_[groups.track_labels, groups.detection_labels], labels)
+
+
+def _total(assigned, distances, missed):
+    return sum(distances[k, j] if j >= 0 else missed for k, j in enumerate(assigned))
+
+
+def _brute_force(distances, missed):
+    k, m = distances.shape
+    best = np.inf
+    for choice in itertools.product(range(-1, m), repeat=k):
+        used = [j for j in choice if j >= 0]
+        if len(used) == len(set(used)) and all(np.isfinite(distances[i, j])
+                                               for i, j in enumerate(choice) if j >= 0):
+            best = min(best, _total(choice, distances, missed))
+    return best
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 5), st.integers(0, 5), st.floats(1.0, 8.0), st.integers(0, 2**31))
+def test_global_nearest_neighbour_is_optimal_against_brute_force(k, m, spread, seed):
+    z_hats, covars, detections = _scenario(k, m, spread, seed)
+    result = gate(z_hats, covars, detections, 9.0)
+    distances = np.sqrt(result.dense())
+    assigned = global_nearest_neighbour(result, 2.5)
+    assert len(set(assigned[assigned >= 0])) == (assigned >= 0).sum()
+    assert all(np.isfinite(distances[i, j]) for i, j in enumerate(assigned) if j >= 0)
+    assert _total(assigned, distances, 2.5) == pytest.approx(_brute_force(distances, 2.5))
+
+
+def test_global_nearest_neighbour_equals_one_dense_assignment_at_scale():
+    from scipy.optimize import linear_sum_assignment
+    z_hats, covars, detections = _scenario(400, 500, 300.0, 9)
+    result = gate(z_hats, covars, detections, 25.0)
+    distances = np.sqrt(result.dense())
+    augmented = np.full((400, 900), np.inf)
+    augmented[:, :500] = distances
+    augmented[np.arange(400), 500 + np.arange(400)] = 5.0
+    _, columns = linear_sum_assignment(augmented)
+    want = np.where(columns < 500, columns, -1)
+    assigned = global_nearest_neighbour(result, 5.0)
+    assert clusters(result).n_clusters > 100
+    np.testing.assert_array_equal(assigned, want)  # continuous costs: no ties
+
+
+def test_gnn_kernels_match_their_mirrors():
+    z_hats, covars, detections = _scenario(40, 60, 20.0, 3)
+    result = gate(z_hats, covars, detections, 9.0)
+    groups = clusters(result)
+    labels = np.r_[groups.track_labels, groups.detection_labels]
+    c, k, m = groups.n_clusters, 40, 60
+    outs = [(np.empty((c, 2), np.int64), np.empty(c + 1, np.int64), np.empty(c + 1, np.int64),
+             np.empty(k, np.int64), np.empty(m, np.int64)) for _ in range(2)]
+    size = kernels.gnn_problems(labels, c, k, m, *outs[0])
+    assert size == reference.gating.gnn_problems(labels, c, k, m, *outs[1])
+    for a, b in zip(*outs):
+        np.testing.assert_array_equal(a, b)
+    shapes, offsets, row_offsets, rows, columns = outs[0]
+    costs, missed = np.sqrt(result.distances2), np.full(k, 3.0)
+    flat, want = np.empty(size), np.empty(size)
+    kernels.gnn_fill(labels, result.starts, result.detections, costs, missed, shapes, offsets,
+                     rows, columns, flat)
+    reference.gating.gnn_fill(labels, result.starts, result.detections, costs, missed, shapes,
+                              offsets, rows, columns, want)
+    np.testing.assert_array_equal(flat, want)
+    row_to_col = np.array([np.random.default_rng(q).integers(-1, shapes[c_, 1])
+                           for c_ in range(c) for q in range(shapes[c_, 0])], np.int64)
+    got, ref = np.empty(k, np.int64), np.empty(k, np.int64)
+    kernels.gnn_assignments(labels, shapes, row_offsets, rows, columns, m, row_to_col, got)
+    reference.gating.gnn_assignments(labels, shapes, row_offsets, rows, columns, m, row_to_col, ref)
+    np.testing.assert_array_equal(got, ref)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_nearest_neighbour_matches_the_greedy_mirror(seed):
+    z_hats, covars, detections = _scenario(30, 40, 10.0, seed)
+    result = gate(z_hats, covars, detections, 16.0)
+    assigned = nearest_neighbour(result, 3.0)
+    want = np.empty(30, np.int64)
+    reference.gating.greedy_assignments(result.starts, result.detections,
+                                        np.sqrt(result.distances2), np.full(30, 3.0), 40, want)
+    np.testing.assert_array_equal(assigned, want)
+    greedy = _total(assigned, np.sqrt(result.dense()), 3.0)
+    optimal = _total(global_nearest_neighbour(result, 3.0), np.sqrt(result.dense()), 3.0)
+    assert optimal <= greedy + 1e-12
+
+
+def test_bad_gate_input_names_the_argument():
+    z_hats, covars, detections = _scenario(3, 4, 10.0, 0)
+    with pytest.raises(ValueError, match=r"innovation_covars must have shape \(3, 2, 2\)"):
+        gate(z_hats, covars[:2], detections, 9.0)
+    with pytest.raises(ValueError, match=r"detections must have shape \(M, 2\)"):
+        gate(z_hats, covars, detections[:, :1], 9.0)
+    with pytest.raises(ValueError, match="threshold must be > 0"):
+        gate(z_hats, covars, detections, 0.0)
+    with pytest.raises(ValueError, match="z_hats contains NaN"):
+        gate(np.full((3, 2), np.nan), covars, detections, 9.0)
+    bad = covars.copy()
+    bad[1] = -np.eye(2)
+    with pytest.raises(ValueError, match=r"innovation_covars\[1\] is not positive definite"):
+        gate(z_hats, bad, detections, 9.0)
+    with pytest.raises(ValueError, match="grid_axes must not be angle rows"):
+        gate(z_hats, covars, detections, 9.0, angles=[True, False], grid_axes=(0,))
+    result = gate(z_hats, covars, detections, 9.0)
+    with pytest.raises(ValueError, match="missed_distance must be > 0"):
+        global_nearest_neighbour(result, -1.0)
+
+
+def test_no_tracks_or_no_detections():
+    z_hats, covars, detections = _scenario(3, 4, 10.0, 0)
+    empty = gate(z_hats, covars, np.empty((0, 2)), 9.0)
+    assert list(global_nearest_neighbour(empty, 3.0)) == [-1, -1, -1]
+    none = gate(np.empty((0, 2)), np.empty((0, 2, 2)), detections, 9.0)
+    assert global_nearest_neighbour(none, 3.0).size == 0
+    assert clusters(none).n_clusters == 4
+
+
+def _cv_batch():
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    return ft.BatchExtendedKalmanFilter(transition, ft.LinearGaussian(4, (0, 2), np.eye(2)))
+
+
+def test_batch_predict_then_update_equals_step():
+    rng = np.random.default_rng(4)
+    means = rng.normal(0, 10, (300, 4))
+    covars = np.broadcast_to(np.diag([1.0, 0.1, 1.0, 0.1]), (300, 4, 4)).copy()
+    measurements = rng.normal(0, 10, (300, 2))
+    batch = _cv_batch()
+    x, p, z_hats, s = batch.predict(means, covars, 1.0)
+    np.testing.assert_allclose(z_hats, x[:, [0, 2]])
+    np.testing.assert_allclose(s, p[:, [0, 2]][:, :, [0, 2]] + np.eye(2), rtol=1e-12)
+    posterior = batch.update(x, p, measurements)
+    for got, want in zip(posterior, batch.step(means, covars, measurements, 1.0)):
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+
+def test_batch_predict_kernel_matches_its_mirror():
+    from fasttrack._jit import kalman
+    rng = np.random.default_rng(1)
+    batch = ft.BatchExtendedKalmanFilter(
+        ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2),
+        ft.CartesianToBearingRange(4, (0, 2), np.diag([1e-4, 1.0])))
+    means = rng.normal(0, 10, (5, 4)) + np.array([30.0, 0, 30, 0])
+    covars = np.broadcast_to(np.eye(4), (5, 4, 4)).copy()
+    dts = np.full(5, 1.0)
+    spec = stack.transition(batch.transition_model, dts)
+    model = batch.measurement_model
+    m_spec = (model.kind, model.spec.mapping, model.spec.offset, model.spec.rotation, model.spec.noise_covar,
+              ft_jacobians[batch.jacobian])
+    outs = [(np.empty((5, 4)), np.empty((5, 4, 4)), np.empty((5, 2)), np.empty((5, 2, 2)),
+             np.zeros(5, np.int64)) for _ in range(2)]
+    kalman.batch_predict(*spec, dts, *m_spec, means, covars, *outs[0])
+    reference.kalman.batch_predict(*spec, dts, *m_spec, means, covars, *outs[1])
+    for a, b in zip(*outs):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("joseph", [True, False])
+def test_linear_kernels_match_their_mirrors(joseph):
+    from fasttrack._jit import kalman
+    rng = np.random.default_rng(2)
+    batch = _cv_batch()
+    means = rng.normal(0, 10, (7, 4))
+    roots = rng.normal(0, 1, (7, 4, 4))
+    covars = roots @ roots.transpose(0, 2, 1) + np.eye(4)
+    model = batch.measurement_model
+    f = batch.transition_model.matrix(time_interval=1.5)
+    q = batch.transition_model.covar(time_interval=1.5)
+    outs = [(np.empty((7, 4)), np.empty((7, 4, 4)), np.empty((7, 2)), np.empty((7, 2, 2)),
+             np.zeros(7, np.int64)) for _ in range(2)]
+    kalman.linear_predict(f, q, model.spec.mapping, model.spec.noise_covar, means, covars, *outs[0])
+    reference.kalman.linear_predict(f, q, model.spec.mapping, model.spec.noise_covar, means, covars,
+                                    *outs[1])
+    for a, b in zip(*outs):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
+    z = rng.normal(0, 10, (7, 2))
+    updated = [(np.empty((7, 4)), np.empty((7, 4, 4)), np.zeros(7, np.int64)) for _ in range(2)]
+    args = (model.spec.mapping, model.spec.noise_covar, model.spec.angles, joseph, outs[0][0], outs[0][1],
+            z)
+    kalman.linear_update(*args, *updated[0])
+    reference.kalman.linear_update(*args, *updated[1])
+    for a, b in zip(*updated):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+
+
+def test_batch_update_of_a_nonlinear_sensor_equals_step():
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    batch = ft.BatchExtendedKalmanFilter(
+        transition, ft.CartesianToBearingRange(4, (0, 2), np.diag([1e-4, 1.0])))
+    rng = np.random.default_rng(3)
+    means = rng.normal(0, 10, (20, 4)) + np.array([40.0, 0, 40, 0])
+    covars = np.broadcast_to(np.eye(4), (20, 4, 4)).copy()
+    measurements = np.column_stack([rng.uniform(0.6, 0.9, 20), rng.uniform(50, 60, 20)])
+    x, p, _, _ = batch.predict(means, covars, 1.0)
+    for got, want in zip(batch.update(x, p, measurements),
+                         batch.step(means, covars, measurements, 1.0)):
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+
+def test_batch_predict_and_update_name_a_bad_filter():
+    batch = _cv_batch()
+    covars = np.broadcast_to(np.eye(4), (3, 4, 4)).copy()
+    covars[2, 0, 0] = -1.0
+    with pytest.raises(ValueError, match="filter 2: .*prior"):
+        batch.predict(np.zeros((3, 4)), covars, 1.0)
+    covars[2, 0, 0], covars[2, 2, 2] = 1.0, -2.0  # S = P[mapping, mapping] + R = -1
+    with pytest.raises(ValueError, match="filter 2: .*innovation"):
+        batch.update(np.zeros((3, 4)), covars, np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="measurements contains NaN"):
+        batch.update(np.zeros((3, 4)), np.broadcast_to(np.eye(4), (3, 4, 4)),
+                     np.full((3, 2), np.nan))

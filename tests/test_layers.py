@@ -1,0 +1,118 @@
+"""The package's layering, read from its source (``DESIGN``: arrows only point down):
+only :mod:`fasttrack.core` calls kernels, no module outside :mod:`fasttrack.models` reads
+a model's private attributes, no class builds a filter class to use it as an engine, and
+no module is long."""
+import ast
+import pathlib
+
+import fasttrack as ft
+
+PACKAGE = pathlib.Path(ft.__file__).parent
+#: Modules of fasttrack._jit that hold no kernel: the status table and the cache, which any
+#: layer may read, and the decorator's registry of kernels (the warm-up's).
+NOT_KERNELS = {"fasttrack._jit", "fasttrack._jit.status", "fasttrack._jit.cache"}
+#: The filter classes, which only the faces (demo, CLI, warm-up, Monte Carlo) build.
+FILTER_MODULES = ("predictor", "updater", "smoother", "batch", "tracker", "resampler")
+FACES = {"__main__.py", "demo.py", "_demo_stonesoup.py", "_warmup.py", "plotting.py",
+         "montecarlo", "filtering.py"}
+
+
+def _sources():
+    return sorted(p for p in PACKAGE.rglob("*.py") if "_kernels" not in p.parts)
+
+
+def _name(path):
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(path):
+    """Absolute names of the modules ``path`` imports (``from X import m`` names the
+    submodule X.m when there is one)."""
+    package = _name(path).split(".")
+    if path.name != "__init__.py":
+        package = package[:-1]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            base = package[:len(package) - node.level + 1] if node.level else []
+            module = ".".join(base + ([node.module] if node.module else []))
+            for alias in node.names:
+                candidate = f"{module}.{alias.name}"
+                relative = pathlib.Path(*candidate.split(".")[1:])
+                is_module = (PACKAGE / relative).with_suffix(".py").exists() \
+                    or (PACKAGE / relative / "__init__.py").exists()
+                found.add(candidate if is_module else module)
+    return found
+
+
+def test_only_the_array_layer_imports_kernels():
+    for path in _sources():
+        if path.parent.name in ("core", "_jit"):
+            continue
+        kernels = {m for m in _imports(path)
+                   if m.startswith("fasttrack._jit") and m not in NOT_KERNELS}
+        assert not kernels, f"{_name(path)} imports kernel modules {sorted(kernels)}"
+
+
+def _model_private_names():
+    """Private attribute and method names the model classes define."""
+    names = set()
+    for path in (PACKAGE / "models").glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ClassDef):
+                for item in ast.walk(node):
+                    if isinstance(item, ast.FunctionDef) and item.name.startswith("_") \
+                            and not item.name.endswith("__"):
+                        names.add(item.name)
+                    if isinstance(item, ast.Attribute) and isinstance(item.ctx, ast.Store) \
+                            and isinstance(item.value, ast.Name) and item.value.id == "self" \
+                            and item.attr.startswith("_"):
+                        names.add(item.attr)
+    return names
+
+
+def test_no_module_outside_the_models_reads_their_private_attributes():
+    private = _model_private_names()
+    assert {"_mapping", "_noise_covar", "_matrix", "_function"} <= private
+    for path in _sources():
+        if path.parent.name == "models":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Attribute) and node.attr in private \
+                    and not (isinstance(node.value, ast.Name) and node.value.id in ("self", "cls")):
+                assert False, (f"{_name(path)} line {node.lineno} reads .{node.attr}, a "
+                               f"model's private attribute")
+
+
+def _filter_classes():
+    names = set()
+    for module in FILTER_MODULES:
+        for node in ast.parse((PACKAGE / f"{module}.py").read_text()).body:
+            if isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
+                names.add(node.name)
+    return names
+
+
+def test_no_class_builds_a_filter_class_as_an_engine():
+    """Only the faces build filter classes; a class may default a component to one of its
+    own module (``ESSResampler``'s ``SystematicResampler``, as Stone Soup's)."""
+    classes = _filter_classes()
+    assert {"BatchExtendedKalmanFilter", "MultiTargetTracker", "KalmanUpdater"} <= classes
+    for path in _sources():
+        if FACES & {path.name, path.parent.name}:
+            continue
+        tree = ast.parse(path.read_text())
+        own = {node.name for node in tree.body if isinstance(node, ast.ClassDef)}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call):
+                called = getattr(node.func, "id", getattr(node.func, "attr", None))
+                assert called not in classes - own, (f"{_name(path)} line {node.lineno} "
+                                                     f"builds a {called}")
+
+
+def test_no_module_is_long():
+    lengths = {_name(p): len(p.read_text().splitlines()) for p in _sources()}
+    assert not {name: n for name, n in lengths.items() if n > 600}
