@@ -8,10 +8,8 @@ truncated, parsed or cast; counts and indices must be integers (not floats or bo
 import numbers
 
 import numpy as np
+from ._jit.tunables import PSD_TOLERANCE
 
-#: Relative tolerance of the positive semi-definiteness checks: an eigenvalue (or a
-#: Cholesky pivot) below ``-PSD_TOLERANCE`` times the largest is negative, not rounding.
-PSD_TOLERANCE = 1e-10
 
 #: Largest particle count accepted (2**40, about 1.1e12): any more could not be stored.
 MAX_COUNT = 2**40

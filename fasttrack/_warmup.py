@@ -230,8 +230,9 @@ def warmup(families=None, processes=1, report=None, load=True):
     Parameters
     ----------
     families : iterable of str, optional
-        Some of 'resamplers', 'particle_filter', 'kalman', 'unscented', 'batch',
-        'adaptive_kernel', 'multi_target', 'smoothers' (default: all).
+        Some of the family words of :data:`FAMILIES`: 'kalman', 'unscented', 'akkf',
+        'smooth', 'gating', 'assign', 'jpda', 'mixture', 'resample', 'particle' (default:
+        all).
     processes : int
         With more than one, compile in that many worker processes at once, which fill the
         shared cache, then load from it: on a first run, up to ``processes`` times faster.

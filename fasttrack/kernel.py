@@ -12,15 +12,12 @@ from . import _validate
 from .core import akkf as _akkf
 from .core.kinds import GAUSSIAN, POLYNOMIAL
 from .models.base import state_columns
+from ._jit.tunables import NEGLIGIBLE_KERNEL as NEGLIGIBLE
 
 __all__ = [
     "Kernel", "PolynomialKernel", "LinearKernel", "QuadraticKernel", "QuarticKernel",
     "GaussianKernel",
 ]
-
-#: A filter's Gaussian kernel of fixed variance whose value between typical points (at
-#: their median squared distance) is below this carries no information between them.
-NEGLIGIBLE = 1e-6
 
 
 class Kernel:

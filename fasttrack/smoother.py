@@ -368,14 +368,8 @@ class KalmanSmoother:
             x_pred, covar_pred = x_pred.reshape(x.shape), covar_pred.reshape(covar.shape)
             recompute = np.zeros(n, dtype=np.uint8)
         intervals = self._intervals(time_intervals, n)
-        values, step = np.unique(intervals, return_inverse=True)
-        if values.size == 0:
-            values = np.zeros(1)
-        matrices = np.array([np.asarray(model.matrix(dt), dtype=np.float64) for dt in values])
-        noises = np.array([np.asarray(model.covar(dt), dtype=np.float64) for dt in values])
-        step = np.ascontiguousarray(np.append(step, 0), dtype=np.int64)
-        x_out, covar_out, status = _smooth.rts(x, covar, x_pred, covar_pred, recompute,
-                                               matrices, noises, step)
+        x_out, covar_out, status = _smooth.rts_linear(model, x, covar, x_pred, covar_pred,
+                                                      recompute, intervals)
         if status:
             k, t = divmod(status - 1, n)
             where = f"time {t}" if single else f"track {k}, time {t}"

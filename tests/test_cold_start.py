@@ -441,7 +441,7 @@ def test_every_kernel_a_first_step_can_reach_is_shipped():
 def test_warmup_after_install_loads_the_shipped_kernels_and_compiles_nothing(tmp_path):
     _shipped_or_skip()
     done = subprocess.run([sys.executable, "-m", "fasttrack", "warmup", "--cache-dir",
-                           str(tmp_path), "--families", "resamplers", "--processes", "1"],
+                           str(tmp_path), "--families", "resample", "--processes", "1"],
                           capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert done.returncode == 0, done.stderr
     assert done.stdout.startswith("the kernels shipped with fasttrack serve these families")

@@ -8,9 +8,11 @@ import pathlib
 import fasttrack as ft
 
 PACKAGE = pathlib.Path(ft.__file__).parent
-#: Modules of fasttrack._jit that hold no kernel: the status table and the cache, which any
-#: layer may read, and the decorator's registry of kernels (the warm-up's).
-NOT_KERNELS = {"fasttrack._jit", "fasttrack._jit.status", "fasttrack._jit.cache"}
+#: Modules of fasttrack._jit that hold no kernel: the status table, the tunables and the
+#: cache, which any layer may read, and the decorator's registry of kernels (the
+#: warm-up's).
+NOT_KERNELS = {"fasttrack._jit", "fasttrack._jit.status", "fasttrack._jit.cache",
+               "fasttrack._jit.tunables"}
 #: The filter classes, which only the faces (demo, CLI, warm-up, Monte Carlo) build.
 FILTER_MODULES = ("predictor", "updater", "smoother", "batch", "tracker", "resampler")
 FACES = {"__main__.py", "demo.py", "_demo_stonesoup.py", "_warmup.py", "plotting.py",
@@ -90,9 +92,12 @@ def test_no_module_outside_the_models_reads_their_private_attributes():
 def _filter_classes():
     names = set()
     for module in FILTER_MODULES:
-        for node in ast.parse((PACKAGE / f"{module}.py").read_text()).body:
-            if isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
-                names.add(node.name)
+        package = PACKAGE / module
+        paths = package.glob("*.py") if package.is_dir() else [package.with_suffix(".py")]
+        for path in paths:
+            for node in ast.parse(path.read_text()).body:
+                if isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
+                    names.add(node.name)
     return names
 
 
@@ -100,15 +105,19 @@ def test_no_class_builds_a_filter_class_as_an_engine():
     """Only the faces build filter classes; a class may default a component to one of its
     own module (``ESSResampler``'s ``SystematicResampler``, as Stone Soup's)."""
     classes = _filter_classes()
-    assert {"BatchExtendedKalmanFilter", "MultiTargetTracker", "KalmanUpdater"} <= classes
+    assert {"BatchExtendedKalmanFilter", "MultiTargetTracker", "KalmanUpdater",
+            "ParticlePredictor"} <= classes
     for path in _sources():
         if FACES & {path.name, path.parent.name}:
             continue
         tree = ast.parse(path.read_text())
         own = {node.name for node in tree.body if isinstance(node, ast.ClassDef)}
+        aliases = {alias.asname: alias.name for node in ast.walk(tree)
+                   if isinstance(node, ast.ImportFrom) for alias in node.names if alias.asname}
         for node in ast.walk(tree):
             if isinstance(node, ast.Call):
                 called = getattr(node.func, "id", getattr(node.func, "attr", None))
+                called = aliases.get(called, called)
                 assert called not in classes - own, (f"{_name(path)} line {node.lineno} "
                                                      f"builds a {called}")
 

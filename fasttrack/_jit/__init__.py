@@ -43,6 +43,7 @@ from numba.core.registry import CPUDispatcher
 
 from . import cache
 from .. import threads
+from .tunables import SERIAL_BELOW_HEAVY, SERIAL_BELOW_LIGHT
 
 #: Floating-point relaxations allowed in kernels. ``nnan``/``ninf`` are excluded because
 #: ``-inf`` log weights are legal; ``reassoc`` is excluded because it lets LLVM rewrite
@@ -230,13 +231,6 @@ def layer_is_threadsafe():
 
 #: Whether calls must be serialised (the threading layer is not thread-safe).
 SERIALISE = not layer_is_threadsafe()
-
-#: Work sizes (elements of a kernel's ``size`` argument) below which it runs on one thread,
-#: from the measured crossovers on 2 cores: kernels doing tens of flops per element (a
-#: transition, a likelihood, Gram rows) pay for a second thread from about 4,000 particles
-#: of 4 components; those doing a few (weights, sums, gathers) from about 32,000 elements.
-SERIAL_BELOW_HEAVY = 16_384
-SERIAL_BELOW_LIGHT = 32_768
 
 
 def _uncompiled(func, strict):

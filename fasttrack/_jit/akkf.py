@@ -39,7 +39,7 @@ import numpy as np
 from . import jit
 from .gram import MATRIX, factor
 from .numeric import fill_normals
-
+from .tunables import CHOLESKY_CONDITION as _CHOLESKY_CONDITION
 
 
 @jit()
@@ -59,12 +59,6 @@ def _reflect(rows, v):
         scale = 2.0 * dot / vv
         for j in range(v.size):
             row[j] -= scale * v[j]
-
-
-#: Up to this bound on the condition number of ``F F^T + lam I`` the ridge map is computed
-#: through its Cholesky factorisation (relative error about cond * eps <= 2e-8); above it,
-#: by LQ, whose error grows with the square root of the condition number only.
-_CHOLESKY_CONDITION = 1e8
 
 
 @jit()

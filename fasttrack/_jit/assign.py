@@ -39,11 +39,7 @@ import numpy as np
 from numba import prange
 
 from . import jit
-
-#: Work (``truths.size`` or ``costs.size`` elements) below which the batched kernels run on
-#: one thread: every element costs a row of a Dijkstra search or more, so a second thread
-#: pays from a few thousand.
-SERIAL_BELOW_ASSIGN = 4096
+from .tunables import SERIAL_BELOW_ASSIGN
 
 
 @jit(strict=True)

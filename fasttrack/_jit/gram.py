@@ -21,12 +21,9 @@ from numba import prange
 
 from . import SERIAL_BELOW_HEAVY, jit
 from .numeric import fast_exp
+from .tunables import MEDIAN_PAIRS as _PAIRS
 
 POLYNOMIAL, GAUSSIAN, MATRIX = np.int64(0), np.int64(1), np.int64(2)
-
-
-#: Pairs of points sampled by the median heuristic when there are more than all pairs.
-_PAIRS = 256
 
 
 @jit()

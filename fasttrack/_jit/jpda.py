@@ -36,9 +36,8 @@ from numba import prange
 from . import SERIAL_BELOW_HEAVY, jit
 from .numeric import wrap_angle
 from .status import INNOVATION_NOT_PD, OK
+from .tunables import MAX_FRONTIER
 
-#: Most detections a level's frontier may hold (bits of an int64 below its sign bit).
-MAX_FRONTIER = 63
 
 EHM_OK = np.int64(0)
 #: A frontier wider than MAX_FRONTIER detections.

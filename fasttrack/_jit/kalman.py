@@ -35,9 +35,9 @@ from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINI
                      PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
                      PRIOR_NOT_SYMMETRIC)
 from .user import output_status
+from .tunables import FILTERS_PER_BLOCK
 
 FIXED, CV = np.int64(0), np.int64(1)
-FILTERS_PER_BLOCK = 128
 
 
 @jit()

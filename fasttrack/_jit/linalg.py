@@ -4,7 +4,7 @@ block's count ``nb`` first (see :mod:`kalman`)."""
 import numpy as np
 
 from . import jit
-from .._validate import PSD_TOLERANCE
+from .tunables import PSD_TOLERANCE
 from .status import OK
 
 

@@ -8,11 +8,8 @@ from numba.core import config
 from numba.extending import intrinsic
 
 from . import jit
+from .tunables import BLOCK
 
-#: Particles per block in the kernels over particle clouds (propagation, likelihoods, weight
-#: sums): a block of a few rows fits a core's L1 cache, and the random stream's layout
-#: depends on it.
-BLOCK = 1024
 
 if config.DISABLE_JIT:  # the same bit casts in Python, so that every kernel runs uncompiled
     def _int64_bits_as_float64(bits):

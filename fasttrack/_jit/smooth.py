@@ -4,10 +4,9 @@ import numpy as np
 
 from . import jit, with_constant
 from .numeric import fast_exp
+from .tunables import FFBS_BLOCK as _BLOCK
+from .tunables import MAX_PROPOSALS, PROPOSAL_COST, UNROLLED_DIMENSIONS
 
-#: State dimensions for which :func:`rts_kernel` compiles the pass with the dimension a
-#: constant, so that LLVM unrolls the loops over it (d = 4: 2.0x faster a step).
-UNROLLED_DIMENSIONS = (2, 4, 6)
 
 #: The state dimension :func:`rts` is compiled for; 0: any (read from the arrays).
 _DIMENSION = 0
@@ -148,22 +147,6 @@ def rts(x, covar, x_pred, covar_pred, recompute, matrix, noise, step, x_out, cov
                     covar_out[k, t, j, i] = acc
     return 0
 
-
-#: Proposals from the filter weights that the rejection draw of :func:`ffbs` makes for one
-#: path and step before it falls back to the exact draw. This bounds the cost of a path in
-#: the tail of the transition density to 32 proposals more than the exact draw (as much as
-#: 2048 / N exact draws, see :data:`PROPOSAL_COST`), while a path accepting one proposal
-#: in 10 still falls back only 3 % of the time.
-MAX_PROPOSALS = 32
-
-#: The cost of one proposal (two uniforms, a bisection, a distance) in units of one
-#: particle's term of the exact draw, measured on 2 cores at N = 1000, d = 4 (about 90 ns
-#: against 1.4 ns): rejection pays while its acceptance rate exceeds this over N.
-PROPOSAL_COST = 64.0
-
-#: Weights are summed in blocks of this many (independent sums that the processor overlaps),
-#: and searched block by block.
-_BLOCK = 16
 
 #: Below this, a sum of weights taken relative to a bound of their maximum may have lost
 #: bits to underflow; they are then taken relative to their maximum.

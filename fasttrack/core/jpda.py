@@ -30,14 +30,7 @@ import numpy as np
 
 from .. import _validate
 from .._jit import jpda as _kernels
-
-#: Default most nodes of one cluster's EHM net (memory: roughly 8 bytes per node, 8 per
-#: node and hypothesis, plus 16 for its forward and backward weights).
-MAX_NODES = 2**22
-
-#: Most detections shared across a cut of a cluster's track order (see
-#: :mod:`fasttrack._jit.jpda`).
-MAX_FRONTIER = _kernels.MAX_FRONTIER
+from .._jit.tunables import MAX_FRONTIER, MAX_NODES
 
 
 def _probability(value, name):

@@ -20,6 +20,19 @@ def rts(x, covar, x_pred, covar_pred, recompute, matrices, noises, step):
     return x_out, covar_out, status
 
 
+def rts_linear(model, x, covar, x_pred, covar_pred, recompute, intervals):
+    """:func:`rts` of K tracks on the same ``intervals`` (n - 1,) seconds through a linear
+    transition ``model`` (its F and Q at each distinct interval)."""
+    values, step = np.unique(intervals, return_inverse=True)
+    if values.size == 0:
+        values = np.zeros(1)
+    specs = [model.spec(float(dt)) for dt in values]
+    matrices = np.array([spec.matrix for spec in specs])
+    noises = np.array([spec.noise for spec in specs])
+    step = np.ascontiguousarray(np.append(step, 0), dtype=np.int64)
+    return rts(x, covar, x_pred, covar_pred, recompute, matrices, noises, step)
+
+
 def ffbs(x, log_weights, mean_next, whitening, n_paths, key, rejection):
     """(T, M) int64 particle indices of ``n_paths`` = M trajectories drawn backwards.
 

@@ -11,9 +11,8 @@ from .. import threads as _threads
 from .._jit import kalman as _kalman
 from .._jit import status as _status
 from .kinds import FIXED
+from .._jit.tunables import SERIAL_BELOW_FILTERS
 
-#: Filters run serially below this many (threads cost more than they save).
-SERIAL_BELOW = 1024
 
 #: An update's "prior" is the caller's prediction: statuses named for it.
 AS_PREDICTION = {_status.PRIOR_NOT_PSD: _status.PREDICTION_NOT_PSD,
@@ -22,7 +21,7 @@ AS_PREDICTION = {_status.PRIOR_NOT_PSD: _status.PREDICTION_NOT_PSD,
 
 def in_chunks(k, run):
     """``run(lo, hi)`` on chunks of the K filters, in parallel threads."""
-    _threads.in_chunks(run, k, serial_below=SERIAL_BELOW, align=_kalman.FILTERS_PER_BLOCK)
+    _threads.in_chunks(run, k, serial_below=SERIAL_BELOW_FILTERS, align=_kalman.FILTERS_PER_BLOCK)
 
 
 def identity(d):

@@ -19,7 +19,7 @@ import numpy as np
 from stonesoup.smoother import kalman as ss_kalman
 from stonesoup.types.prediction import Prediction
 
-from ..smoother import KalmanSmoother as FastKalmanSmoother
+from ..core import smooth as ft_smooth
 from ._convert import fast_model
 
 #: The hooks of Stone Soup's smoothers that the fast path computes itself.
@@ -98,16 +98,16 @@ class _Kalman:
         fast = fast_model(next(iter(models.values()))) if len(models) == 1 else None
         if fast is None:
             return None
-        moments = self._moments(FastKalmanSmoother(fast), body, predictions, fast.ndim_state)
+        moments = self._moments(fast, body, predictions, fast.ndim_state)
         if moments is None:
             return None
         return [type(state).from_state(state, mean, covar)
                 for state, mean, covar in zip(body[:-1], *moments)] + [body[-1]]
 
     @staticmethod
-    def _moments(smoother, body, predictions, d):
-        """Smoothed means (n, d, 1) and covariances (n, d, d) of ``body`` by ``smoother``
-        (a fasttrack one), range by range (see :func:`_segments`), or None."""
+    def _moments(model, body, predictions, d):
+        """Smoothed means (n, d, 1) and covariances (n, d, d) of ``body`` through the
+        fasttrack transition ``model``, range by range (see :func:`_segments`), or None."""
         try:
             intervals = np.array([(later.timestamp - earlier.timestamp).total_seconds()
                                   for earlier, later in zip(body, body[1:])])
@@ -126,12 +126,16 @@ class _Kalman:
             if end - first < 2:
                 continue
             part = slice(first, end)
-            try:
-                means[part], covars[part] = smoother.smooth_arrays(
-                    means[part], covars[part], intervals[first:end - 1],
-                    predicted_means[part], predicted_covars[part])
-            except ValueError:  # not positive definite or not finite: Stone Soup's code
+            if not all(np.isfinite(a[part]).all()
+                       for a in (means, covars, predicted_means, predicted_covars)):
+                return None  # Stone Soup's code
+            smoothed_means, smoothed_covars, status = ft_smooth.rts_linear(
+                model, means[None, part], covars[None, part], predicted_means[None, part],
+                predicted_covars[None, part], np.zeros(end - first, dtype=np.uint8),
+                intervals[first:end - 1])
+            if status:  # a predicted covariance not positive definite: Stone Soup's code
                 return None
+            means[part], covars[part] = smoothed_means[0], smoothed_covars[0]
         return means[..., None], covars
 
 

@@ -1,0 +1,66 @@
+"""Every tunable of fasttrack in one place: the size thresholds that pick serial or
+threaded builds, the block sizes of the kernels, and the numerical tolerances and limits.
+
+Kernels read these as compile-time constants; this module lives beside them so that the
+kernel cache's source stamp covers it (a new value recompiles what depends on it).
+"""
+
+# -- threads: work below which a kernel or a stack of filters runs on one thread ---------
+
+#: Work sizes (elements of a kernel's ``size`` argument) below which it runs on one thread,
+#: from the measured crossovers on 2 cores: kernels doing tens of flops per element (a
+#: transition, a likelihood, Gram rows) pay for a second thread from about 4,000 particles
+#: of 4 components; those doing a few (weights, sums, gathers) from about 32,000 elements.
+SERIAL_BELOW_HEAVY = 16_384
+SERIAL_BELOW_LIGHT = 32_768
+#: Work (``truths.size`` or ``costs.size`` elements) below which the batched assignment
+#: kernels run on one thread: every element costs a row of a Dijkstra search or more, so a
+#: second thread pays from a few thousand.
+SERIAL_BELOW_ASSIGN = 4096
+#: Filters of a Gaussian stack below which its chunks run on one thread.
+SERIAL_BELOW_FILTERS = 1024
+
+# -- blocks -------------------------------------------------------------------------------
+
+#: Particles per block in the kernels over particle clouds (propagation, likelihoods, weight
+#: sums): a block of a few rows fits a core's L1 cache, and the random stream's layout
+#: depends on it.
+BLOCK = 1024
+#: Filters per block of the Kalman and unscented stack kernels (chunks of a stack are
+#: aligned to it).
+FILTERS_PER_BLOCK = 128
+#: Weights summed per block by the backward simulation (independent sums that the processor
+#: overlaps), and searched block by block.
+FFBS_BLOCK = 16
+#: State dimensions for which the RTS smoother compiles the pass with the dimension a
+#: constant, so that LLVM unrolls the loops over it (d = 4: 2.0x faster a step).
+UNROLLED_DIMENSIONS = (2, 4, 6)
+
+# -- tolerances and limits ------------------------------------------------------------------
+
+#: Relative tolerance of the positive semi-definiteness checks: an eigenvalue (or a
+#: Cholesky pivot) below ``-PSD_TOLERANCE`` times the largest is negative, not rounding.
+PSD_TOLERANCE = 1e-10
+#: Up to this bound on the condition number of ``F F^T + lam I`` the AKKF's ridge map is
+#: computed through its Cholesky factorisation (relative error about cond * eps <= 2e-8);
+#: above it, by LQ, whose error grows with the square root of the condition number only.
+CHOLESKY_CONDITION = 1e8
+#: A filter's Gaussian kernel of fixed variance whose value between typical points (at
+#: their median squared distance) is below this carries no information between them.
+NEGLIGIBLE_KERNEL = 1e-6
+#: Pairs of points sampled by the median heuristic when there are more than all pairs.
+MEDIAN_PAIRS = 256
+#: Proposals a backward-simulation path draws by rejection before it takes the exact draw:
+#: this bounds the tail of the transition density to 32 proposals more than the exact draw
+#: (as much as 2048 / N exact draws, see :data:`PROPOSAL_COST`), while a path accepting one
+#: proposal in 10 still falls back only 3 % of the time.
+MAX_PROPOSALS = 32
+#: The cost of one proposal (two uniforms, a bisection, a distance) in units of one
+#: particle's term of the exact draw, measured on 2 cores at N = 1000, d = 4 (about 90 ns
+#: against 1.4 ns): rejection pays while its acceptance rate exceeds this over N.
+PROPOSAL_COST = 64.0
+#: Most detections a JPDA level's frontier may hold (bits of an int64 below its sign bit).
+MAX_FRONTIER = 63
+#: Default most nodes of one cluster's EHM net (memory: roughly 8 bytes per node, 8 per
+#: node and hypothesis, plus 16 for its forward and backward weights).
+MAX_NODES = 2**22

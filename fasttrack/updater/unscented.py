@@ -1,0 +1,76 @@
+"""The unscented Kalman updater."""
+from ..core import unscented as _unscented
+from ..models.base import check_model
+from ..models.measurement import MeasurementModel
+from .kalman import KalmanUpdater
+
+__all__ = ["UnscentedKalmanUpdater"]
+
+
+class UnscentedKalmanUpdater(KalmanUpdater):
+    """Unscented Kalman update: the predicted measurement, innovation covariance and cross
+    covariance from the prediction's sigma points through the measurement model (Stone
+    Soup's ``UnscentedKalmanUpdater``, in one compiled kernel). Angle components (a
+    bearing) are averaged circularly and wrapped in differences and the innovation.
+
+    Parameters
+    ----------
+    measurement_model : MeasurementModel, optional
+        Used when the detection has none of its own: a built-in model
+        (:class:`~fasttrack.LinearGaussian` or a polar sensor) or a
+        :class:`~fasttrack.NonlinearGaussianMeasurement` (the sigma points go through its
+        function).
+    alpha : float
+        Primary spread of the sigma points, > 0.
+    beta : float
+        Prior knowledge of the distribution (2 is optimal for a Gaussian).
+    kappa : float, optional
+        Secondary spread; None means ``3 - ndim_state``. ``alpha**2 * (ndim_state + kappa)``
+        must be > 0.
+    use_joseph_cov : bool
+        False (the default, Stone Soup's form): ``P - K S K^T``. True: the Joseph form
+        ``(I - K H) P (I - K H)^T + K R K^T`` with the statistical linearisation
+        ``H = C^T P^-1`` (C the cross covariance), which is exact for a linear sensor and
+        keeps the covariance positive semi-definite; for a nonlinear sensor it differs
+        from the standard form by the linearisation error.
+    force_symmetric_covariance : bool
+        Accepted for compatibility: covariances are always computed exactly symmetric.
+    """
+
+    def __init__(self, measurement_model=None, alpha=0.5, beta=2.0, kappa=None,
+                 use_joseph_cov=False, force_symmetric_covariance=False):
+        self.alpha, self.beta, self.kappa = _unscented.check_parameters(alpha, beta, kappa)
+        self._kappas = {}  # the resolved kappa per state dimension
+        self._checked = None  # the last model checked (its type and dimensions are fixed)
+        super().__init__(measurement_model, force_symmetric_covariance, use_joseph_cov)
+
+    def _check_model(self, model):
+        if model is self._checked:
+            return
+        check_model(model, MeasurementModel, "measurement model")
+        _unscented.check_measurement(model)
+        d = model.ndim_state
+        if d not in self._kappas:
+            self._kappas[d] = _unscented.scaling(self.alpha, self.kappa, d)
+        self._checked = model
+
+    def predict_measurement(self, predicted_state, measurement_model=None):
+        """The predicted measurement of ``predicted_state`` by the unscented transform:
+        mean, innovation covariance (with the measurement noise) and cross covariance.
+
+        Parameters
+        ----------
+        predicted_state : GaussianState
+        measurement_model : MeasurementModel, optional
+            Used instead of the updater's.
+
+        Returns
+        -------
+        GaussianMeasurementPrediction
+        """
+        return super().predict_measurement(predicted_state, measurement_model)
+
+    def _update(self, model, prediction, z):
+        return _unscented.update(model, prediction.state_vector, prediction.covar, z,
+                                 self.alpha, self.beta, self._kappas[model.ndim_state],
+                                 self.use_joseph_cov)
