@@ -260,9 +260,9 @@ def run(quick=False, out="fasttrack-demo"):
                                             if shipped else
                                             "compiling kernels (cached after the first run)..."),
           flush=True)
-    families = ["kalman", "adaptive_kernel", "multi_target", "resamplers", "particle_filter"]
+    families = ["kalman", "akkf", "gating", "assign", "jpda", "resample", "particle"]
     if not quick:
-        families.append("batch")
+        families.append("unscented")
 
     def ready(family, seconds):
         print(f"  {family:<16} ready after {time.perf_counter() - start:5.1f} s", flush=True)

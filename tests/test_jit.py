@@ -466,6 +466,11 @@ track = ft.run_filter(ft.ExtendedKalmanPredictor(model), ft.ExtendedKalmanUpdate
                       ft.GaussianState([0, 0], np.eye(2), timestamp=0.0), detections)
 out["user-ekf"] = np.hstack([track[-1].state_vector, track[-1].covar])
 out["gram"] = ft.GaussianKernel()(rng.standard_normal((2, 30)), angle_components=(0,))
+mixture = ft.types.GaussianMixture(rng.standard_normal((6, 2)),
+                                   np.broadcast_to(np.eye(2), (6, 2, 2)), rng.normal(size=6),
+                                   [0, 1, 0, 2, 1, 0]).reduce()
+out["mixture"] = np.hstack([mixture.means, mixture.covars.reshape(3, -1),
+                            mixture.log_weights[:, None]])
 json.dump({k: [np.asarray(v).dtype.kind, np.asarray(v).tolist()] for k, v in out.items()},
           sys.stdout)
 """

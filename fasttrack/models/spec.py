@@ -27,10 +27,9 @@ class TransitionSpec:
         The checked user function of a FUNCTION transition.
     dt : float
         The interval, seconds.
-    time_invariant : bool
-        Whether F and Q are the same for every interval.
     matrix, noise, noise_root : (d, d) float64 ndarray
-        F(dt) (linear models), Q(dt) and a square root of Q(dt): built on first read.
+        F(dt) (linear models), Q(dt) and a square root of Q(dt), computed when read (the
+        model memoises F for the last interval).
     """
 
     __slots__ = ("kind", "rates", "function", "dt", "_model")
