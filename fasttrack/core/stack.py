@@ -33,17 +33,21 @@ def one_transition(model, intervals):
     """Whether one kernel transition of a linear ``model`` serves every interval (seconds)
     of ``intervals``: CV blocks (built per interval), a time-invariant model, or equal
     intervals."""
-    spec = model.spec(float(intervals.flat[0]))
-    return spec.kind != FIXED or spec.time_invariant or np.all(intervals == intervals.flat[0])
+    return _serves(model.spec(float(intervals.flat[0])), intervals)
+
+
+def _serves(spec, intervals):
+    return spec.kind != FIXED or spec.time_invariant or np.all(intervals == spec.dt)
 
 
 def transition(model, intervals):
     """``(kind, rates, F, Q)``: the kernel transition of a linear ``model`` for the
     filters' ``intervals`` (seconds); F and Q of the first interval unless CV blocks."""
-    if not one_transition(model, intervals):
+    spec = model.spec(float(intervals.flat[0]))
+    if not _serves(spec, intervals):
         raise ValueError(f"{type(model).__name__} mixes constant-velocity and other "
                          f"parts, so its filters need one common time interval")
-    return model.spec(float(intervals.flat[0])).kalman()
+    return spec.kalman()
 
 
 def check(status):
