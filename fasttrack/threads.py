@@ -8,9 +8,9 @@ The policy, measured on 2 cores (a particle-filter step at N = 1e5; ``bench/test
   OpenMP's workers spin-wait for a partner that has no core and a step took 80 ms. Alone,
   both run a step in 0.9 ms (1.9x one thread). Without TBB, Numba's default layer is used
   (OpenMP), with the spinning shortened to ``GOMP_SPINCOUNT=1000`` unless ``GOMP_SPINCOUNT`` or
-  ``OMP_WAIT_POLICY`` is set. This is arranged when fasttrack is imported, before Numba starts
-  its threads; nothing is changed if ``NUMBA_THREADING_LAYER`` is set or Numba's threads run
-  already.
+  ``OMP_WAIT_POLICY`` is set. This is arranged when fasttrack's first kernel is needed,
+  before Numba starts its threads; nothing is changed if ``NUMBA_THREADING_LAYER`` is set or
+  Numba's threads run already.
 - **Small work runs on one thread.** Each kernel with parallel regions declares the size of
   its work; below a threshold (where starting threads costs more than it saves) a call from
   Python runs a serial build of the kernel, which also compiles in about half the time, so a
@@ -62,7 +62,8 @@ def _load_tbb():
 
 
 def configure():
-    """Arrange the threading layer as the module's notes say (called on import)."""
+    """Arrange the threading layer as the module's notes say (called when the kernels'
+    dispatchers are first imported, before any parallel region starts)."""
     if os.environ.get("NUMBA_THREADING_LAYER"):
         return
     from numba.np.ufunc import parallel

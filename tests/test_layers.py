@@ -12,7 +12,7 @@ PACKAGE = pathlib.Path(ft.__file__).parent
 #: cache, which any layer may read, and the decorator's registry of kernels (the
 #: warm-up's).
 NOT_KERNELS = {"fasttrack._jit", "fasttrack._jit.status", "fasttrack._jit.cache",
-               "fasttrack._jit.tunables"}
+               "fasttrack._jit.tunables", "fasttrack._jit.kinds"}
 #: The filter classes, which only the faces (demo, CLI, warm-up, Monte Carlo) build.
 FILTER_MODULES = ("predictor", "updater", "smoother", "batch", "tracker", "resampler")
 FACES = {"__main__.py", "demo.py", "_demo_stonesoup.py", "_warmup.py", "plotting.py",
@@ -30,12 +30,16 @@ def _name(path):
 
 def _imports(path):
     """Absolute names of the modules ``path`` imports (``from X import m`` names the
-    submodule X.m when there is one)."""
+    submodule X.m when there is one; ``_jit.lazy("m")`` names fasttrack._jit.m)."""
     package = _name(path).split(".")
     if path.name != "__init__.py":
         package = package[:-1]
     found = set()
     for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) \
+                and node.func.attr == "lazy" and node.args \
+                and isinstance(node.args[0], ast.Constant):
+            found.add(f"fasttrack._jit.{node.args[0].value}")
         if isinstance(node, ast.Import):
             found |= {alias.name for alias in node.names}
         elif isinstance(node, ast.ImportFrom):
@@ -125,3 +129,20 @@ def test_no_class_builds_a_filter_class_as_an_engine():
 def test_no_module_is_long():
     lengths = {_name(p): len(p.read_text().splitlines()) for p in _sources()}
     assert not {name: n for name, n in lengths.items() if n > 600}
+
+
+def test_numba_is_imported_with_the_first_kernel_not_with_fasttrack():
+    """A script pays Numba's import (and its slower exit) only when it needs a kernel."""
+    import subprocess
+    import sys
+    modules = "fasttrack, fasttrack.stonesoup" if _has("stonesoup") else "fasttrack"
+    code = (f"import sys, {modules}; print('numba' in sys.modules); "
+            "fasttrack.ess(fasttrack.normalise([0.0, 1.0])); print('numba' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, timeout=600)
+    assert done.stdout.split() == ["False", "True"]
+
+
+def _has(module):
+    import importlib.util
+    return importlib.util.find_spec(module) is not None

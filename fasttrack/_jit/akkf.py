@@ -36,7 +36,7 @@ never fail to factorise.
 """
 import numpy as np
 
-from . import jit
+from .dispatch import jit
 from .gram import MATRIX, factor
 from .numeric import fill_normals
 from .tunables import CHOLESKY_CONDITION as _CHOLESKY_CONDITION

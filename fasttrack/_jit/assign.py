@@ -38,7 +38,7 @@ OSPA (Schuhmacher, Vo and Vo, 2008) is ``( (min sum min(d, c)^p + c^p |m - n|) /
 import numpy as np
 from numba import prange
 
-from . import jit
+from .dispatch import jit
 from .tunables import SERIAL_BELOW_ASSIGN
 
 

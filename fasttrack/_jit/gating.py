@@ -14,7 +14,7 @@ first pass counts them, a second writes them.
 import numpy as np
 from numba import prange
 
-from . import jit
+from .dispatch import jit
 from .numeric import cholesky, wrap_angle
 
 _LOG_2PI = np.log(2.0 * np.pi)

@@ -19,11 +19,11 @@ A kernel is a kind code plus a float parameter array:
 import numpy as np
 from numba import prange
 
-from . import SERIAL_BELOW_HEAVY, jit
+from .dispatch import jit
+from .kinds import GAUSSIAN, MATRIX, POLYNOMIAL
 from .numeric import fast_exp
 from .tunables import MEDIAN_PAIRS as _PAIRS
-
-POLYNOMIAL, GAUSSIAN, MATRIX = np.int64(0), np.int64(1), np.int64(2)
+from .tunables import SERIAL_BELOW_HEAVY
 
 
 @jit()

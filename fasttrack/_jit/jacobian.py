@@ -10,13 +10,12 @@ Differences of angles are wrapped either way, so derivatives are right across th
 """
 import numpy as np
 
-from . import jit
+from .dispatch import jit
+from .kinds import ANALYTIC, CENTRAL, FORWARD
 from .sensor import BEARING_RANGE, SELECT, _polar_jacobian, _predict_block, _sensor_frame
 from .numeric import fill, wrap_angle
 from .status import OK
 from .user import output_status
-
-ANALYTIC, FORWARD, CENTRAL = np.int64(0), np.int64(1), np.int64(2)
 
 
 @jit(strict=True)

@@ -33,7 +33,8 @@ event conflicts).
 import numpy as np
 from numba import prange
 
-from . import SERIAL_BELOW_HEAVY, jit
+from .dispatch import jit
+from .tunables import SERIAL_BELOW_HEAVY
 from .numeric import wrap_angle
 from .status import INNOVATION_NOT_PD, OK
 from .tunables import MAX_FRONTIER

@@ -25,7 +25,8 @@ stays symmetric positive semi-definite when the standard form loses it to cancel
 """
 import numpy as np
 
-from . import jit
+from .dispatch import jit
+from .kinds import CV, FIXED
 from .jacobian import (ANALYTIC, measurement_jacobian, measurement_jacobian_function,
                        transition_jacobian_function)
 from .sensor import SELECT, _polar_jacobian, _predict_block, _sensor_frame
@@ -36,8 +37,6 @@ from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINI
                      PRIOR_NOT_SYMMETRIC)
 from .user import output_status
 from .tunables import FILTERS_PER_BLOCK
-
-FIXED, CV = np.int64(0), np.int64(1)
 
 
 @jit()

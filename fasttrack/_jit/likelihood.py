@@ -10,7 +10,8 @@ of the noise covariance. Particles go in blocks of BLOCK.
 import numpy as np
 from numba import prange
 
-from . import SERIAL_BELOW_HEAVY, jit
+from .dispatch import jit
+from .tunables import SERIAL_BELOW_HEAVY
 from .numeric import BLOCK, wrap_angle
 from .sensor import _predict_block
 from .status import OK

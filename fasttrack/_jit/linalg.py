@@ -3,7 +3,7 @@ so that the innermost loops run over the B matrices and vectorise; each function
 block's count ``nb`` first (see :mod:`kalman`)."""
 import numpy as np
 
-from . import jit
+from .dispatch import jit
 from .tunables import PSD_TOLERANCE
 from .status import OK
 

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from . import jit
+from .dispatch import jit
 
 
 @jit()

@@ -7,7 +7,7 @@ from numba import prange, types
 from numba.core import config
 from numba.extending import intrinsic
 
-from . import jit
+from .dispatch import jit
 from .tunables import BLOCK
 
 

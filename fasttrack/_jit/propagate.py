@@ -8,7 +8,8 @@ noise is ``S z`` for a square root S of the covariance (``S S^T = Q``).
 import numpy as np
 from numba import prange
 
-from . import SERIAL_BELOW_HEAVY, jit
+from .dispatch import jit
+from .tunables import SERIAL_BELOW_HEAVY
 from .numeric import BLOCK, fill_normals
 from .status import OK
 from .user import columns, first_failure, output_status, store

@@ -14,7 +14,7 @@ arrays, whose fresh pages fault one by one).
 import numpy as np
 from numba import prange
 
-from . import jit
+from .dispatch import jit
 from .numeric import chunk_bounds, cumulate, fast_exp, fast_log, n_chunks, uniform
 
 

@@ -9,10 +9,9 @@ range.
 """
 import numpy as np
 
-from . import jit
+from .dispatch import jit
+from .kinds import BEARING, BEARING_RANGE, SELECT
 from .numeric import fast_atan2, wrap_angle
-
-SELECT, BEARING_RANGE, BEARING = np.int64(0), np.int64(1), np.int64(2)
 
 
 @jit(strict=True)

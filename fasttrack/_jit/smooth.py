@@ -2,7 +2,7 @@
 batch of K tracks of equal length, in one call."""
 import numpy as np
 
-from . import jit, with_constant
+from .dispatch import jit, with_constant
 from .numeric import fast_exp
 from .tunables import FFBS_BLOCK as _BLOCK
 from .tunables import MAX_PROPOSALS, PROPOSAL_COST, UNROLLED_DIMENSIONS

@@ -20,7 +20,7 @@ symmetric).
 """
 import numpy as np
 
-from . import jit
+from .dispatch import jit
 from .kalman import FILTERS_PER_BLOCK, _correct, _from_block, _to_block, _transition
 from .linalg import _check_covariance, _solve
 from .numeric import copy_into, fill, sin_cos_turns, wrap_angle

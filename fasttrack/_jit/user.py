@@ -8,7 +8,7 @@ output writes nothing from it and returns the status (``FUNCTION_SHAPE`` or
 """
 import numpy as np
 
-from . import jit
+from .dispatch import jit
 from .status import FUNCTION_NOT_FINITE, FUNCTION_SHAPE, OK
 
 

@@ -8,7 +8,7 @@ a time into a small buffer (a loop that vectorises) before they are summed.
 import numpy as np
 from numba import prange
 
-from . import jit
+from .dispatch import jit
 from .numeric import BLOCK, chunk_bounds, fast_exp, n_chunks
 
 

@@ -8,10 +8,12 @@ import numbers
 
 import numpy as np
 
+from .. import _jit
 from .. import random as _random
-from .._jit import akkf as _akkf
-from .._jit import gram as _gram
 from .kinds import MATRIX
+
+_akkf = _jit.lazy("akkf")
+_gram = _jit.lazy("gram")
 
 
 def angle_mask(ndim, angle_components=()):

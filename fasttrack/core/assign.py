@@ -29,14 +29,16 @@ all be given detections) raises ``ValueError`` where Stone Soup raises ``Runtime
 """
 import numpy as np
 
+from .. import _jit
 from .. import _validate
-from .._jit import assign as _assign
-from .._jit import gating as _kernels
 from .._validate import _describe, float_array
 from .gating import clusters as _clusters
 
 __all__ = ["assign2d", "assign2d_batch", "global_nearest_neighbour", "gnn_assign",
            "nearest_neighbour"]
+
+_assign = _jit.lazy("assign")
+_kernels = _jit.lazy("gating")
 
 
 def _costs(value, name, maximize=False):

@@ -4,8 +4,10 @@ import dataclasses
 
 import numpy as np
 
+from .. import _jit
 from .. import _validate
-from .._jit import gating as _kernels
+
+_kernels = _jit.lazy("gating")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -28,9 +28,11 @@ import math
 
 import numpy as np
 
+from .. import _jit
 from .. import _validate
-from .._jit import jpda as _kernels
 from .._jit.tunables import MAX_FRONTIER, MAX_NODES
+
+_kernels = _jit.lazy("jpda")
 
 
 def _probability(value, name):

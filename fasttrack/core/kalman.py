@@ -1,16 +1,21 @@
 """Kalman and extended Kalman steps of one Gaussian state."""
+import sys
+
 import numpy as np
 
 from .. import _errors
-from .._jit import jacobian as _jacobian
-from .._jit import kalman as _kalman
+from .. import _jit
+from .._jit.tunables import NUMPY_STEPS
+from . import kalman_numpy as _numpy
 from . import stack as _stack
-from .kinds import FUNCTION, SELECT
+from .kinds import ANALYTIC, CENTRAL, FORWARD, FUNCTION, SELECT
+
+_jacobian = _jit.lazy("jacobian")
+_kalman = _jit.lazy("kalman")
 
 #: Jacobian methods by name: the built-in sensors' analytic Jacobian, or finite differences
 #: (forward: Stone Soup's rule).
-JACOBIANS = {"analytic": _jacobian.ANALYTIC, "forward": _jacobian.FORWARD,
-             "central": _jacobian.CENTRAL}
+JACOBIANS = {"analytic": ANALYTIC, "forward": FORWARD, "central": CENTRAL}
 
 
 def check_jacobian(name, allowed=tuple(JACOBIANS)):
@@ -18,6 +23,21 @@ def check_jacobian(name, allowed=tuple(JACOBIANS)):
     if name not in allowed:
         raise ValueError(f"jacobian must be one of {', '.join(map(repr, allowed))}, got {name!r}")
     return name
+
+
+#: One-filter steps still to run in NumPy (:mod:`kalman_numpy`) while no kernel is loaded.
+_numpy_steps = NUMPY_STEPS
+
+
+def in_numpy(kind):
+    """Whether a one-filter step on a model of ``kind`` runs in NumPy: the process's first
+    :data:`~fasttrack._jit.tunables.NUMPY_STEPS` steps on built-in models do, until a
+    kernel is loaded (then Numba's set-up is paid and the kernels are faster)."""
+    global _numpy_steps
+    if kind == FUNCTION or _numpy_steps <= 0 or "fasttrack._jit.dispatch" in sys.modules:
+        return False
+    _numpy_steps -= 1
+    return True
 
 
 def predict(model, dt, x, covar, jacobian="forward"):
@@ -29,9 +49,14 @@ def predict(model, dt, x, covar, jacobian="forward"):
     if ``covar`` is not symmetric positive semi-definite, or the user's function returns a
     wrong shape or non-finite values.
     """
+    spec = model.spec(dt)
+    if in_numpy(spec.kind):
+        status, x_out, covar_out = _numpy.predict(spec, x, covar)
+        if status:
+            _errors.check(status, spec.function, x, dt)
+        return x_out, covar_out
     d = x.shape[0]
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
-    spec = model.spec(dt)
     if spec.kind == FUNCTION:
         status = _kalman.predict_function(spec.function.function, dt, spec.noise,
                                           jacobian == "central", x, covar, x_out, covar_out)
@@ -67,6 +92,11 @@ def update(model, x, covar, z, jacobian="analytic", joseph=True):
     :mod:`fasttrack._errors`).
     """
     spec = model.spec
+    if in_numpy(spec.kind):
+        status, *out = _numpy.update(spec, JACOBIANS[jacobian], joseph, x, covar, z)
+        if status:
+            _errors.check(status, spec.function, x)
+        return tuple(out)
     m, d = spec.ndim_meas, spec.ndim_state
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
     z_hat, s, cross = np.empty((m, 1)), np.empty((m, m)), np.empty((d, m))

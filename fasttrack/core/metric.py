@@ -6,7 +6,9 @@ truths, its estimates likewise; :mod:`fasttrack.metrics` validates and wraps.
 """
 import numpy as np
 
-from .._jit import assign as _assign
+from .. import _jit
+
+_assign = _jit.lazy("assign")
 
 
 def gospa(truths, truth_offsets, estimates, estimate_offsets, c, p, alpha):

@@ -3,7 +3,9 @@
 hypotheses of one track, the components one reduction merges)."""
 import numpy as np
 
-from .._jit import mixture as _mixture
+from .. import _jit
+
+_mixture = _jit.lazy("mixture")
 
 
 def segment_logsumexp(values, starts):

@@ -4,13 +4,15 @@ import numpy as np
 
 from .. import _buffers
 from .. import _errors
+from .. import _jit
 from .. import _validate
 from .. import random as _random
-from .._jit import likelihood as _likelihood
-from .._jit import propagate as _propagate
-from .._jit import resample as _resample
-from .._jit import weights as _weights
 from .kinds import FUNCTION
+
+_likelihood = _jit.lazy("likelihood")
+_propagate = _jit.lazy("propagate")
+_resample = _jit.lazy("resample")
+_weights = _jit.lazy("weights")
 
 
 def predict(model, particles, dt, rng):

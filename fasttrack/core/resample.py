@@ -13,13 +13,15 @@ import enum
 import numpy as np
 
 from .. import _buffers
+from .. import _jit
 from .. import _validate
 from .. import random as _random
-from .._jit import resample as _kernels
-from .._jit import weights as _weights
 
 __all__ = ["ResidualMethod", "ess", "multinomial", "normalise", "resampling_points", "residual",
            "stratified", "systematic"]
+
+_kernels = _jit.lazy("resample")
+_weights = _jit.lazy("weights")
 
 _NO_ROWS = np.empty((0, 0))
 

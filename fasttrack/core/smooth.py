@@ -2,7 +2,9 @@
 tracks, and forward-filter backward-simulation draws over particle clouds."""
 import numpy as np
 
-from .._jit import smooth as _smooth
+from .. import _jit
+
+_smooth = _jit.lazy("smooth")
 
 
 def rts(x, covar, x_pred, covar_pred, recompute, matrices, noises, step):

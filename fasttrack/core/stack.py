@@ -7,11 +7,13 @@ on these; a single Gaussian state is a stack of one.
 import numpy as np
 
 from .. import _errors
+from .. import _jit
 from .. import threads as _threads
-from .._jit import kalman as _kalman
 from .._jit import status as _status
 from .kinds import FIXED
 from .._jit.tunables import SERIAL_BELOW_FILTERS
+
+_kalman = _jit.lazy("kalman")
 
 
 #: An update's "prior" is the caller's prediction: statuses named for it.

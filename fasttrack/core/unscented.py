@@ -4,9 +4,11 @@ import numbers
 import numpy as np
 
 from .. import _errors
-from .._jit import unscented as _unscented
+from .. import _jit
 from . import stack as _stack
 from .kinds import FUNCTION
+
+_unscented = _jit.lazy("unscented")
 
 
 def check_parameters(alpha, beta, kappa):

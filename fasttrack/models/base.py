@@ -3,8 +3,6 @@ checked wrapper of a user's model function."""
 import functools
 
 import numpy as np
-from numba import types as _types
-from numba.core import config as _config
 
 from .. import _errors
 from .. import _validate
@@ -113,11 +111,6 @@ def scalar_or_array(values):
     return float(values[0]) if values.size == 1 else values
 
 
-#: The argument types user functions are compiled for: a C-contiguous (d, n) float64 array
-#: (and, for a transition, the interval in seconds). Kernels and Python calls both use them.
-_STATES = _types.Array(_types.float64, 2, "C")
-
-
 class UserFunction:
     """A user's ``@numba.njit`` model function, checked before anything is read from its
     output.
@@ -143,7 +136,9 @@ class UserFunction:
         signature = "f(states, dt)" if interval else "h(states)"
         self.function, self.role, self.rows = function, role, rows
         self.ndim_state, self.interval = ndim_state, interval
-        if _config.DISABLE_JIT and callable(function):  # run by Python: only the probe
+        from numba import types  # the user's function is Numba's: Numba is loaded
+        from numba.core import config
+        if config.DISABLE_JIT and callable(function):  # run by Python: only the probe
             self.name = getattr(function, "__name__", repr(function))
             self._probe()
             return
@@ -151,7 +146,10 @@ class UserFunction:
             raise TypeError(f"the {role} must be a numba.njit function {signature}, "
                             f"got {type(function).__name__}")
         self.name = getattr(function.py_func, "__name__", repr(function))
-        arguments = (_STATES, _types.float64) if interval else (_STATES,)
+        # What kernels and Python calls both pass: a C-contiguous (d, n) float64 array (and,
+        # for a transition, the interval in seconds).
+        states = types.Array(types.float64, 2, "C")
+        arguments = (states, types.float64) if interval else (states,)
         try:
             function.compile(arguments)
         except Exception as error:
@@ -160,8 +158,8 @@ class UserFunction:
                             f"(signature {signature}, states one per column): "
                             f"{_first_line(error)}") from error
         returned = function.overloads[arguments].signature.return_type
-        if not (isinstance(returned, _types.Array) and returned.ndim == 2
-                and returned.dtype == _types.float64):
+        if not (isinstance(returned, types.Array) and returned.ndim == 2
+                and returned.dtype == types.float64):
             raise TypeError(f"{self._label} must return a 2-D float64 array of shape "
                             f"({rows}, n), one column per state; it returns {returned}")
         self._probe()

@@ -16,36 +16,29 @@ except ImportError as error:  # pragma: no cover - depends on the environment
     raise ImportError("fasttrack.stonesoup needs Stone Soup: pip install 'fasttrack[stonesoup]'"
                       ) from error
 
-from .dataassociator import (JPDA, PDA, GlobalNearestNeighbour, GNNWith2DAssignment,
-                             JPDAwithEHM, NearestNeighbour)
-from .deleter import CovarianceBasedDeleter, UpdateTimeStepsDeleter
-from .gater import DistanceGater
-from .hypothesiser import DistanceHypothesiser, PDAHypothesiser
-from .initiator import MultiMeasurementInitiator, SimpleMeasurementInitiator
-from .kernel import (GaussianKernel, LinearKernel, PolynomialKernel, QuadraticKernel,
-                     QuarticKernel)
-from .measures import Mahalanobis
-from .metricgenerator import GOSPAMetric, OSPAMetric
-from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
-                        ParticlePredictor, UnscentedKalmanPredictor)
-from .resampler import (ESSResampler, MultinomialResampler, ResidualMethod, ResidualResampler,
-                        StratifiedResampler, SystematicResampler)
-from .smoother import ExtendedKalmanSmoother, KalmanSmoother, UnscentedKalmanSmoother
-from .tracker import MultiTargetMixtureTracker, MultiTargetTracker
-from .updater import (AdaptiveKernelKalmanUpdater, ExtendedKalmanUpdater, KalmanUpdater,
-                      ParticleUpdater, UnscentedKalmanUpdater)
+from .._lazy import exports as _exports
 
-__all__ = [
-    "AdaptiveKernelKalmanPredictor", "AdaptiveKernelKalmanUpdater", "CovarianceBasedDeleter",
-    "DistanceGater", "DistanceHypothesiser", "ESSResampler", "ExtendedKalmanPredictor",
-    "ExtendedKalmanSmoother", "ExtendedKalmanUpdater", "GaussianKernel",
-    "GlobalNearestNeighbour", "GNNWith2DAssignment", "GOSPAMetric", "JPDA", "JPDAwithEHM",
-    "KalmanPredictor", "KalmanSmoother", "KalmanUpdater", "LinearKernel",
-    "Mahalanobis", "MultiMeasurementInitiator", "MultinomialResampler",
-    "MultiTargetMixtureTracker", "MultiTargetTracker", "NearestNeighbour", "OSPAMetric",
-    "ParticlePredictor", "ParticleUpdater", "PDA", "PDAHypothesiser", "PolynomialKernel",
-    "QuadraticKernel", "QuarticKernel", "ResidualMethod", "ResidualResampler",
-    "SimpleMeasurementInitiator", "StratifiedResampler", "SystematicResampler",
-    "UnscentedKalmanPredictor", "UnscentedKalmanSmoother", "UnscentedKalmanUpdater",
-    "UpdateTimeStepsDeleter",
-]
+#: The drop-in classes, by the module that defines them (imported when first used).
+_MODULES = {
+    "dataassociator": ["GlobalNearestNeighbour", "GNNWith2DAssignment", "JPDA", "JPDAwithEHM",
+                       "NearestNeighbour", "PDA"],
+    "deleter": ["CovarianceBasedDeleter", "UpdateTimeStepsDeleter"],
+    "gater": ["DistanceGater"],
+    "hypothesiser": ["DistanceHypothesiser", "PDAHypothesiser"],
+    "initiator": ["MultiMeasurementInitiator", "SimpleMeasurementInitiator"],
+    "kernel": ["GaussianKernel", "LinearKernel", "PolynomialKernel", "QuadraticKernel",
+               "QuarticKernel"],
+    "measures": ["Mahalanobis"],
+    "metricgenerator": ["GOSPAMetric", "OSPAMetric"],
+    "predictor": ["AdaptiveKernelKalmanPredictor", "ExtendedKalmanPredictor", "KalmanPredictor",
+                  "ParticlePredictor", "UnscentedKalmanPredictor"],
+    "resampler": ["ESSResampler", "MultinomialResampler", "ResidualMethod", "ResidualResampler",
+                  "StratifiedResampler", "SystematicResampler"],
+    "smoother": ["ExtendedKalmanSmoother", "KalmanSmoother", "UnscentedKalmanSmoother"],
+    "tracker": ["MultiTargetMixtureTracker", "MultiTargetTracker"],
+    "updater": ["AdaptiveKernelKalmanUpdater", "ExtendedKalmanUpdater", "KalmanUpdater",
+                "ParticleUpdater", "UnscentedKalmanUpdater"],
+}
+
+__all__ = sorted((name for names in _MODULES.values() for name in names), key=str.lower)
+__getattr__, __dir__ = _exports(__name__, _MODULES)

@@ -1,0 +1,160 @@
+"""Stone Soup's own documentation scripts, plain and with imports switched to
+``fasttrack.stonesoup``, timed as whole processes.
+
+Usage: python bench/stonesoup_scripts.py [--repeats 3] [--scripts 01_Kalman ...]
+[--json bench/results/stonesoup_scripts.json] [--sdist DIR]
+
+The Stone Soup sdist of the installed version is downloaded (``pip download``) once into
+``--sdist`` (default: a ``stonesoup-sdist`` folder in the system's temporary folder). Each
+chosen script runs in a new process from its own folder, with ``MPLBACKEND=Agg``, twice as
+written (``plain``) and twice with every ``from stonesoup.X import Name`` followed by
+``from fasttrack.stonesoup import Name`` where fasttrack has a drop-in of that class
+(``switched``, what a user does by hand). The two modes alternate; the first run of each
+fills the kernel cache and any downloads, and the medians of the next ``--repeats`` runs
+are reported, whole process (interpreter start to exit, shutdown included), with the
+median of the paired differences (switched minus plain).
+"""
+import argparse
+import ast
+import json
+import os
+import pathlib
+import statistics
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+
+import stonesoup
+
+#: Scripts that run offline in under a few minutes, relative to the sdist's ``docs``.
+SCRIPTS = [
+    "tutorials/01_KalmanFilterTutorial.py",
+    "tutorials/02_ExtendedKalmanFilterTutorial.py",
+    "tutorials/03_UnscentedKalmanFilterTutorial.py",
+    "tutorials/04_ParticleFilter.py",
+    "tutorials/05_DataAssociation-Clutter.py",
+    "tutorials/06_DataAssociation-MultiTargetTutorial.py",
+    "tutorials/07_PDATutorial.py",
+    "tutorials/08_JPDATutorial.py",
+    "tutorials/09_Initiators_&_Deleters.py",
+    "tutorials/10_Simulation_&_Tracking_Components.py",
+    "tutorials/filters/AKKF.py",
+    "tutorials/filters/GMPHDTutorial.py",
+    "examples/metrics/Metrics.py",
+    "examples/dataassociation/Comparing_EHM_JPDA_example.py",
+]
+
+
+def drop_ins():
+    """Names of the classes ``fasttrack.stonesoup`` replaces."""
+    import fasttrack.stonesoup
+    return set(fasttrack.stonesoup.__all__)
+
+
+def switch_imports(source, names):
+    """``source`` with ``from fasttrack.stonesoup import ...`` after each Stone Soup import
+    of a class in ``names``; the number of classes switched."""
+    tree = ast.parse(source)
+    lines = source.splitlines(keepends=True)
+    inserts, switched = [], 0
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("stonesoup"):
+            found = [a for a in node.names if a.name in names]
+            if found:
+                indent = lines[node.lineno - 1][:node.col_offset]
+                clause = ", ".join(f"{a.name} as {a.asname}" if a.asname else a.name
+                                   for a in found)
+                inserts.append((node.end_lineno, f"{indent}from fasttrack.stonesoup import "
+                                                 f"{clause}\n"))
+                switched += len(found)
+    for line, text in sorted(inserts, reverse=True):
+        lines.insert(line, text)
+    return "".join(lines), switched
+
+
+def sdist(folder):
+    """The unpacked Stone Soup sdist of the installed version, under ``folder``."""
+    folder = pathlib.Path(folder)
+    root = folder / f"stonesoup-{stonesoup.__version__}"
+    if not root.exists():
+        folder.mkdir(parents=True, exist_ok=True)
+        subprocess.run([sys.executable, "-m", "pip", "download", "--quiet", "--no-deps",
+                        "--no-binary", ":all:", f"stonesoup=={stonesoup.__version__}",
+                        "-d", str(folder)], check=True)
+        with tarfile.open(folder / f"stonesoup-{stonesoup.__version__}.tar.gz") as archive:
+            archive.extractall(folder, filter="data")
+    return root
+
+
+def _seconds(path):
+    """Seconds of one whole-process run of ``path``, from its own folder."""
+    env = dict(os.environ, MPLBACKEND="Agg")
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, path.name], cwd=path.parent, env=env,
+                          capture_output=True, text=True)
+    seconds = time.perf_counter() - start
+    if done.returncode:
+        raise RuntimeError(f"{path} failed:\n{done.stderr[-3000:]}")
+    return seconds
+
+
+def measure(root, script, names, repeats):
+    """Plain and switched times of one script (``root``/docs/``script``), the two modes
+    alternating (one unmeasured run of each first)."""
+    path = root / "docs" / script
+    source = path.read_text()
+    switched_source, switched = switch_imports(source, names)
+    twin = path.with_name(f"_fasttrack_{path.name}")
+    twin.write_text(switched_source)
+    plain, fast = [], []
+    try:
+        for attempt in range(repeats + 1):
+            times = _seconds(path), _seconds(twin)
+            if attempt:
+                plain.append(times[0])
+                fast.append(times[1])
+    finally:
+        twin.unlink()
+    result = {"script": script, "plain": plain, "switched": fast, "classes": switched,
+              "ratio": statistics.median(fast) / statistics.median(plain),
+              "difference": statistics.median(f - p for f, p in zip(fast, plain))}
+    print(f"{script:<52} plain {statistics.median(plain):6.2f} s  switched "
+          f"{statistics.median(fast):6.2f} s  ratio {result['ratio']:.2f}  difference "
+          f"{result['difference']:+.2f} s  ({switched} classes)", flush=True)
+    return result
+
+
+def table(results):
+    """The Markdown table of ``results``."""
+    rows = ["| script | plain (s) | switched (s) | ratio | difference (s) | classes switched |",
+            "|---|---|---|---|---|---|"]
+    for r in results:
+        rows.append(f"| `{pathlib.PurePath(r['script']).name}` | "
+                    f"{statistics.median(r['plain']):.2f} | "
+                    f"{statistics.median(r['switched']):.2f} | {r['ratio']:.2f} | "
+                    f"{r['difference']:+.2f} | {r['classes']} |")
+    return "\n".join(rows)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--scripts", nargs="*", default=None,
+                        help="parts of script paths to run (default: all)")
+    parser.add_argument("--json", default=None)
+    parser.add_argument("--sdist", default=pathlib.Path(tempfile.gettempdir(),
+                                                        "stonesoup-sdist"))
+    args = parser.parse_args(argv)
+    root = sdist(args.sdist)
+    names = drop_ins()
+    chosen = [s for s in SCRIPTS if not args.scripts or any(p in s for p in args.scripts)]
+    results = [measure(root, script, names, args.repeats) for script in chosen]
+    print(table(results))
+    if args.json:
+        pathlib.Path(args.json).write_text(json.dumps(results, indent=1))
+
+
+if __name__ == "__main__":
+    main()

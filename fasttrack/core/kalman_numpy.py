@@ -1,0 +1,162 @@
+"""One filter's Kalman and extended Kalman step in NumPy, for a program's first steps.
+
+The first compiled kernel of a process costs Numba's set-up (its import, target and exit:
+about 0.6 s), more than a short script's whole filtering. :mod:`kalman` therefore runs a
+process's first one-filter steps on built-in models here (see :func:`kalman.in_numpy`),
+with the kernels' formulas, tolerances and status codes (``fasttrack._jit.kalman``):
+results agree with the kernels' to rounding, errors are the same.
+
+``x`` is (d, 1), covariances (d, d), ``z`` (m, 1); functions return new arrays.
+"""
+import math
+
+import numpy as np
+
+from .._jit.status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
+                           PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
+                           PRIOR_NOT_SYMMETRIC)
+from .._jit.tunables import PSD_TOLERANCE
+from .kinds import ANALYTIC, BEARING_RANGE, CENTRAL, SELECT
+
+
+def covariance_status(a, asymmetric, indefinite):
+    """OK, ``asymmetric`` or ``indefinite`` for the (n, n) ``a``, decided as the kernels
+    decide: symmetric to 1e-9 of its largest entry, then a Cholesky factorisation whose
+    pivots within ``PSD_TOLERANCE * max(diag)`` of zero count as zero."""
+    n = a.shape[0]
+    top = max(a.diagonal().max(), 0.0)
+    if not np.all(np.abs(a - a.T) <= 1e-9 * np.abs(a).max()):
+        return asymmetric
+    tol = PSD_TOLERANCE * top
+    lower = np.zeros((n, n))
+    for j in range(n):
+        s = a[j, j] - lower[j, :j] @ lower[j, :j]
+        if not s >= -tol:
+            return indefinite
+        pivot = np.sqrt(s) if s > tol else 0.0
+        lower[j, j] = pivot
+        t = a[j + 1:, j] - lower[j + 1:, :j] @ lower[j, :j]
+        if pivot > 0.0:
+            lower[j + 1:, j] = t / pivot
+        elif not np.all(np.abs(t) <= np.sqrt(PSD_TOLERANCE) * top):
+            return indefinite
+    return OK
+
+
+def _symmetric(a):
+    """``a``'s lower triangle, mirrored (the kernels compute only that)."""
+    return np.tril(a) + np.tril(a, -1).T
+
+
+def _wrap(a):
+    """Angles wrapped to [-pi, pi), as the kernels wrap them."""
+    return a - 6.283185307179586 * np.floor((a + 3.141592653589793) * 0.15915494309189535)
+
+
+def _mod_bearing(a):
+    """Stone Soup's bearing wrap ``((a + pi) mod 2 pi) - pi``."""
+    return (a + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def predict(spec, x, covar):
+    """``(status, x, P)``: ``F x`` and ``F P F^T + Q`` through a linear transition
+    ``spec`` (:class:`~fasttrack.models.spec.TransitionSpec`); the status says whether the
+    prior covariance is symmetric positive semi-definite."""
+    matrix = spec.matrix
+    status = covariance_status(covar, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    return status, matrix @ x, _symmetric(matrix @ covar @ matrix.T + spec.noise)
+
+
+def _polar(sensor, points):
+    """The sensor-frame positions (px, py) of the (d, n) ``points`` (IEEE arithmetic, as
+    Stone Soup and the kernels compute them)."""
+    dx = points[sensor.mapping[0]] - sensor.offset[0]
+    dy = points[sensor.mapping[1]] - sensor.offset[1]
+    rotation = sensor.rotation
+    return rotation[0, 0] * dx + rotation[0, 1] * dy, rotation[1, 0] * dx + rotation[1, 1] * dy
+
+
+def measure(sensor, points):
+    """The (m, n) measurements of a built-in ``sensor`` at the (d, n) ``points``, bearings
+    wrapped to [-pi, pi)."""
+    if sensor.kind == SELECT:
+        return points[sensor.mapping]
+    px, py = _polar(sensor, points)
+    bearing = _wrap(np.arctan2(py, px))
+    if sensor.kind == BEARING_RANGE:
+        return np.stack([bearing, np.sqrt(px * px + py * py)])
+    return bearing[None]
+
+
+def jacobian(sensor, method, x):
+    """The (m, d) measurement Jacobian at ``x`` (d, 1) by ``method`` (ANALYTIC, FORWARD,
+    CENTRAL: the kernels' rules and steps); NaN where a bearing is taken at the sensor."""
+    m, d = sensor.ndim_meas, x.shape[0]
+    out = np.zeros((m, d))
+    if sensor.kind == SELECT:
+        out[np.arange(m), sensor.mapping] = 1.0
+        return out
+    if method == ANALYTIC:
+        px, py = (float(v[0]) for v in _polar(sensor, x))
+        rho2 = px * px + py * py
+        if rho2 == 0.0:
+            return np.full((m, d), np.nan)
+        columns, rotation = sensor.mapping[:2], sensor.rotation
+        out[0, columns] = (-py * rotation[0] + px * rotation[1]) / rho2
+        if sensor.kind == BEARING_RANGE:
+            out[1, columns] = (px * rotation[0] + py * rotation[1]) / np.sqrt(rho2)
+        return out
+    point = x[:, 0]
+    eye = np.eye(d)
+    if method == CENTRAL:
+        steps = 6.0554544523933395e-06 * np.maximum(np.abs(point), 1.0)
+        values = measure(sensor, np.hstack([x + eye * steps, x - eye * steps]))
+        delta = values[:, :d] - values[:, d:]
+        delta[0] = _wrap(delta[0])
+        return delta / (2.0 * steps)
+    steps = 1e8 * np.spacing(point)
+    steps = np.where(steps >= 1e-8, steps, 1e-8)
+    px, py = _polar(sensor, np.hstack([x + eye * steps, x]))
+    # libm's atan2, as the kernel's: these steps turn an ulp of difference into 1e-6
+    values = [_mod_bearing(np.array([math.atan2(b, a) for a, b in zip(px, py)]))]
+    if sensor.kind == BEARING_RANGE:
+        values.append(np.sqrt(px ** 2 + py ** 2))
+    values = np.stack(values)
+    delta = values[:, :d] - values[:, d:]
+    delta[0] = _mod_bearing(delta[0])
+    return delta / steps
+
+
+def update(sensor, method, joseph, x, covar, z):
+    """``(status, x, P, z_hat, S, cross)`` of a Kalman update with ``z`` by a built-in
+    ``sensor`` (:class:`~fasttrack.models.spec.MeasurementSpec`), linearised by ``method``
+    (see :func:`jacobian`), with the Joseph-form covariance if ``joseph``: the statuses,
+    in the kernels' order, of the prediction's covariance, the Jacobian, ``S`` and ``z``."""
+    status = covariance_status(covar, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    z_hat = measure(sensor, x)
+    h = jacobian(sensor, method, x)
+    if status == OK and not np.all(np.isfinite(h)):
+        status = JACOBIAN_UNDEFINED
+    cross = covar @ h.T
+    s = _symmetric(h @ cross + sensor.noise_covar)
+    try:
+        lower = np.linalg.cholesky(s)
+    except np.linalg.LinAlgError:
+        lower = None
+    if status == OK and (lower is None or not np.all(np.isfinite(lower))):
+        status = INNOVATION_NOT_PD
+    if status == OK and not np.all(np.isfinite(z)):
+        status = MEASUREMENT_NOT_FINITE
+    if status != OK:  # the caller raises
+        return status, x, covar, z_hat, s, cross
+    whitened = np.linalg.solve(lower, cross.T)
+    gain = np.linalg.solve(lower.T, whitened).T
+    innovation = z - z_hat
+    innovation[sensor.angles] = _wrap(innovation[sensor.angles])
+    x_out = x + gain @ innovation
+    if joseph:
+        square = np.eye(x.shape[0]) - gain @ h
+        covar_out = square @ covar @ square.T + gain @ sensor.noise_covar @ gain.T
+    else:
+        covar_out = covar - whitened.T @ whitened
+    return status, x_out, _symmetric(covar_out), z_hat, s, cross
