@@ -12,7 +12,9 @@ written (``plain``) and twice with every ``from stonesoup.X import Name`` follow
 (``switched``, what a user does by hand). The two modes alternate; the first run of each
 fills the kernel cache and any downloads, and the medians of the next ``--repeats`` runs
 are reported, whole process (interpreter start to exit, shutdown included), with the
-median of the paired differences (switched minus plain).
+median of the paired differences (switched minus plain). One more switched run counts the
+calls that ran Stone Soup's own code (``fasttrack.stonesoup.fallbacks``), with their
+reasons.
 """
 import argparse
 import ast
@@ -74,6 +76,15 @@ def switch_imports(source, names):
     return "".join(lines), switched
 
 
+#: Appended to a switched script: writes what ``fasttrack.stonesoup.fallbacks`` counted.
+_REPORT = """
+import json as _json, os as _os
+from fasttrack.stonesoup import fallbacks as _fallbacks
+with open(_os.environ["FASTTRACK_FALLBACK_REPORT"], "w") as _report:
+    _json.dump([[*key, calls] for key, calls in _fallbacks().most_common()], _report)
+"""
+
+
 def sdist(folder):
     """The unpacked Stone Soup sdist of the installed version, under ``folder``."""
     folder = pathlib.Path(folder)
@@ -88,9 +99,9 @@ def sdist(folder):
     return root
 
 
-def _seconds(path):
+def _seconds(path, **extra):
     """Seconds of one whole-process run of ``path``, from its own folder."""
-    env = dict(os.environ, MPLBACKEND="Agg")
+    env = dict(os.environ, MPLBACKEND="Agg", **extra)
     start = time.perf_counter()
     done = subprocess.run([sys.executable, path.name], cwd=path.parent, env=env,
                           capture_output=True, text=True)
@@ -108,6 +119,7 @@ def measure(root, script, names, repeats):
     switched_source, switched = switch_imports(source, names)
     twin = path.with_name(f"_fasttrack_{path.name}")
     twin.write_text(switched_source)
+    report = path.with_name(f"_fasttrack_{path.stem}.json")
     plain, fast = [], []
     try:
         for attempt in range(repeats + 1):
@@ -115,26 +127,36 @@ def measure(root, script, names, repeats):
             if attempt:
                 plain.append(times[0])
                 fast.append(times[1])
+        twin.write_text(switched_source + _REPORT)  # one more run, for the fallbacks
+        _seconds(twin, FASTTRACK_FALLBACK_REPORT=str(report))
+        fallbacks = json.loads(report.read_text())
     finally:
         twin.unlink()
+        report.unlink(missing_ok=True)
     result = {"script": script, "plain": plain, "switched": fast, "classes": switched,
               "ratio": statistics.median(fast) / statistics.median(plain),
-              "difference": statistics.median(f - p for f, p in zip(fast, plain))}
+              "difference": statistics.median(f - p for f, p in zip(fast, plain)),
+              "fallbacks": fallbacks}
     print(f"{script:<52} plain {statistics.median(plain):6.2f} s  switched "
           f"{statistics.median(fast):6.2f} s  ratio {result['ratio']:.2f}  difference "
-          f"{result['difference']:+.2f} s  ({switched} classes)", flush=True)
+          f"{result['difference']:+.2f} s  ({switched} classes, "
+          f"{sum(f[-1] for f in fallbacks)} calls ran Stone Soup's code)", flush=True)
     return result
 
 
 def table(results):
     """The Markdown table of ``results``."""
-    rows = ["| script | plain (s) | switched (s) | ratio | difference (s) | classes switched |",
-            "|---|---|---|---|---|---|"]
+    rows = ["| script | plain (s) | switched (s) | ratio | difference (s) | classes switched "
+            "| calls that ran Stone Soup's code (most frequent reason) |",
+            "|---|---|---|---|---|---|---|"]
     for r in results:
+        calls = sum(f[-1] for f in r["fallbacks"])
+        top = r["fallbacks"][0] if r["fallbacks"] else None
+        reason = f" ({top[0]}.{top[1]}: {top[2]})" if top else ""
         rows.append(f"| `{pathlib.PurePath(r['script']).name}` | "
                     f"{statistics.median(r['plain']):.2f} | "
                     f"{statistics.median(r['switched']):.2f} | {r['ratio']:.2f} | "
-                    f"{r['difference']:+.2f} | {r['classes']} |")
+                    f"{r['difference']:+.2f} | {r['classes']} | {calls}{reason} |")
     return "\n".join(rows)
 
 

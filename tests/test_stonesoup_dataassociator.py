@@ -395,8 +395,8 @@ def test_other_configurations_run_stone_soup_code():
                 .associate(tracks, scan_detections, T0 + DT)
             for track in tracks:
                 assert_same_hypothesis(ours[track], theirs[track])
-        fss.NearestNeighbour(h).associate(tracks, detections, T0 + DT, some_keyword=1)
-        assert not scans
+        fss.NearestNeighbour(h).associate(tracks, detections, T0 + DT, noise=False)
+        assert not scans  # a keyword that Stone Soup's models read
         fss.NearestNeighbour(h).associate(tracks, detections, T0 + DT)
         assert len(scans) == 1
 

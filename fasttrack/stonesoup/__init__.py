@@ -8,7 +8,9 @@ does and draws its random numbers from NumPy's global state (``np.random.seed``)
 
 Stone Soup's built-in models ``ConstantVelocity``, ``CombinedLinearGaussianTransitionModel``,
 ``LinearGaussian``, ``CartesianToBearingRange`` and ``Cartesian2DToBearing`` run through
-fasttrack's kernels; other models work through their own Python code.
+fasttrack's kernels; other models work through their own Python code. Each call that runs
+Stone Soup's code logs why at debug level (logger ``fasttrack.stonesoup``), and
+:func:`fallbacks` counts them.
 """
 try:
     import stonesoup  # noqa: F401
@@ -38,6 +40,7 @@ _MODULES = {
     "tracker": ["MultiTargetMixtureTracker", "MultiTargetTracker"],
     "updater": ["AdaptiveKernelKalmanUpdater", "ExtendedKalmanUpdater", "KalmanUpdater",
                 "ParticleUpdater", "UnscentedKalmanUpdater"],
+    "_fallback": ["fallbacks"],
 }
 
 __all__ = sorted((name for names in _MODULES.values() for name in names), key=str.lower)

@@ -25,8 +25,10 @@ from stonesoup.types.detection import MissedDetection
 from stonesoup.types.hypothesis import SingleDistanceHypothesis, SingleProbabilityHypothesis
 from stonesoup.types.multihypothesis import MultipleHypothesis
 from stonesoup.types.numeric import Probability
-from stonesoup.types.prediction import GaussianMeasurementPrediction, GaussianStatePrediction
-from stonesoup.types.state import State, StateMutableSequence
+from stonesoup.types.prediction import (GaussianMeasurementPrediction, GaussianStatePrediction,
+                                       Prediction)
+from stonesoup.types.state import GaussianState, State, StateMutableSequence
+from stonesoup.types.update import GaussianStateUpdate
 
 from ..association import (Gate, clusters, gate, global_nearest_neighbour, jpda_marginals,
                            nearest_neighbour)
@@ -36,10 +38,15 @@ from ..models import LinearGaussian
 from . import predictor as _predictor
 from . import updater as _updater
 from ._convert import fast_model, floats, typed_measurement, zero_control
+from ._fallback import keywords, unknown_model
 from .measures import _measure_kind
 
 
 # -- recognising a hypothesiser the vectorised path computes ---------------------------------
+
+#: Priors whose prediction is a plain ``GaussianStatePrediction`` (built directly; a
+#: weighted or tagged prior's through ``Prediction.from_state``, which carries them on).
+_PLAIN_GAUSSIAN = (GaussianState, GaussianStatePrediction, GaussianStateUpdate)
 
 #: The ``hypothesise`` functions the vectorised path computes (those of the drop-in gater
 #: and hypothesisers, not a subclass's own), each with what it computes: "gate",
@@ -57,7 +64,8 @@ def vectorised(kind):
 
 
 class _NotFast(Exception):
-    """Raised inside the vectorised path when the inputs need Stone Soup's code."""
+    """Raised inside the vectorised path when the inputs need Stone Soup's code; its text
+    is the reason."""
 
 
 class _Recipe:
@@ -74,46 +82,52 @@ class _Recipe:
 
 
 def _recipe(hypothesiser):
-    """The :class:`_Recipe` of ``hypothesiser``, or None if Stone Soup's code must run."""
+    """The :class:`_Recipe` of ``hypothesiser``, or the reason Stone Soup's code must run."""
     gates = []
     while _VECTORISED.get(type(hypothesiser).hypothesise) == "gate":
         if _measure_kind(hypothesiser.measure) != "mahalanobis":
-            return None
+            return f"a gater's measure {type(hypothesiser.measure).__name__}"
         gates.append(float(hypothesiser.gate_threshold))
         hypothesiser = hypothesiser.hypothesiser
     kind = _VECTORISED.get(type(hypothesiser).hypothesise)
     if kind == "distance":
         measure = _measure_kind(hypothesiser.measure)
-        if measure is None or hypothesiser.predict_with_measurements \
-                or (gates and measure != "mahalanobis"):
-            return None
+        if measure is None or (gates and measure != "mahalanobis"):
+            return f"measure {type(hypothesiser.measure).__name__}"
+        if hypothesiser.predict_with_measurements:
+            return "predict_with_measurements"
     elif kind == "pda":
         measure = "mahalanobis"
         if hypothesiser.include_all and hypothesiser.clutter_spatial_density is None:
-            return None
+            return "include_all without clutter_spatial_density"
     else:
-        return None
+        return f"hypothesiser {type(hypothesiser).__name__}"
     predictor, updater = hypothesiser.predictor, hypothesiser.updater
-    if type(predictor).predict is not _predictor._Kalman.predict \
-            or type(updater).predict_measurement is not _updater._Kalman.predict_measurement:
-        return None
+    if type(predictor).predict is not _predictor._Kalman.predict:
+        return f"predictor {type(predictor).__name__}"
+    if type(updater).predict_measurement is not _updater._Kalman.predict_measurement:
+        return f"updater {type(updater).__name__}"
     transition = fast_model(predictor.transition_model)
-    if transition is None or not zero_control(predictor.control_model):
-        return None
+    if transition is None:
+        return unknown_model(predictor.transition_model)
+    if not zero_control(predictor.control_model):
+        return "a control model"
     return _Recipe(hypothesiser, kind, measure, gates, transition)
 
 
 def _scan(hypothesiser, tracks, detections, timestamp, kwargs, kind=None, single=False):
-    """The vectorised :class:`_Scan`, or None where Stone Soup's code must run."""
-    if kwargs:
-        return None
+    """The vectorised :class:`_Scan`, or the reason Stone Soup's code must run."""
+    if keywords(kwargs):
+        return keywords(kwargs)
     recipe = _recipe(hypothesiser)
-    if recipe is None or (kind is not None and recipe.kind != kind):
-        return None
+    if isinstance(recipe, str):
+        return recipe
+    if kind is not None and recipe.kind != kind:
+        return f"{recipe.kind} hypotheses for a {kind} associator"
     try:
         return _Scan(recipe, tracks, detections, timestamp, single)
-    except _NotFast:
-        return None
+    except _NotFast as refusal:
+        return str(refusal)
 
 
 def _prior(track):
@@ -157,17 +171,17 @@ class _Scan:
         self.detections = list(detections)
         self.timestamp = timestamp
         if timestamp is None or any(d.timestamp != timestamp for d in self.detections):
-            raise _NotFast
+            raise _NotFast("detections at other times than the scan's")
         self._model, self._fast = self._measurement_model()
         self._predictions = [None] * len(self.tracks)
         self._measurement_predictions = [None] * len(self.tracks)
         try:
             self.priors = [_prior(track) for track in self.tracks]
         except (AttributeError, IndexError):
-            raise _NotFast from None
+            raise _NotFast("a track without a last state") from None
         if any(type(prior) not in _predictor._GAUSSIAN_STATES or prior.timestamp is None
                for prior in self.priors):
-            raise _NotFast
+            raise _NotFast("a track whose last state is not a timed Gaussian state")
         try:
             if single:
                 self._predict_one()
@@ -175,8 +189,8 @@ class _Scan:
                 self._predict_all()
             self._measurements = self._detection_array()
             self._candidates()
-        except (ValueError, TypeError):  # a kernel's error, or input Stone Soup handles
-            raise _NotFast from None
+        except (ValueError, TypeError) as error:  # a kernel's, or input Stone Soup handles
+            raise _NotFast(f"refused by fasttrack ({error})") from None
 
     # -- arrays ------------------------------------------------------------------------------
 
@@ -191,12 +205,12 @@ class _Scan:
             if model is None:
                 model = own
             elif own is not model:
-                raise _NotFast
+                raise _NotFast("detections of several measurement models")
         if not self.detections:
             model = updater.measurement_model
-        fast = None if model is None else updater._fast(model)
-        if fast is None:
-            raise _NotFast
+        fast = "no measurement model" if model is None else updater._fast(model)
+        if isinstance(fast, str):
+            raise _NotFast(fast)
         return model, fast
 
     def _predict_one(self):
@@ -226,7 +240,7 @@ class _Scan:
         covars = np.array([prior.covar for prior in self.priors], dtype=np.float64)
         if means.shape != (k, d, 1) or covars.shape != (k, d, d) \
                 or not (np.isfinite(means).all() and np.isfinite(covars).all()):
-            raise _NotFast  # Stone Soup's own arithmetic on ragged or non-finite states
+            raise _NotFast("ragged or non-finite track states")  # Stone Soup's arithmetic
         means = means.reshape(k, d)
         intervals = np.array([(self.timestamp - prior.timestamp).total_seconds()
                               for prior in self.priors])
@@ -240,7 +254,7 @@ class _Scan:
             return np.zeros((0, m))
         z = np.array([d.state_vector for d in self.detections], dtype=np.float64)
         if z.shape != (len(self.detections), m, 1):
-            raise _NotFast
+            raise _NotFast("detections of another shape than the model's")
         return z.reshape(-1, m)
 
     def _gate(self, threshold, covars, angles):
@@ -330,12 +344,19 @@ class _Scan:
     # -- Stone Soup objects ------------------------------------------------------------------
 
     def prediction(self, k):
-        """Track k's ``GaussianStatePrediction`` (as the drop-in predictor makes it)."""
+        """Track k's prediction, as the drop-in predictor makes it (a
+        ``GaussianStatePrediction``, or the prediction type of a weighted or tagged prior,
+        with its weight and tag)."""
         prediction = self._predictions[k]
         if prediction is None:  # views of the scan's own arrays, one row each
-            prediction = GaussianStatePrediction(
-                self.means[k, :, None].view(StateVector), self.covars[k].view(CovarianceMatrix),
-                self.timestamp, self.recipe.predictor.transition_model, self.priors[k])
+            mean = self.means[k, :, None].view(StateVector)
+            covar = self.covars[k].view(CovarianceMatrix)
+            prior, model = self.priors[k], self.recipe.predictor.transition_model
+            if type(prior) in _PLAIN_GAUSSIAN:
+                prediction = GaussianStatePrediction(mean, covar, self.timestamp, model, prior)
+            else:
+                prediction = Prediction.from_state(prior, mean, covar, timestamp=self.timestamp,
+                                                   transition_model=model, prior=prior)
             self._predictions[k] = prediction
         return prediction
 

@@ -19,6 +19,7 @@ from stonesoup.dataassociator import neighbour as ss_neighbour
 from stonesoup.dataassociator import probability as ss_probability
 from stonesoup.types.hypothesis import JointHypothesis
 
+from ._fallback import fall_back
 from ._scan import _scan
 
 __all__ = ["GNNWith2DAssignment", "GlobalNearestNeighbour", "JPDA", "JPDAwithEHM",
@@ -49,7 +50,8 @@ class _Vectorised:
         dict
         """
         scan = _scan(self.hypothesiser, tracks, detections, timestamp, kwargs)
-        if scan is None:
+        if isinstance(scan, str):
+            fall_back(self, "generate_hypotheses", scan)
             return super().generate_hypotheses(tracks, detections, timestamp, **kwargs)
         return {track: scan.hypotheses(k) for k, track in enumerate(scan.tracks)}
 
@@ -69,13 +71,15 @@ class _Vectorised:
             ``{track: hypothesis}`` as the Stone Soup class returns it (see the class).
         """
         scan = _scan(self.hypothesiser, tracks, detections, timestamp, kwargs, self._kind)
-        associations = None if scan is None else self._solve(scan)
-        if associations is None:
+        associations = scan if isinstance(scan, str) else self._solve(scan)
+        if isinstance(associations, str):
+            fall_back(self, "associate", associations)
             return super().associate(tracks, detections, timestamp, **kwargs)
         return associations
 
     def _solve(self, scan):
-        """The association of a vectorised scan, or None where Stone Soup's code must run."""
+        """The association of a vectorised scan, or the reason Stone Soup's code must
+        run."""
         raise NotImplementedError
 
 
@@ -107,7 +111,9 @@ class GlobalNearestNeighbour(_Vectorised, ss_neighbour.GlobalNearestNeighbour):
 
     def _solve(self, scan):
         assigned = scan.global_nearest(enumerated=True) if scan.tracks else None
-        return None if assigned is None else JointHypothesis(scan.chosen(assigned))
+        if assigned is None:
+            return "no tracks, or no joint hypothesis of finite distance"
+        return JointHypothesis(scan.chosen(assigned))
 
 
 class GNNWith2DAssignment(_Vectorised, ss_neighbour.GNNWith2DAssignment):
@@ -125,7 +131,9 @@ class GNNWith2DAssignment(_Vectorised, ss_neighbour.GNNWith2DAssignment):
 
     def _solve(self, scan):
         assigned = scan.global_nearest()
-        return None if assigned is None else scan.chosen(assigned)
+        if assigned is None:
+            return "no assignment of finite distance (Stone Soup raises)"
+        return scan.chosen(assigned)
 
 
 class PDA(_Vectorised, ss_probability.PDA):
@@ -152,7 +160,7 @@ class _Joint(_Vectorised):
 
     def _solve(self, scan):
         if not np.isfinite(scan.missed_log_weight):
-            return None  # a certain detection (prob_detect * prob_gate = 1)
+            return "a certain detection (prob_detect * prob_gate = 1)"
         # a cluster too big for exact association raises, naming its size (Stone Soup's
         # enumeration of it would not finish either)
         return scan.jpda_hypotheses(*scan.marginals(), ehm=self._ehm)

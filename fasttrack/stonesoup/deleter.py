@@ -13,6 +13,8 @@ from stonesoup.deleter import time as ss_time
 from stonesoup.types.state import StateMutableSequence
 from stonesoup.types.update import Update
 
+from ._fallback import fall_back
+
 __all__ = ["CovarianceBasedDeleter", "UpdateTimeStepsDeleter"]
 
 
@@ -64,13 +66,15 @@ class CovarianceBasedDeleter(ss_error.CovarianceBasedDeleter):
 
     def delete_tracks(self, tracks, **kwargs):
         if type(self).check_for_deletion is not ss_error.CovarianceBasedDeleter.check_for_deletion:
-            return super().delete_tracks(tracks, **kwargs)  # a subclass's own check
+            fall_back(self, "delete_tracks", "a subclass's own check_for_deletion")
+            return super().delete_tracks(tracks, **kwargs)
         tracks = list(tracks)
         if not tracks:
             return set()
         covars = [track.state.covar for track in tracks]
         flags = self._exceeding(covars)
-        if flags is None:  # ragged or non-numeric covariances: one at a time
+        if flags is None:  # one at a time
+            fall_back(self, "delete_tracks", "covariances that do not stack into one array")
             doomed = {track for track in tracks if self.check_for_deletion(track, **kwargs)}
         else:
             doomed = {track for track, flag in zip(tracks, flags.tolist()) if flag}

@@ -2,6 +2,7 @@
 (see ``_scan``) when it wraps a drop-in hypothesiser with a Mahalanobis measure."""
 from stonesoup.gater import distance as ss_gater
 
+from ._fallback import fall_back
 from ._scan import _scan, vectorised
 
 __all__ = ["DistanceGater"]
@@ -31,11 +32,12 @@ class DistanceGater(ss_gater.DistanceGater):
         -------
         stonesoup.types.multihypothesis.MultipleHypothesis
         """
-        scan = None
+        scan = "arguments other than a timestamp"
         if len(args) == 1 and not kwargs:
             scan = _scan(self, [track], detections, args[0], {}, single=True)
         elif not args and set(kwargs) == {"timestamp"}:
             scan = _scan(self, [track], detections, kwargs["timestamp"], {}, single=True)
-        if scan is None:
+        if isinstance(scan, str):
+            fall_back(self, "hypothesise", scan)
             return super().hypothesise(track, detections, *args, **kwargs)
         return scan.hypotheses(0)

@@ -3,6 +3,7 @@
 from stonesoup.hypothesiser import distance as ss_distance
 from stonesoup.hypothesiser import probability as ss_probability
 
+from ._fallback import fall_back
 from ._scan import _scan, vectorised
 
 __all__ = ["DistanceHypothesiser", "PDAHypothesiser"]
@@ -36,7 +37,8 @@ class DistanceHypothesiser(ss_distance.DistanceHypothesiser):
             Of ``SingleDistanceHypothesis``.
         """
         scan = _scan(self, [track], detections, timestamp, kwargs, single=True)
-        if scan is None:
+        if isinstance(scan, str):
+            fall_back(self, "hypothesise", scan)
             return super().hypothesise(track, detections, timestamp, **kwargs)
         return scan.hypotheses(0)
 
@@ -69,6 +71,7 @@ class PDAHypothesiser(ss_probability.PDAHypothesiser):
             Of ``SingleProbabilityHypothesis``, normalised if ``normalise``.
         """
         scan = _scan(self, [track], detections, timestamp, kwargs, single=True)
-        if scan is None:
+        if isinstance(scan, str):
+            fall_back(self, "hypothesise", scan)
             return super().hypothesise(track, detections, timestamp, **kwargs)
         return scan.hypotheses(0)

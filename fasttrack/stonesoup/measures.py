@@ -5,6 +5,7 @@ from stonesoup.types.angle import Angle, Bearing
 from stonesoup.types.state import GaussianState
 
 from ._convert import floats
+from ._fallback import fall_back
 
 __all__ = ["Mahalanobis"]
 
@@ -27,35 +28,37 @@ def _angle_rows(vectors, m):
 
 def _squared_mahalanobis(measure, state1, state2):
     """Stone Soup's squared Mahalanobis distance of a Gaussian ``state1`` and one vector
-    ``state2`` by a Cholesky factor, or None where Stone Soup's own code is needed (a
+    ``state2`` by a Cholesky factor, or the reason Stone Soup's own code is needed (a
     mapping, several columns, a covariance that is not positive definite)."""
-    if measure.mapping is not None or not isinstance(state1, GaussianState):
-        return None
+    if measure.mapping is not None:
+        return "a mapping"
+    if not isinstance(state1, GaussianState):
+        return f"state1 {type(state1).__name__} is not Gaussian"
     u = getattr(state1, "mean", state1.state_vector)
     v = getattr(state2, "mean", state2.state_vector)
     if not isinstance(u, np.ndarray) or not isinstance(v, np.ndarray):
-        return None
+        return "state vectors that are not arrays"
     m = u.shape[0]
     if u.shape != (m, 1) or v.shape != (m, 1) or np.shape(state1.covar) != (m, m):
-        return None
+        return "several columns, or shapes that do not match"
     angles = _angle_rows((u, v), m)
     if angles is None:
-        return None
+        return "angles other than bearings"
     try:
         u, v, covar = floats(u).ravel(), floats(v).ravel(), floats(state1.covar)
     except (TypeError, ValueError):
-        return None
+        return "values that are not numbers"
     if not np.isfinite(covar).all():
-        return None
+        return "a covariance that is not finite"
     try:
         lower = np.linalg.cholesky(covar)
     except np.linalg.LinAlgError:
-        return None
+        return "a covariance that is not positive definite"
     difference = v - u
     difference[angles] -= 2 * np.pi * np.floor((difference[angles] + np.pi) / (2 * np.pi))
     whitened = np.linalg.solve(lower, difference)
     d2 = float(whitened @ whitened)
-    return d2 if np.isfinite(d2) else None
+    return d2 if np.isfinite(d2) else "a distance that is not finite"
 
 
 class Mahalanobis(ss_measures.Mahalanobis):
@@ -83,7 +86,8 @@ class Mahalanobis(ss_measures.Mahalanobis):
             As Stone Soup: an array for a ``state2`` of several columns.
         """
         d2 = _squared_mahalanobis(self, state1, state2)
-        if d2 is None:
+        if isinstance(d2, str):
+            fall_back(self, "__call__", d2)
             return super().__call__(state1, state2)
         return np.sqrt(np.float64(d2))
 

@@ -21,12 +21,13 @@ from stonesoup.types.state import GaussianState, SqrtGaussianState, State, State
 from stonesoup.types.time import TimeRange
 
 from ..metrics import gospa, gospa_over_time, ospa_over_time
+from ._fallback import fall_back
 
 __all__ = ["GOSPAMetric", "OSPAMetric"]
 
 
 class _NotFast(Exception):
-    """The inputs need Stone Soup's own code."""
+    """The inputs need Stone Soup's own code; its text is the reason."""
 
 
 # -- Stone Soup objects to arrays -------------------------------------------------------------
@@ -167,15 +168,15 @@ def _points(states, mapping):
     try:
         stacked = np.array(vectors)
     except (ValueError, TypeError):  # ragged state vectors
-        raise _NotFast from None
+        raise _NotFast("ragged state vectors") from None
     if stacked.ndim != 3 or stacked.dtype.kind not in "fiu" or stacked.shape[2] == 0:
-        raise _NotFast
+        raise _NotFast("state vectors that are not numbers")
     try:
         points = stacked[:, :, 0] if mapping is None else stacked[:, mapping, 0]
     except IndexError:
-        raise _NotFast from None
+        raise _NotFast("a mapping outside the state vectors") from None
     if points.ndim != 2:
-        raise _NotFast
+        raise _NotFast("a mapping outside the state vectors")
     return np.ascontiguousarray(points, dtype=np.float64)
 
 
@@ -200,11 +201,11 @@ def _timesteps(estimate_stamps, truth_stamps):
     stamps = set(estimate_stamps)
     stamps.update(truth_stamps)
     if None in stamps:  # Stone Soup cannot sort them (or groups them its own way)
-        raise _NotFast
+        raise _NotFast("states without timestamps")
     try:
         unique = sorted(stamps)
     except TypeError:
-        raise _NotFast from None
+        raise _NotFast("timestamps that do not sort") from None
     index = {stamp: k for k, stamp in enumerate(unique)}
 
     def steps(side):
@@ -215,7 +216,7 @@ def _timesteps(estimate_stamps, truth_stamps):
 def _mappings(measure):
     """The components the measure compares for tracks and for truths, or _NotFast."""
     if type(measure) is not Euclidean:
-        raise _NotFast
+        raise _NotFast(f"measure {type(measure).__name__}")
     return measure.mapping, measure.mapping2
 
 
@@ -225,7 +226,7 @@ def _sides(generator, estimates, estimate_stamps, truths, truth_stamps):
     unique, estimate_steps, truth_steps = _timesteps(estimate_stamps, truth_stamps)
     e, t = _points(estimates, mapping), _points(truths, mapping2)
     if e is not None and t is not None and e.shape[1] != t.shape[1]:
-        raise _NotFast  # Stone Soup's measure raises where both are present
+        raise _NotFast("tracks and truths of different dimensions")
     width = (e if e is not None else t).shape[1] if (e is not None or t is not None) else 0
     return (_Side(e, estimate_steps, len(unique), width),
             _Side(t, truth_steps, len(unique), width), unique)
@@ -236,9 +237,9 @@ def _cut_off(generator):
     try:
         c, p = float(generator.c), float(generator.p)
     except (TypeError, ValueError):
-        raise _NotFast from None
+        raise _NotFast("c or p not a number") from None
     if not (0 < c < np.inf and p > 0):
-        raise _NotFast
+        raise _NotFast("c or p outside (0, inf)")
     return c, p
 
 
@@ -310,7 +311,9 @@ class _Metric:
         cls = type(self)
         if not (getattr(cls.extract_states, "_fasttrack", False)
                 and getattr(cls.compute_over_time, "_fasttrack", False)):
-            return super().compute_metric(manager)  # a subclass's own pieces
+            fall_back(self, "compute_metric", "a subclass's own extract_states or "
+                                              "compute_over_time")
+            return super().compute_metric(manager)
         estimates = _extract(manager.states_sets[self.tracks_key])
         truths = _extract(manager.states_sets[self.truths_key])
         return self._compute(estimates, truths)
@@ -319,7 +322,8 @@ class _Metric:
         """Stone Soup's ``compute_over_time`` of the extracted ``(states, ids, timestamps)``."""
         try:
             return self._fast_over_time(estimates, truths)
-        except _NotFast:
+        except _NotFast as refusal:
+            fall_back(self, "compute_metric", str(refusal))
             return self._stonesoup.compute_over_time(
                 self, StateMutableSequence(estimates[0]), estimates[1],
                 StateMutableSequence(truths[0]), truths[1])
@@ -332,7 +336,8 @@ class _Metric:
             return self._fast_over_time(
                 (estimates, measured_state_ids, _timestamps(estimates)),
                 (truths, truth_state_ids, _timestamps(truths)))
-        except _NotFast:
+        except _NotFast as refusal:
+            fall_back(self, "compute_over_time", str(refusal))
             return self._stonesoup.compute_over_time(
                 self, measured_states, measured_state_ids, truth_states, truth_state_ids)
 
@@ -345,16 +350,16 @@ def _steps(flat, offsets):
 def _dense_ids(ids, count):
     """Ids as int64 in ``[0, n)`` (equal ids equal) and n."""
     if ids is None or isinstance(ids, (str, bytes)):
-        raise _NotFast
+        raise _NotFast("ids that are not a sequence")
     try:
         array = np.asarray(ids)
         if count == 0 and array.size == 0:
             return np.empty(0, dtype=np.int64), 0
         if array.shape != (count,) or array.dtype.kind not in "iuUS":
-            raise _NotFast
+            raise _NotFast("ids that are not integers or strings")
         unique, dense = np.unique(array, return_inverse=True)
     except (TypeError, ValueError):
-        raise _NotFast from None
+        raise _NotFast("ids that are not integers or strings") from None
     return dense.astype(np.int64).reshape(-1), unique.size
 
 
@@ -366,17 +371,17 @@ class GOSPAMetric(_Metric, ss_ospametric.GOSPAMetric):
 
     def _parameters(self):
         if self.alpha != 2:  # Stone Soup splits the parts only for alpha = 2
-            raise _NotFast
+            raise _NotFast("alpha other than 2")
         c, p = _cut_off(self)
         if p == np.inf:
-            raise _NotFast
+            raise _NotFast("p = inf")
         return c, p
 
     def _fast_over_time(self, estimates, truths):
         c, p = self._parameters()
         (e_states, e_ids, e_stamps), (t_states, t_ids, t_stamps) = estimates, truths
         if not e_stamps and not t_stamps:
-            raise _NotFast  # Stone Soup's error
+            raise _NotFast("no states (Stone Soup's error)")  # Stone Soup's error
         e, t, unique = _sides(self, e_states, e_stamps, t_states, t_stamps)
         ids = self._step_ids(e, e_ids, t, t_ids)
         result = gospa_over_time(_steps(t.points, t.offsets), _steps(e.points, e.offsets), c,
@@ -396,7 +401,7 @@ class GOSPAMetric(_Metric, ss_ospametric.GOSPAMetric):
         try:
             return float(self.switching_penalty)
         except (TypeError, ValueError):
-            raise _NotFast from None
+            raise _NotFast("a switching penalty that is not a number") from None
 
     def _step_ids(self, e, e_ids, t, t_ids):
         """Stone Soup's track and truth identities as per-step int arrays (for the
@@ -407,7 +412,7 @@ class GOSPAMetric(_Metric, ss_ospametric.GOSPAMetric):
         t_dense, n_ids = _dense_ids(t_ids, t.order.size)
         e_dense, t_dense = e_dense[e.order], t_dense[t.order]
         if np.unique(t.steps * max(n_ids, 1) + t_dense).size != t_dense.size:
-            raise _NotFast  # a truth twice in one step: Stone Soup keeps the last one's
+            raise _NotFast("a truth twice in one time step")
         return {"truth_ids": _steps(t_dense, t.offsets),
                 "estimate_ids": _steps(e_dense, e.offsets)}
 
@@ -422,8 +427,9 @@ class GOSPAMetric(_Metric, ss_ospametric.GOSPAMetric):
             mapping, mapping2 = _mappings(self.measure)
             e, t = _points(estimates, mapping), _points(truths, mapping2)
             if e is not None and t is not None and e.shape[1] != t.shape[1]:
-                raise _NotFast
-        except _NotFast:
+                raise _NotFast("tracks and truths of different dimensions")
+        except _NotFast as refusal:
+            fall_back(self, "compute_gospa_metric", str(refusal))
             return super().compute_gospa_metric(measured_states, truth_states)
         width = (e if e is not None else t).shape[1]
         e = np.empty((0, width)) if e is None else e
@@ -458,7 +464,7 @@ class OSPAMetric(_Metric, ss_ospametric.OSPAMetric):
     def _fast_over_time(self, estimates, truths):
         (e_states, _, e_stamps), (t_states, _, t_stamps) = estimates, truths
         if not e_stamps and not t_stamps:
-            raise _NotFast  # Stone Soup's error
+            raise _NotFast("no states (Stone Soup's error)")  # Stone Soup's error
         _cut_off(self)
         e, t, unique = _sides(self, e_states, e_stamps, t_states, t_stamps)
         title = 'OSPA distance'
@@ -475,10 +481,11 @@ class OSPAMetric(_Metric, ss_ospametric.OSPAMetric):
             raise ValueError('All states must be from the same time to perform OSPA')
         try:
             if not stamps:
-                raise _NotFast  # Stone Soup's error
+                raise _NotFast("no states (Stone Soup's error)")  # Stone Soup's error
             e, t, unique = _sides(self, estimates, e_stamps, truths, t_stamps)
             value = self._distances(e, t)[0]
-        except _NotFast:
+        except _NotFast as refusal:
+            fall_back(self, "compute_OSPA_distance", str(refusal))
             return super().compute_OSPA_distance(track_states, truth_states)
         return _single_time_metric(title='OSPA distance', value=value, generator=self,
                                    timestamp=unique[0])

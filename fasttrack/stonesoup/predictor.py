@@ -10,9 +10,11 @@ from stonesoup.predictor import particle as ss_particle
 from stonesoup.predictor._utils import predict_lru_cache
 from stonesoup.proposal.simple import DynamicsProposal
 from stonesoup.types.array import StateVectors
-from stonesoup.types.prediction import GaussianStatePrediction, Prediction
-from stonesoup.types.state import GaussianState
-from stonesoup.types.update import GaussianStateUpdate, KernelParticleStateUpdate
+from stonesoup.types import prediction as ss_prediction
+from stonesoup.types import state as ss_state
+from stonesoup.types import update as ss_update
+from stonesoup.types.prediction import Prediction
+from stonesoup.types.update import KernelParticleStateUpdate
 
 from ..core import akkf as ft_akkf
 from ..core import kalman as ft_kalman
@@ -21,31 +23,58 @@ from ..core import unscented as ft_unscented
 from ..types import dense_kernel_covar
 from ._convert import (fast_kernel, fast_model, fits, floats, model_rng, plain_particles,
                        sigma_parameters, uncached, zero_control)
+from ._fallback import fall_back, keywords, unknown_kernel, unknown_model
 from .state import kernel_factors, remember_factors
 
-#: Gaussian state types whose predictions the Kalman kernel builds (not the square-root or
-#: other specialised ones, which go through Stone Soup).
-_GAUSSIAN_STATES = (GaussianState, GaussianStatePrediction, GaussianStateUpdate)
+#: Gaussian state types whose predictions the Kalman kernel builds, with the weight and tag
+#: of a mixture component carried as Stone Soup carries them (not the square-root or other
+#: specialised ones, which go through Stone Soup).
+_GAUSSIAN_STATES = tuple(getattr(module, f"{kind}GaussianState{stage}")
+                         for kind in ("", "Weighted", "TaggedWeighted")
+                         for module, stage in ((ss_state, ""), (ss_prediction, "Prediction"),
+                                               (ss_update, "Update")))
 
 
 def _seconds(later, earlier):
     return (later - earlier).total_seconds()
 
 
+def _timestamps(timestamp, prior):
+    """The reason a prediction without both times needs Stone Soup's code, or None."""
+    if timestamp is None or prior.timestamp is None:
+        return "no timestamp (prediction or prior)"
+    return None
+
+
 class ParticlePredictor(ss_particle.ParticlePredictor):
     """Stone Soup's ``ParticlePredictor``, compiled for its built-in linear models."""
+
+    def _refusal(self, prior, timestamp, kwargs):
+        """Why Stone Soup's code must run this prediction, or None."""
+        proposal = self.proposal
+        if type(proposal) is not DynamicsProposal:
+            return f"proposal {type(proposal).__name__}"
+        if proposal.control_model is not None:
+            return "a control model"
+        if fast_model(proposal.transition_model) is None:
+            return unknown_model(proposal.transition_model)
+        if keywords(kwargs):
+            return keywords(kwargs)
+        if not plain_particles(prior):
+            return f"prior {type(prior).__name__} indexes its particles its own way"
+        return _timestamps(timestamp, prior)
 
     @predict_lru_cache()
     def predict(self, prior, timestamp=None, measurement=None, **kwargs):
         proposal = self.proposal
-        model = fast_model(proposal.transition_model) \
-            if type(proposal) is DynamicsProposal and proposal.control_model is None else None
         if measurement is not None:
             timestamp = measurement.timestamp
-        if (model is None or kwargs or not plain_particles(prior) or timestamp is None
-                or prior.timestamp is None):
+        reason = self._refusal(prior, timestamp, kwargs)
+        if reason:
+            fall_back(self, "predict", reason)
             return uncached(ss_particle.ParticlePredictor.predict)(
                 self, prior, timestamp, measurement, **kwargs)
+        model = fast_model(proposal.transition_model)
         state = ft_particle.predict(model, floats(prior.state_vector),
                                     _seconds(timestamp, prior.timestamp),
                                     model_rng(proposal.transition_model))
@@ -60,26 +89,32 @@ class _Kalman:
     _stonesoup = ss_kalman.KalmanPredictor
 
     def _moments(self, model, dt, x, covar):
-        """``(x, P)`` predicted by the kernel, or None where Stone Soup's code must run."""
+        """``(x, P)`` predicted by the kernel, or the reason Stone Soup's code must run."""
         return ft_kalman.predict(model, dt, x, covar)
 
-    def _fast(self, prior, timestamp, control_input, kwargs):
-        """The fasttrack transition model if the kernel applies to this call, else None."""
+    def _refusal(self, prior, timestamp, control_input, kwargs):
+        """Why Stone Soup's code must run this prediction, or None."""
         model = fast_model(self.transition_model)
-        if (model is None or kwargs or control_input is not None
-                or not zero_control(self.control_model) or type(prior) not in _GAUSSIAN_STATES
-                or timestamp is None or prior.timestamp is None
-                or not fits(prior, model.ndim_state)):
-            return None
-        return model
+        if model is None:
+            return unknown_model(self.transition_model)
+        if keywords(kwargs):
+            return keywords(kwargs)
+        if control_input is not None or not zero_control(self.control_model):
+            return "a control input"
+        if type(prior) not in _GAUSSIAN_STATES:
+            return f"prior {type(prior).__name__}"
+        if not fits(prior, model.ndim_state):
+            return f"prior of the wrong shape for {model.ndim_state} dimensions"
+        return _timestamps(timestamp, prior)
 
     @predict_lru_cache()
     def predict(self, prior, timestamp=None, control_input=None, **kwargs):
-        model = self._fast(prior, timestamp, control_input, kwargs)
-        moments = None if model is None else self._moments(
-            model, _seconds(timestamp, prior.timestamp), floats(prior.state_vector),
-            floats(prior.covar))
-        if moments is None:
+        reason = self._refusal(prior, timestamp, control_input, kwargs)
+        moments = reason or self._moments(
+            fast_model(self.transition_model), _seconds(timestamp, prior.timestamp),
+            floats(prior.state_vector), floats(prior.covar))
+        if isinstance(moments, str):
+            fall_back(self, "predict", moments)
             return uncached(self._stonesoup.predict)(self, prior, timestamp, control_input,
                                                      **kwargs)
         return Prediction.from_state(prior, *moments, timestamp=timestamp,
@@ -112,25 +147,34 @@ class UnscentedKalmanPredictor(_Kalman, ss_kalman.UnscentedKalmanPredictor):
     def _moments(self, model, dt, x, covar):
         parameters = sigma_parameters(self, x.shape[0])
         if parameters is None:
-            return None
+            return "sigma-point parameters outside fasttrack's range"
         try:
             return ft_unscented.predict(model, dt, x, covar, *parameters)
-        except ValueError:  # refused (no Cholesky factor, which Stone Soup regularises)
-            return None
+        except ValueError as error:  # no Cholesky factor, which Stone Soup regularises
+            return f"refused by fasttrack ({error})"
 
 
 class AdaptiveKernelKalmanPredictor(ss_kernel.AdaptiveKernelKalmanPredictor):
     """Stone Soup's ``AdaptiveKernelKalmanPredictor``, computed in fasttrack's factored form
     (see ``fasttrack.AdaptiveKernelKalmanPredictor``)."""
 
+    def _refusal(self, prior, timestamp, kwargs):
+        """Why Stone Soup's code must run this prediction, or None."""
+        if fast_model(self.transition_model) is None:
+            return unknown_model(self.transition_model)
+        if fast_kernel(self.kernel) is None:
+            return unknown_kernel(self.kernel)
+        return keywords(kwargs) or _timestamps(timestamp, prior)
+
     @predict_lru_cache()
     def predict(self, prior, timestamp=None, proposal=None, **kwargs):
-        model = fast_model(self.transition_model)
-        kernel = fast_kernel(self.kernel)
-        if (model is None or kernel is None or kwargs or timestamp is None
-                or prior.timestamp is None):
+        reason = self._refusal(prior, timestamp, kwargs)
+        if reason:
+            fall_back(self, "predict", reason)
             return uncached(ss_kernel.AdaptiveKernelKalmanPredictor.predict)(
                 self, prior, timestamp, proposal, **kwargs)
+        model = fast_model(self.transition_model)
+        kernel = fast_kernel(self.kernel)
         if proposal is None:
             proposal = prior.proposal if isinstance(prior, KernelParticleStateUpdate) \
                 else prior.state_vector

@@ -21,6 +21,7 @@ from stonesoup.types.prediction import Prediction
 
 from ..core import smooth as ft_smooth
 from ._convert import fast_model
+from ._fallback import fall_back, keywords, unknown_model
 
 #: The hooks of Stone Soup's smoothers that the fast path computes itself.
 _HOOKS = ("_prediction", "_transition_model", "_transition_matrix", "_smooth_gain")
@@ -66,11 +67,13 @@ class _Kalman:
         """
         if kwargs or any(getattr(type(self), hook) is not getattr(self._stonesoup, hook)
                          for hook in _HOOKS):
+            fall_back(self, "smooth", keywords(kwargs) if kwargs else "a subclass's own hooks")
             return self._stonesoup.smooth(self, track, **kwargs)
         states = list(track.states)
         start = self._start(states)
         smoothed = self._smooth_body(states[start:])
-        if smoothed is None:
+        if isinstance(smoothed, str):
+            fall_back(self, "smooth", smoothed)
             return self._stonesoup.smooth(self, track)
         smoothed_track = copy.copy(track)
         smoothed_track.states = states[:start] + smoothed
@@ -86,33 +89,37 @@ class _Kalman:
         return 0
 
     def _smooth_body(self, body):
-        """The smoothed states of ``body`` (its last one its own), or None where Stone
+        """The smoothed states of ``body`` (its last one its own), or the reason Stone
         Soup's code must run."""
         if len(body) < 2:
-            return None
+            return "fewer than two states"
         try:
             predictions = [self._prediction(state) for state in body[1:]]
         except (ValueError, TypeError):  # Stone Soup's code raises its error, in its order
-            return None
+            return "a state without its prediction"
         models = {id(model): model for model in map(self._transition_model, predictions)}
-        fast = fast_model(next(iter(models.values()))) if len(models) == 1 else None
+        if len(models) > 1:
+            return "several transition models"
+        model = next(iter(models.values()))
+        fast = fast_model(model)
         if fast is None:
-            return None
+            return unknown_model(model)
         moments = self._moments(fast, body, predictions, fast.ndim_state)
-        if moments is None:
-            return None
+        if isinstance(moments, str):
+            return moments
         return [type(state).from_state(state, mean, covar)
                 for state, mean, covar in zip(body[:-1], *moments)] + [body[-1]]
 
     @staticmethod
     def _moments(model, body, predictions, d):
         """Smoothed means (n, d, 1) and covariances (n, d, d) of ``body`` through the
-        fasttrack transition ``model``, range by range (see :func:`_segments`), or None."""
+        fasttrack transition ``model``, range by range (see :func:`_segments`), or the
+        reason Stone Soup's code must run."""
         try:
             intervals = np.array([(later.timestamp - earlier.timestamp).total_seconds()
                                   for earlier, later in zip(body, body[1:])])
-        except (TypeError, AttributeError):  # missing or mixed timestamps
-            return None
+        except (TypeError, AttributeError):
+            return "missing or mixed timestamps"
         means = _stacked([state.state_vector for state in body], (d, 1))
         covars = _stacked([state.covar for state in body], (d, d))
         # index 0 (the first state's own prediction) is not used
@@ -120,7 +127,7 @@ class _Kalman:
                                    + [p.state_vector for p in predictions], (d, 1))
         predicted_covars = _stacked([body[0].covar] + [p.covar for p in predictions], (d, d))
         if any(a is None for a in (means, covars, predicted_means, predicted_covars)):
-            return None
+            return "states of other shapes than the model's, or not numbers"
         means, predicted_means = means[..., 0], predicted_means[..., 0]
         for first, end in _segments(body):
             if end - first < 2:
@@ -128,13 +135,13 @@ class _Kalman:
             part = slice(first, end)
             if not all(np.isfinite(a[part]).all()
                        for a in (means, covars, predicted_means, predicted_covars)):
-                return None  # Stone Soup's code
+                return "states that are not finite"
             smoothed_means, smoothed_covars, status = ft_smooth.rts_linear(
                 model, means[None, part], covars[None, part], predicted_means[None, part],
                 predicted_covars[None, part], np.zeros(end - first, dtype=np.uint8),
                 intervals[first:end - 1])
-            if status:  # a predicted covariance not positive definite: Stone Soup's code
-                return None
+            if status:
+                return "a predicted covariance that is not positive definite"
             means[part], covars[part] = smoothed_means[0], smoothed_covars[0]
         return means[..., None], covars
 

@@ -16,6 +16,7 @@ from stonesoup.types.prediction import GaussianStatePrediction
 from stonesoup.types.update import GaussianStateUpdate
 
 from ..core.mixture import moment_match
+from ._fallback import fall_back
 
 __all__ = ["MultiTargetMixtureTracker", "MultiTargetTracker"]
 
@@ -75,6 +76,8 @@ class MultiTargetMixtureTracker(ss_tracker.MultiTargetMixtureTracker):
             probabilities = [hypothesis.probability for hypothesis in multihypothesis]
             reduced = _reduce(posteriors, probabilities)
             if reduced is None:
+                fall_back(self, "__next__", "a mixture of non-numeric states or weights "
+                                            "that do not normalise (its reduction)")
                 reduced = gm_reduce_single(
                     StateVectors([state.state_vector for state in posteriors]),
                     np.stack([state.covar for state in posteriors], axis=2),

@@ -26,6 +26,7 @@ from ..models import LinearGaussian
 from ..types import dense_kernel_covar
 from ._convert import (angle_rows, fast_kernel, fast_model, fits, floats, global_rng,
                        plain_particles, sigma_parameters, typed_measurement, uncached)
+from ._fallback import fall_back, keywords, unknown_kernel, unknown_model
 from .state import kernel_factors, remember_factors
 
 
@@ -37,12 +38,28 @@ def _measurement_model(updater, hypothesis):
 class ParticleUpdater(ss_particle.ParticleUpdater):
     """Stone Soup's ``ParticleUpdater``, compiled for its built-in measurement models."""
 
+    def _refusal(self, model, prediction, kwargs):
+        """Why Stone Soup's code must run this update, or None."""
+        if fast_model(model) is None:
+            return unknown_model(model)
+        if keywords(kwargs):
+            return keywords(kwargs)
+        if self.constraint_func is not None:
+            return "a constraint function"
+        if self.regulariser is not None:
+            return "a regulariser"
+        if not plain_particles(prediction):
+            return f"prediction {type(prediction).__name__} indexes its particles its own way"
+        return None
+
     def update(self, hypothesis, **kwargs):
         prediction = hypothesis.prediction
-        model = fast_model(_measurement_model(self, hypothesis))
-        if (model is None or kwargs or self.constraint_func is not None
-                or self.regulariser is not None or not plain_particles(prediction)):
+        model = _measurement_model(self, hypothesis)
+        reason = self._refusal(model, prediction, kwargs)
+        if reason:
+            fall_back(self, "update", reason)
             return ss_particle.ParticleUpdater.update(self, hypothesis, **kwargs)
+        model = fast_model(model)
         state = Update.from_state(state=prediction, hypothesis=hypothesis,
                                   timestamp=prediction.timestamp)
         z = model.measurement_vector(hypothesis.measurement, "hypothesis.measurement")
@@ -61,21 +78,27 @@ class _Kalman:
     _linear_only = True
 
     def _fast(self, model):
-        """The fasttrack model for a Stone Soup model, or None."""
+        """The fasttrack model for a Stone Soup model, or the reason Stone Soup's code must
+        run."""
         fast = fast_model(model)
-        if fast is None or self.force_positive_definite_covariance:
-            return None
+        if fast is None:
+            return unknown_model(model)
+        if self.force_positive_definite_covariance:
+            return "force_positive_definite_covariance"
         if self._linear_only and not isinstance(fast, LinearGaussian):
-            return None
+            return f"{type(model).__name__} is not linear (the updater is Stone Soup's linear one)"
         return fast
 
     def _fast_for(self, model, prediction):
-        """The fasttrack model if the kernel applies to ``prediction``, or None."""
+        """The fasttrack model if the kernel applies to ``prediction``, or the reason Stone
+        Soup's code must run."""
         fast = self._fast(model)
-        return fast if fast is not None and fits(prediction, fast.ndim_state) else None
+        if isinstance(fast, str) or fits(prediction, fast.ndim_state):
+            return fast
+        return f"prediction of the wrong shape for {fast.ndim_state} dimensions"
 
     def _update(self, fast, prediction, z):
-        """``(x, P, z_hat, S, cross)`` of the kernel's update, or None where Stone Soup's
+        """``(x, P, z_hat, S, cross)`` of the kernel's update, or the reason Stone Soup's
         code must run."""
         return ft_kalman.update(fast, floats(prediction.state_vector), floats(prediction.covar),
                                 z, "forward", self.use_joseph_cov)
@@ -85,10 +108,12 @@ class _Kalman:
                             measurement_noise=True, **kwargs):
         model = self._check_measurement_model(measurement_model)
         fast = self._fast_for(model, predicted_state)
-        # any z: only the measurement prediction is kept
-        moments = None if fast is None or kwargs else self._update(
-            fast, predicted_state, np.zeros((fast.ndim_meas, 1)))
-        if moments is None:
+        if isinstance(fast, str) or keywords(kwargs):
+            moments = fast if isinstance(fast, str) else keywords(kwargs)
+        else:  # any z: only the measurement prediction is kept
+            moments = self._update(fast, predicted_state, np.zeros((fast.ndim_meas, 1)))
+        if isinstance(moments, str):
+            fall_back(self, "predict_measurement", moments)
             return uncached(self._stonesoup.predict_measurement)(
                 self, predicted_state, model, measurement_noise, **kwargs)
         z_hat, s, cross = moments[2:]
@@ -99,27 +124,28 @@ class _Kalman:
 
     def _update_given(self, model, fast, hypothesis):
         """Stone Soup's update from the hypothesis's own measurement prediction (its mean,
-        innovation and cross covariances), or None where Stone Soup's code must run (a
+        innovation and cross covariances), or the reason Stone Soup's code must run (a
         measurement prediction without cross covariance, angles other than bearings, the
         Joseph form with a nonlinear model)."""
         prediction, measurement = hypothesis.prediction, hypothesis.measurement
         measurement_prediction = hypothesis.measurement_prediction
         cross = getattr(measurement_prediction, "cross_covar", None)
         covar = getattr(measurement_prediction, "covar", None)
-        if cross is None or covar is None or (self.use_joseph_cov
-                                              and not isinstance(fast, LinearGaussian)):
-            return None
+        if cross is None or covar is None:
+            return "a measurement prediction without covariances"
+        if self.use_joseph_cov and not isinstance(fast, LinearGaussian):
+            return "the Joseph form with a nonlinear model"
         z_sv, z_hat_sv = measurement.state_vector, measurement_prediction.state_vector
         m, d = fast.ndim_meas, fast.ndim_state
         if np.shape(z_sv) != (m, 1) or np.shape(z_hat_sv) != (m, 1) \
                 or np.shape(covar) != (m, m) or np.shape(cross) != (d, m) \
                 or np.shape(prediction.state_vector) != (d, 1):
-            return None
+            return "a measurement prediction of other shapes than the model's"
         wrapped = set()
         for vector in (z_sv, z_hat_sv):
             for row in angle_rows(np.asarray(vector)):
                 if type(vector[row, 0]) is not Bearing:
-                    return None
+                    return f"angles of type {type(vector[row, 0]).__name__}"
                 wrapped.add(row)
         innovation = floats(z_sv) - floats(z_hat_sv)
         for row in wrapped:  # Stone Soup's Bearing arithmetic wraps the difference
@@ -137,21 +163,26 @@ class _Kalman:
         return Update.from_state(prediction, x, covar_out, timestamp=measurement.timestamp,
                                  hypothesis=hypothesis)
 
+    def _stonesoup_update(self, hypothesis, kwargs, reason):
+        fall_back(self, "update", reason)
+        return self._stonesoup.update(self, hypothesis, **kwargs)
+
     def update(self, hypothesis, **kwargs):
         model = self._check_measurement_model(hypothesis.measurement.measurement_model)
         fast = self._fast_for(model, hypothesis.prediction)
-        if fast is None or kwargs:
-            return self._stonesoup.update(self, hypothesis, **kwargs)
+        if isinstance(fast, str) or keywords(kwargs):
+            reason = fast if isinstance(fast, str) else keywords(kwargs)
+            return self._stonesoup_update(hypothesis, kwargs, reason)
         if hypothesis.measurement_prediction is not None:
             update = self._update_given(model, fast, hypothesis)
-            if update is None:
-                return self._stonesoup.update(self, hypothesis, **kwargs)
+            if isinstance(update, str):
+                return self._stonesoup_update(hypothesis, kwargs, update)
             return update
         prediction = hypothesis.prediction
         z = fast.measurement_column(hypothesis.measurement, "hypothesis.measurement")
         moments = self._update(fast, prediction, z)
-        if moments is None:
-            return self._stonesoup.update(self, hypothesis, **kwargs)
+        if isinstance(moments, str):
+            return self._stonesoup_update(hypothesis, kwargs, moments)
         x, covar, z_hat, s, cross = moments
         hypothesis.measurement_prediction = MeasurementPrediction.from_state(
             prediction, typed_measurement(z_hat, fast), s, cross_covar=cross)
@@ -191,19 +222,21 @@ class UnscentedKalmanUpdater(_Kalman, ss_kalman.UnscentedKalmanUpdater):
     def _update(self, fast, prediction, z):
         parameters = sigma_parameters(self, fast.ndim_state)
         if parameters is None:
-            return None
+            return "sigma-point parameters outside fasttrack's range"
         try:
             return ft_unscented.update(fast, floats(prediction.state_vector),
                                        floats(prediction.covar), z, *parameters)
-        except ValueError:  # refused (no Cholesky factor, which Stone Soup regularises)
-            return None
+        except ValueError as error:  # no Cholesky factor, which Stone Soup regularises
+            return f"refused by fasttrack ({error})"
 
     def update(self, hypothesis, **kwargs):
-        if self.use_joseph_cov and hypothesis.measurement_prediction is None and not kwargs:
+        if (self.use_joseph_cov and hypothesis.measurement_prediction is None
+                and not keywords(kwargs)):
             # the Joseph form from the measurement prediction, with the model's H
             model = self._check_measurement_model(hypothesis.measurement.measurement_model)
             if not isinstance(self._fast_for(model, hypothesis.prediction), LinearGaussian):
-                return self._stonesoup.update(self, hypothesis)
+                return self._stonesoup_update(hypothesis, {}, "the Joseph form with a model "
+                                              "other than LinearGaussian")
             hypothesis.measurement_prediction = self.predict_measurement(
                 hypothesis.prediction, model)
         return super().update(hypothesis, **kwargs)
@@ -219,6 +252,7 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
         model = measurement_model or self.measurement_model
         fast = fast_model(model)
         if fast is None:
+            fall_back(self, "predict_measurement", unknown_model(model))
             return uncached(ss_kernel.AdaptiveKernelKalmanUpdater.predict_measurement)(
                 self, state_prediction, measurement_model, **kwargs)
         y = fast.function(floats(state_prediction.state_vector))
@@ -229,7 +263,9 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
         model = self._check_measurement_model(hypothesis.measurement.measurement_model)
         fast = fast_model(model)
         kernel = fast_kernel(self.kernel)
-        if fast is None or kernel is None or kwargs:
+        if fast is None or kernel is None or keywords(kwargs):
+            fall_back(self, "update", unknown_model(model) if fast is None
+                      else unknown_kernel(self.kernel) if kernel is None else keywords(kwargs))
             return ss_kernel.AdaptiveKernelKalmanUpdater.update(self, hypothesis, **kwargs)
         if hypothesis.measurement_prediction is None:
             hypothesis.measurement_prediction = self.predict_measurement(

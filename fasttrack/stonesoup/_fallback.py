@@ -1,0 +1,70 @@
+"""Where a drop-in runs Stone Soup's own code instead of fasttrack's, it says so: a debug
+record on the ``fasttrack.stonesoup`` logger naming the class, the method and the reason,
+and a count per reason over the process (:func:`fallbacks`)."""
+import collections
+import logging
+import threading
+
+from ._convert import fast_model
+
+logger = logging.getLogger("fasttrack.stonesoup")
+
+_counts = collections.Counter()
+_lock = threading.Lock()
+
+
+def fall_back(component, method, reason):
+    """Record that ``component``'s ``method`` runs Stone Soup's code because of ``reason``
+    (text completing "runs Stone Soup's code: ...")."""
+    key = (type(component).__name__, method, reason)
+    with _lock:
+        _counts[key] += 1
+    logger.debug("%s.%s runs Stone Soup's code: %s", *key)
+
+
+def fallbacks(clear=False):
+    """How often the drop-ins ran Stone Soup's own code in this process, and why.
+
+    Parameters
+    ----------
+    clear : bool
+        Start counting afresh after this call.
+
+    Returns
+    -------
+    collections.Counter
+        ``{(class name, method, reason): calls}``; ``.most_common()`` lists the most
+        frequent first. Empty when every call took fasttrack's path.
+    """
+    with _lock:
+        found = collections.Counter(_counts)
+        if clear:
+            _counts.clear()
+    return found
+
+
+#: The keyword arguments that Stone Soup's built-in models read; they accept any other and
+#: ignore it (e.g. the ``measurement`` a ``DistanceHypothesiser`` passes its predictor), and
+#: so do the drop-ins.
+MODEL_KEYWORDS = frozenset({"time_interval", "noise"})
+
+
+def keywords(kwargs):
+    """The reason Stone Soup's code must run for keyword arguments that the built-in models
+    read, or None."""
+    read = sorted(MODEL_KEYWORDS.intersection(kwargs))
+    return f"keyword arguments {', '.join(read)}" if read else None
+
+
+def unknown_model(model):
+    """The reason for a model that fasttrack does not compute (naming the first such part
+    of a combined model)."""
+    for part in getattr(model, "model_list", ()):
+        if fast_model(part) is None:
+            return unknown_model(part)
+    return f"{type(model).__name__} is not a model fasttrack computes"
+
+
+def unknown_kernel(kernel):
+    """The reason for a kernel that fasttrack does not compute."""
+    return f"kernel {type(kernel).__name__} is not one fasttrack computes"

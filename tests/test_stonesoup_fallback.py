@@ -1,0 +1,96 @@
+"""fasttrack.stonesoup: every call that runs Stone Soup's own code says why (a debug record)
+and is counted by ``fallbacks``; calls on the fast path leave no trace."""
+import datetime
+import logging
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stonesoup")
+from stonesoup.hypothesiser.distance import DistanceHypothesiser as SSDistance  # noqa: E402
+from stonesoup.measures import Mahalanobis as SSMahalanobis  # noqa: E402
+from stonesoup.models.measurement.linear import LinearGaussian  # noqa: E402
+from stonesoup.models.transition.linear import (  # noqa: E402
+    CombinedLinearGaussianTransitionModel, ConstantVelocity, RandomWalk)
+from stonesoup.types.detection import Detection  # noqa: E402
+from stonesoup.types.hypothesis import SingleHypothesis  # noqa: E402
+from stonesoup.types.state import GaussianState  # noqa: E402
+from stonesoup.types.track import Track  # noqa: E402
+
+import fasttrack.stonesoup as fss  # noqa: E402
+
+START = datetime.datetime(2026, 1, 1)
+LATER = START + datetime.timedelta(seconds=1)
+
+
+@pytest.fixture(autouse=True)
+def counting(caplog):
+    fss.fallbacks(clear=True)
+    caplog.set_level(logging.DEBUG, logger="fasttrack.stonesoup")
+    yield caplog
+    fss.fallbacks(clear=True)
+
+
+def _prior():
+    return GaussianState([[0.0], [1.0], [0.0], [1.0]], np.eye(4), timestamp=START)
+
+
+def _records(caplog):
+    return [r.getMessage() for r in caplog.records if r.name == "fasttrack.stonesoup"]
+
+
+def test_the_fast_path_records_nothing(counting):
+    predictor = fss.KalmanPredictor(CombinedLinearGaussianTransitionModel(
+        [ConstantVelocity(0.1)] * 2))
+    updater = fss.KalmanUpdater(LinearGaussian(4, [0, 2], np.eye(2)))
+    prediction = predictor.predict(_prior(), timestamp=LATER)
+    updater.update(SingleHypothesis(prediction, Detection([[1.0], [1.0]], timestamp=LATER)))
+    assert fss.fallbacks() == {} and _records(counting) == []
+
+
+def test_a_model_fasttrack_does_not_compute_is_named(counting):
+    model = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.1), RandomWalk(0.1),
+                                                  ConstantVelocity(0.1)])
+    prior = GaussianState(np.zeros((5, 1)), np.eye(5), timestamp=START)
+    for seconds in (1, 2):
+        fss.KalmanPredictor(model).predict(prior, timestamp=START
+                                           + datetime.timedelta(seconds=seconds))
+    reason = "RandomWalk is not a model fasttrack computes"
+    assert fss.fallbacks() == {("KalmanPredictor", "predict", reason): 2}
+    assert _records(counting) == [f"KalmanPredictor.predict runs Stone Soup's code: {reason}"] * 2
+    assert fss.fallbacks(clear=True) and fss.fallbacks() == {}
+
+
+def test_keywords_a_mapping_and_a_hypothesiser_setting_are_reasons(counting):
+    updater = fss.KalmanUpdater(LinearGaussian(4, [0, 2], np.eye(2)))
+    prediction = fss.KalmanPredictor(CombinedLinearGaussianTransitionModel(
+        [ConstantVelocity(0.1)] * 2)).predict(_prior(), timestamp=LATER)
+    updater.predict_measurement(prediction, noise=False)
+    fss.Mahalanobis(mapping=[0])(updater.predict_measurement(prediction),
+                                 Detection([[1.0], [0.0]], timestamp=LATER))
+    hypothesiser = fss.DistanceHypothesiser(
+        fss.KalmanPredictor(CombinedLinearGaussianTransitionModel([ConstantVelocity(0.1)] * 2)),
+        updater, fss.Mahalanobis(), predict_with_measurements=True)
+    track = Track([_prior()])
+    ours = hypothesiser.hypothesise(track, {Detection([[1.0], [1.0]], timestamp=LATER)}, LATER)
+    theirs = SSDistance(hypothesiser.predictor, updater, SSMahalanobis(),
+                        predict_with_measurements=True).hypothesise(
+        track, {Detection([[1.0], [1.0]], timestamp=LATER)}, LATER)
+    assert len(ours) == len(theirs)
+    assert fss.fallbacks() == {
+        ("KalmanUpdater", "predict_measurement", "keyword arguments noise"): 1,
+        ("Mahalanobis", "__call__", "a mapping"): 1,
+        ("DistanceHypothesiser", "hypothesise", "predict_with_measurements"): 1}
+
+
+def test_keywords_the_models_ignore_take_the_fast_path(counting):
+    """Stone Soup's built-in models accept and ignore keywords other than ``time_interval``
+    and ``noise`` (a ``DistanceHypothesiser`` passes ``measurement`` to its predictor)."""
+    from stonesoup.predictor.kalman import KalmanPredictor as SSKalmanPredictor
+    model = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.1)] * 2)
+    detection = Detection([[1.0], [1.0]], timestamp=LATER)
+    ours = fss.KalmanPredictor(model).predict(_prior(), timestamp=LATER, measurement=detection)
+    theirs = SSKalmanPredictor(model).predict(_prior(), timestamp=LATER, measurement=detection)
+    np.testing.assert_allclose(ours.state_vector, theirs.state_vector, rtol=1e-12)
+    np.testing.assert_allclose(ours.covar, theirs.covar, rtol=1e-12)
+    assert fss.fallbacks() == {}
