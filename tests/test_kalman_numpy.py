@@ -1,5 +1,5 @@
-"""A process's first one-filter Kalman steps, in NumPy: the same results and errors as the
-kernels, Numba left unloaded, and the kernels taking over."""
+"""A process's first one-filter Kalman, extended and unscented Kalman steps, in NumPy: the
+same results and errors as the kernels, Numba left unloaded, and the kernels taking over."""
 import json
 import subprocess
 import sys
@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 import fasttrack as ft
 from fasttrack._jit import kalman as kernels
 from fasttrack._jit import status
+from fasttrack._jit import unscented as unscented_kernels
 from fasttrack.core import kalman, kalman_numpy
 from fasttrack.core.kinds import ANALYTIC, CENTRAL, FORWARD
 
@@ -77,6 +78,42 @@ def test_update_matches_the_kernel(seed, joseph, method):
             np.testing.assert_allclose(ours, theirs, rtol=1e-8, atol=1e-9)
 
 
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), dt=st.floats(-5.0, 5.0), joseph=st.booleans(),
+       alpha=st.sampled_from([1e-3, 0.5, 1.0]), beta=st.sampled_from([0.0, 2.0]))
+def test_unscented_steps_match_the_kernels(seed, dt, joseph, alpha, beta):
+    rng = np.random.default_rng(seed)
+    kappa = 0.0
+    for model in _transitions():
+        d = model.ndim_state
+        x, covar = rng.standard_normal((d, 1)) * 10, _covariance(rng, d)
+        spec = model.spec(dt)
+        code, x_out, covar_out = kalman_numpy.unscented_predict(spec, alpha, beta, kappa, x,
+                                                                covar)
+        x_k, covar_k = np.empty((d, 1)), np.empty((d, d))
+        assert code == unscented_kernels.unscented_predict(
+            *spec.kalman(), dt, alpha, beta, kappa, x, covar, x_k, covar_k) == 0
+        scale = np.abs(covar_k).max()
+        np.testing.assert_allclose(x_out, x_k, rtol=1e-9, atol=1e-9 * np.abs(x_k).max())
+        np.testing.assert_allclose(covar_out, covar_k, rtol=1e-8, atol=1e-10 * scale)
+    for sensor in _sensors():
+        spec = sensor.spec
+        m = spec.ndim_meas
+        x, covar = rng.uniform(-50, 50, (4, 1)), _covariance(rng, 4)
+        z = kalman_numpy.measure(spec, x) + 0.1 * rng.standard_normal((m, 1))
+        ours = kalman_numpy.unscented_update(spec, alpha, beta, kappa, joseph, x, covar, z)
+        theirs = [np.empty((4, 1)), np.empty((4, 4)), np.empty((m, 1)), np.empty((m, m)),
+                  np.empty((4, m))]
+        code = unscented_kernels.unscented_update(*spec.sensor, alpha, beta, kappa, joseph, x,
+                                                  covar, z, *theirs)
+        assert ours[0] == code
+        if code:  # a spread that leaves S indefinite, in both
+            continue
+        for found, expected in zip(ours[1:], theirs):
+            np.testing.assert_allclose(found, expected, rtol=1e-7,
+                                       atol=1e-9 * max(np.abs(expected).max(), 1.0))
+
+
 def test_covariance_status_matches_the_kernels_decisions():
     rng = np.random.default_rng(3)
     good = _covariance(rng, 4)
@@ -137,16 +174,20 @@ _FIRST_STEPS = r"""
 import json, sys
 import numpy as np
 import fasttrack as ft
-from fasttrack.core import kalman
+from fasttrack.core import kalman, unscented
 kalman._numpy_steps = int(sys.argv[1])
 transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
 sensor = ft.CartesianToBearingRange(4, (0, 2), np.diag([1e-4, 1.0]), translation_offset=[50, 0])
 x, covar = np.array([[0.0], [1.0], [0.0], [1.0]]), np.diag([1.5, 0.5, 1.5, 0.5])
 loaded = []
-for k in range(20):
-    x, covar = kalman.predict(transition, 1.0, x, covar)
+for k in range(20):  # Kalman and unscented steps in turn
     z = np.array([[np.arctan2(k + 1.0, k - 49.0)], [np.hypot(k - 49.0, k + 1.0)]])
-    x, covar = kalman.update(sensor, x, covar, z, "analytic", joseph=False)[:2]
+    if k % 2:
+        x, covar = unscented.predict(transition, 1.0, x, covar, 0.5, 2.0, 0.0)
+        x, covar = unscented.update(sensor, x, covar, z, 0.5, 2.0, 0.0)[:2]
+    else:
+        x, covar = kalman.predict(transition, 1.0, x, covar)
+        x, covar = kalman.update(sensor, x, covar, z, "analytic", joseph=False)[:2]
     loaded.append("numba" in sys.modules)
 print(json.dumps({"loaded": loaded, "x": x.ravel().tolist(), "covar": covar.ravel().tolist()}))
 """

@@ -30,7 +30,8 @@ _numpy_steps = NUMPY_STEPS
 
 
 def in_numpy(kind):
-    """Whether a one-filter step on a model of ``kind`` runs in NumPy: the process's first
+    """Whether a one-filter step (Kalman, extended or unscented) on a model of ``kind``
+    runs in NumPy (:mod:`kalman_numpy`): the process's first
     :data:`~fasttrack._jit.tunables.NUMPY_STEPS` steps on built-in models do, until a
     kernel is loaded (then Numba's set-up is paid and the kernels are faster)."""
     global _numpy_steps

@@ -1,10 +1,12 @@
-"""One filter's Kalman and extended Kalman step in NumPy, for a program's first steps.
+"""One filter's Kalman, extended and unscented Kalman step in NumPy, for a program's first
+steps.
 
 The first compiled kernel of a process costs Numba's set-up (its import, target and exit:
-about 0.6 s), more than a short script's whole filtering. :mod:`kalman` therefore runs a
-process's first one-filter steps on built-in models here (see :func:`kalman.in_numpy`),
-with the kernels' formulas, tolerances and status codes (``fasttrack._jit.kalman``):
-results agree with the kernels' to rounding, errors are the same.
+about 0.6 s), more than a short script's whole filtering. :mod:`kalman` and
+:mod:`unscented` therefore run a process's first one-filter steps on built-in models here
+(see :func:`kalman.in_numpy`), with the kernels' formulas, tolerances and status codes
+(``fasttrack._jit.kalman`` and ``unscented``): results agree with the kernels' to
+rounding, errors are the same.
 
 ``x`` is (d, 1), covariances (d, d), ``z`` (m, 1); functions return new arrays.
 """
@@ -139,6 +141,14 @@ def update(sensor, method, joseph, x, covar, z):
         status = JACOBIAN_UNDEFINED
     cross = covar @ h.T
     s = _symmetric(h @ cross + sensor.noise_covar)
+    return _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross)
+
+
+def _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross):
+    """The gain step of an update given ``z_hat``, the innovation covariance ``s``, the
+    cross covariance and the linearisation ``h`` (read by the Joseph form only): as
+    :func:`update` returns it, ``S`` by Cholesky (INNOVATION_NOT_PD) and ``z`` checked
+    (MEASUREMENT_NOT_FINITE) unless ``status`` is already set."""
     try:
         lower = np.linalg.cholesky(s)
     except np.linalg.LinAlgError:
@@ -160,3 +170,83 @@ def update(sensor, method, joseph, x, covar, z):
     else:
         covar_out = covar - whitened.T @ whitened
     return status, x_out, _symmetric(covar_out), z_hat, s, cross
+
+
+# -- the unscented transform (``fasttrack._jit.unscented``) ----------------------------------
+
+
+def _cholesky_eps(a):
+    """The lower Cholesky factor of the symmetric ``a``, a pivot not above
+    ``spacing(max diag a)`` replaced by its square root (Stone Soup's ``cholesky_eps``)."""
+    d = a.shape[0]
+    eps = np.spacing(a.diagonal().max())
+    lower = np.zeros((d, d))
+    for i in range(d):
+        for j in range(i + 1):
+            acc = a[i, j] - lower[i, :j] @ lower[j, :j]
+            if j < i:
+                lower[i, j] = acc / lower[j, j]
+            else:
+                lower[i, i] = np.sqrt(acc) if acc > eps else np.sqrt(eps)
+    return lower
+
+
+def _sigma(x, covar, alpha, beta, kappa):
+    """Sigma points (d, 2d + 1) of ``(x, covar)``, the Cholesky factor used, and the mean
+    and covariance weights (2d + 1,)."""
+    d = x.shape[0]
+    alpha2 = alpha * alpha
+    lamda = alpha2 * (d + kappa) - d
+    c = d + lamda
+    mean_weights, covar_weights = np.full(2 * d + 1, 0.5 / c), np.full(2 * d + 1, 0.5 / c)
+    mean_weights[0] = lamda / c
+    covar_weights[0] = lamda / c + (1.0 - alpha2 + beta)
+    lower = _cholesky_eps(covar)
+    steps = lower * np.sqrt(c)
+    return np.hstack([x, x + steps, x - steps]), lower, mean_weights, covar_weights
+
+
+def _moments(sigma, transformed, angles, noise):
+    """Mean (m, 1), covariance (m, m) plus ``noise`` and cross covariance (d, m) of the
+    ``transformed`` sigma points (m, 2d + 1) of ``sigma`` (as :func:`_sigma` returns it);
+    ``angles`` rows by circular mean and wrapped differences."""
+    points, _, mean_weights, covar_weights = sigma
+    total = mean_weights.sum()
+    mean = transformed @ mean_weights / total
+    if angles.any():
+        turns = transformed[angles] * 0.15915494309189535
+        radians = 2.0 * np.pi * (turns - np.floor(turns))
+        mean[angles] = _wrap(np.arctan2(np.sin(radians) @ mean_weights / total,
+                                        np.cos(radians) @ mean_weights / total))
+    diff = transformed - mean[:, None]
+    diff[angles] = _wrap(diff[angles])
+    covar = _symmetric((diff * covar_weights) @ diff.T + noise)
+    cross = ((points - points[:, :1]) * covar_weights) @ diff.T
+    return mean[:, None], covar, cross
+
+
+def unscented_predict(spec, alpha, beta, kappa, x, covar):
+    """``(status, x, P)``: the sigma points of ``(x, covar)`` moved by F of the linear
+    transition ``spec``, their moments plus Q."""
+    status = covariance_status(covar, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    if status != OK:
+        return status, x, covar
+    sigma = _sigma(x, covar, alpha, beta, kappa)
+    mean, covar_out, _ = _moments(sigma, spec.matrix @ sigma[0],
+                                  np.zeros(x.shape[0], dtype=np.bool_), spec.noise)
+    return status, mean, covar_out
+
+
+def unscented_update(sensor, alpha, beta, kappa, joseph, x, covar, z):
+    """``(status, x, P, z_hat, S, cross)`` of an unscented update with ``z`` by a built-in
+    ``sensor``: the moments of the prediction's sigma points measured, then the gain step of
+    :func:`update` (the Joseph form with the statistical linearisation ``C^T P^-1``)."""
+    status = covariance_status(covar, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    if status != OK:
+        return status, x, covar, None, None, None
+    sigma = _sigma(x, covar, alpha, beta, kappa)
+    z_hat, s, cross = _moments(sigma, measure(sensor, sigma[0]), sensor.angles,
+                               sensor.noise_covar)
+    lower = sigma[1]
+    h = np.linalg.solve(lower.T, np.linalg.solve(lower, cross)).T if joseph else None
+    return _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross)

@@ -5,7 +5,9 @@ import numpy as np
 
 from .. import _errors
 from .. import _jit
+from . import kalman_numpy as _numpy
 from . import stack as _stack
+from .kalman import in_numpy
 from .kinds import FUNCTION
 
 _unscented = _jit.lazy("unscented")
@@ -83,6 +85,11 @@ def predict(model, dt, x, covar, alpha, beta, kappa):
     spec = model.spec(dt)
     if spec.kind == FUNCTION:
         return _through_function(spec, x, covar, alpha, beta, kappa, np.empty((0, d)))
+    if in_numpy(spec.kind):
+        status, x_out, covar_out = _numpy.unscented_predict(spec, alpha, beta, kappa, x, covar)
+        if status:
+            _errors.check(status)
+        return x_out, covar_out
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
     status = _unscented.unscented_predict(*spec.kalman(), dt, alpha, beta, kappa, x, covar,
                                           x_out, covar_out)
@@ -116,6 +123,11 @@ def update(model, x, covar, z, alpha, beta, kappa, joseph=False):
     :func:`scaling`). Raises ValueError when the step is undefined (see
     :mod:`fasttrack._errors`)."""
     spec = model.spec
+    if in_numpy(spec.kind):
+        status, *out = _numpy.unscented_update(spec, alpha, beta, kappa, joseph, x, covar, z)
+        if status:
+            _errors.check(status)
+        return tuple(out)
     m, d = spec.ndim_meas, spec.ndim_state
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
     z_hat, s, cross = np.empty((m, 1)), np.empty((m, m)), np.empty((d, m))
