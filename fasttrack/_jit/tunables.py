@@ -65,7 +65,8 @@ MAX_FRONTIER = 63
 #: node and hypothesis, plus 16 for its forward and backward weights).
 MAX_NODES = 2**22
 
-#: One-filter Kalman steps on built-in models that a process runs in NumPy before its first
-#: kernel (``fasttrack.core.kalman_numpy``): a short script never pays Numba's set-up, and a
-#: long one pays NumPy's slower steps (tens of microseconds) at most this many times.
+#: One-filter (extended, unscented) Kalman steps on built-in models that a process runs in
+#: NumPy before its first kernel (``fasttrack.core.kalman_numpy``): a short script never
+#: pays Numba's set-up (about 0.6 s), and a long one pays NumPy's slower steps (tens of
+#: microseconds) at most this many times.
 NUMPY_STEPS = 500
