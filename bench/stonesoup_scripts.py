@@ -2,7 +2,7 @@
 ``fasttrack.stonesoup``, timed as whole processes.
 
 Usage: python bench/stonesoup_scripts.py [--repeats 3] [--scripts 01_Kalman ...]
-[--json bench/results/stonesoup_scripts.json] [--sdist DIR]
+[--json bench/results/stonesoup_scripts.json] [--sdist DIR] [--suite]
 
 The Stone Soup sdist of the installed version is downloaded (``pip download``) once into
 ``--sdist`` (default: a ``stonesoup-sdist`` folder in the system's temporary folder). Each
@@ -15,6 +15,11 @@ are reported, whole process (interpreter start to exit, shutdown included), with
 median of the paired differences (switched minus plain). One more switched run counts the
 calls that ran Stone Soup's own code (``fasttrack.stonesoup.fallbacks``), with their
 reasons.
+
+``--suite`` runs Stone Soup's own test suite (from the sdist) instead, twice: as it is, and
+with every drop-in patched in (each Stone Soup class that ``fasttrack.stonesoup`` replaces
+is replaced in the module that defines it, before the tests are collected), and prints
+pytest's outcome counts of both and the tests that fail only with the drop-ins.
 """
 import argparse
 import ast
@@ -144,6 +149,51 @@ def measure(root, script, names, repeats):
     return result
 
 
+#: A pytest plugin: every class fasttrack.stonesoup replaces, replaced where it is defined.
+_PATCH = """
+import sys
+import fasttrack.stonesoup as dropins
+for name in dropins.__all__:
+    dropin = getattr(dropins, name)
+    if not isinstance(dropin, type):
+        continue
+    base = next(c for c in dropin.__mro__[1:]
+                if c.__module__.startswith("stonesoup.") and c.__name__ == name)
+    setattr(sys.modules[base.__module__], name, dropin)
+"""
+
+
+def suite(root):
+    """Outcome counts of Stone Soup's tests in the sdist at ``root``, plain and with the
+    drop-ins patched in, and the tests that fail only with the drop-ins."""
+    import xml.etree.ElementTree as ElementTree
+    results = {}
+    with tempfile.TemporaryDirectory() as folder:
+        (pathlib.Path(folder) / "_fasttrack_dropins.py").write_text(_PATCH)
+        for mode, plugin in (("plain", []), ("drop-ins", ["-p", "_fasttrack_dropins"])):
+            report = pathlib.Path(folder) / f"{mode}.xml"
+            env = dict(os.environ, MPLBACKEND="Agg",
+                       PYTHONPATH=os.pathsep.join([folder, str(root)]))
+            start = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                            *plugin, f"--junitxml={report}", "stonesoup"], cwd=root, env=env,
+                           capture_output=True, text=True)
+            outcomes = {}
+            for case in ElementTree.parse(report).iter("testcase"):
+                kinds = [c.tag for c in case if c.tag in ("failure", "error", "skipped")]
+                outcomes[f"{case.get('classname')}::{case.get('name')}"] = \
+                    kinds[0] if kinds else "passed"
+            results[mode] = outcomes
+            counts = {kind: list(outcomes.values()).count(kind)
+                      for kind in ("passed", "failure", "error", "skipped")}
+            print(f"{mode:<9} {time.perf_counter() - start:6.1f} s  {counts}", flush=True)
+    broken = sorted(test for test, outcome in results["drop-ins"].items()
+                    if outcome in ("failure", "error")
+                    and results["plain"].get(test) not in ("failure", "error"))
+    print(f"failing only with the drop-ins ({len(broken)}):", *broken, sep="\n  ")
+    return results, broken
+
+
 def table(results):
     """The Markdown table of ``results``."""
     rows = ["| script | plain (s) | switched (s) | ratio | difference (s) | classes switched "
@@ -168,8 +218,13 @@ def main(argv=None):
     parser.add_argument("--json", default=None)
     parser.add_argument("--sdist", default=pathlib.Path(tempfile.gettempdir(),
                                                         "stonesoup-sdist"))
+    parser.add_argument("--suite", action="store_true",
+                        help="run Stone Soup's test suite, plain and with the drop-ins")
     args = parser.parse_args(argv)
     root = sdist(args.sdist)
+    if args.suite:
+        suite(root)
+        return
     names = drop_ins()
     chosen = [s for s in SCRIPTS if not args.scripts or any(p in s for p in args.scripts)]
     results = [measure(root, script, names, args.repeats) for script in chosen]

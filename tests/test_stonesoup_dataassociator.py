@@ -283,6 +283,19 @@ def test_global_nearest_neighbour_equals_stone_soup_on_small_scans():
                        missed_distance=4)
 
 
+@pytest.mark.parametrize("normalise", [True, False])
+def test_global_nearest_neighbour_over_probabilities_equals_stone_soup(normalise):
+    """Stone Soup's ``GlobalNearestNeighbour`` on PDA hypotheses: the joint hypothesis of
+    greatest product of probabilities, an assignment on minus their logs."""
+    for seed in range(3):
+        tracks, detections = scenario(6, spacing=4.0, seed=seed, clutter=0.5)
+        ours, theirs = associate_both("GlobalNearestNeighbour", "pda", tracks, detections,
+                                      clutter_spatial_density=1e-2, prob_detect=0.9,
+                                      normalise=normalise)
+        assert float(ours.probability) == pytest.approx(float(theirs.probability), rel=1e-9)
+        assert any(ours.values())
+
+
 def test_extended_kalman_with_a_bearing_range_sensor():
     """Bearings wrapped as Stone Soup's ``Bearing`` arithmetic wraps them; the Jacobian
     follows Stone Soup's forward-difference rule, so agreement is to its own Jacobian noise

@@ -36,7 +36,7 @@ import importlib
 #: What :mod:`dispatch` defines, read through this package (``fasttrack._jit.jit``).
 _DISPATCH = frozenset({
     "CALL_LOCK", "Compiled", "FASTMATH", "KERNEL_ONLY", "Kernel", "KernelOnly", "OPTIONS",
-    "SERIALISE", "SERIAL_BELOW_HEAVY", "SERIAL_BELOW_LIGHT", "ThreadedKernel", "compiles",
+    "SERIALISE", "SERIAL_BELOW_LIGHT", "ThreadedKernel", "compiles",
     "jit", "kernels", "layer_is_threadsafe", "serial_twin", "with_constant"})
 
 

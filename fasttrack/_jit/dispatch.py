@@ -17,7 +17,7 @@ from numba.core.registry import CPUDispatcher
 
 from . import cache
 from .. import threads
-from .tunables import SERIAL_BELOW_HEAVY, SERIAL_BELOW_LIGHT
+from .tunables import SERIAL_BELOW_LIGHT
 
 threads.configure()  # before Numba's threading layer starts (with the first parallel kernel)
 

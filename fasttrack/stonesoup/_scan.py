@@ -426,26 +426,43 @@ class _Scan:
                 self.missed_log_weight, segment_logsumexp(self.log_weights, self.starts))
         return self._final_normaliser
 
-    def _distance_hypothesis(self, k, j):
-        """The hypothesis of track k taking detection j (-1: missed)."""
+    def _hypothesis(self, k, j):
+        """The hypothesis of track k taking detection j (-1: missed), as the hypothesiser
+        returns it (a probability normalised as :meth:`hypotheses` normalises it)."""
         prediction = self.prediction(k)
-        if j < 0:
-            return SingleDistanceHypothesis(prediction, self._missed_detection(),
-                                            self.recipe.base.missed_distance)
         lo, hi = self.starts[k], self.starts[k + 1]
         q = lo + np.searchsorted(self.candidates[lo:hi], j)
-        return SingleDistanceHypothesis(prediction, self.detections[j], self.distances[q],
-                                        self.measurement_prediction(k))
+        if self.recipe.kind == "distance":
+            if j < 0:
+                return SingleDistanceHypothesis(prediction, self._missed_detection(),
+                                                self.recipe.base.missed_distance)
+            return SingleDistanceHypothesis(prediction, self.detections[j], self.distances[q],
+                                            self.measurement_prediction(k))
+        log_weight = self.missed_log_weight if j < 0 else self.log_weights[q]
+        if self.recipe.base.normalise:
+            log_weight -= self._base_normaliser[k]
+        probability = Probability(log_weight, log_value=True)
+        if j < 0:
+            return SingleProbabilityHypothesis(prediction, self._missed_detection(), probability)
+        return SingleProbabilityHypothesis(prediction, self.detections[j], probability,
+                                           self.measurement_prediction(k))
 
     def chosen(self, assigned):
         """``{track: hypothesis}`` of an assignment (K,) of detection indices (-1 missed)."""
-        return {track: self._distance_hypothesis(k, j)
+        return {track: self._hypothesis(k, j)
                 for k, (track, j) in enumerate(zip(self.tracks, assigned))}
 
     # -- solvers -----------------------------------------------------------------------------
 
+    def _costs(self):
+        """The candidates' costs (n,): distances, or minus the log weights of probability
+        hypotheses (the most probable joint hypothesis has the least total)."""
+        return self.distances if self.recipe.kind == "distance" else -self.log_weights
+
     def _missed_costs(self):
-        return np.full(len(self.tracks), float(self.recipe.base.missed_distance))
+        missed = self.recipe.base.missed_distance if self.recipe.kind == "distance" \
+            else -self.missed_log_weight
+        return np.full(len(self.tracks), float(missed))
 
     def _unopposed(self):
         """Tracks with no candidate detection."""
@@ -456,9 +473,10 @@ class _Scan:
         return nearest_neighbour(self._pairs(), self._missed_costs(), costs=self.distances)
 
     def global_nearest(self, enumerated=False):
-        """The minimum-total-distance assignment (K,) (Stone Soup's global nearest
-        neighbour), solved per cluster of the gate graph; None if some cluster has no
-        finite assignment (a missed distance of ``inf``).
+        """The minimum-total-cost assignment (K,) (Stone Soup's global nearest neighbour:
+        least total distance, or greatest product of probabilities), solved per cluster of
+        the gate graph; None if some cluster has no finite assignment (a missed cost of
+        ``inf``).
 
         A track with no candidate is missed outright, as ``GNNWith2DAssignment`` does;
         ``enumerated`` (``GlobalNearestNeighbour``, whose joint hypotheses all cost ``inf``
@@ -468,7 +486,7 @@ class _Scan:
         if enumerated and np.isinf(missed).any() and self._unopposed().any():
             return None
         try:
-            return global_nearest_neighbour(self._pairs(), missed, costs=self.distances)
+            return global_nearest_neighbour(self._pairs(), missed, costs=self._costs())
         except ValueError:  # no finite assignment: Stone Soup's code says so
             return None
 

@@ -99,20 +99,21 @@ class NearestNeighbour(_Vectorised, ss_neighbour.NearestNeighbour):
 
 class GlobalNearestNeighbour(_Vectorised, ss_neighbour.GlobalNearestNeighbour):
     """Stone Soup's ``GlobalNearestNeighbour``: the joint hypothesis of least total
-    distance.
+    distance, or of greatest product of probabilities.
 
     Stone Soup enumerates every joint hypothesis; with a drop-in ``DistanceHypothesiser``
-    this computes the same optimum as a two-dimensional assignment per cluster.
-    ``associate`` returns a ``DistanceJointHypothesis`` ``{track:
-    SingleDistanceHypothesis}``.
+    (or ``PDAHypothesiser``) this computes the same optimum as a two-dimensional assignment
+    per cluster, on the distances (or minus the log probabilities). ``associate`` returns a
+    ``DistanceJointHypothesis`` ``{track: SingleDistanceHypothesis}`` (or a
+    ``ProbabilityJointHypothesis`` of ``SingleProbabilityHypothesis``).
     """
 
-    _kind = "distance"
+    _kind = None  # either
 
     def _solve(self, scan):
         assigned = scan.global_nearest(enumerated=True) if scan.tracks else None
         if assigned is None:
-            return "no tracks, or no joint hypothesis of finite distance"
+            return "no tracks, or no joint hypothesis of finite cost"
         return JointHypothesis(scan.chosen(assigned))
 
 
