@@ -157,9 +157,10 @@ for name in dropins.__all__:
     dropin = getattr(dropins, name)
     if not isinstance(dropin, type):
         continue
-    base = next(c for c in dropin.__mro__[1:]
-                if c.__module__.startswith("stonesoup.") and c.__name__ == name)
-    setattr(sys.modules[base.__module__], name, dropin)
+    base = next((c for c in dropin.__mro__[1:]
+                 if c.__module__.startswith("stonesoup.") and c.__name__ == name), None)
+    if base is not None:  # (not a value such as ResidualMethod)
+        setattr(sys.modules[base.__module__], name, dropin)
 """
 
 
@@ -172,11 +173,12 @@ def suite(root):
         (pathlib.Path(folder) / "_fasttrack_dropins.py").write_text(_PATCH)
         for mode, plugin in (("plain", []), ("drop-ins", ["-p", "_fasttrack_dropins"])):
             report = pathlib.Path(folder) / f"{mode}.xml"
-            env = dict(os.environ, MPLBACKEND="Agg",
-                       PYTHONPATH=os.pathsep.join([folder, str(root)]))
+            env = dict(os.environ, MPLBACKEND="Agg", PYTHONPATH=os.pathsep.join(
+                [folder, str(root), *filter(None, [os.environ.get("PYTHONPATH")])]))
             start = time.perf_counter()
             subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                            *plugin, f"--junitxml={report}", "stonesoup"], cwd=root, env=env,
+                            "--continue-on-collection-errors", *plugin,
+                            f"--junitxml={report}", "stonesoup"], cwd=root, env=env,
                            capture_output=True, text=True)
             outcomes = {}
             for case in ElementTree.parse(report).iter("testcase"):

@@ -94,3 +94,22 @@ def test_keywords_the_models_ignore_take_the_fast_path(counting):
     np.testing.assert_allclose(ours.state_vector, theirs.state_vector, rtol=1e-12)
     np.testing.assert_allclose(ours.covar, theirs.covar, rtol=1e-12)
     assert fss.fallbacks() == {}
+
+
+def test_a_subclass_gets_its_keywords_through_stone_soups_code(counting):
+    """A subclass's own methods may read a keyword (Stone Soup's recursive updaters pass
+    ``scale_factor`` to their ``_innovation_covariance``): its calls run Stone Soup's code."""
+    class ScaledNoise(fss.KalmanUpdater):
+        def _innovation_covariance(self, m_cross_cov, meas_mat, meas_mod, measurement_noise,
+                                   scale=1, **kwargs):
+            return scale * super()._innovation_covariance(m_cross_cov, meas_mat, meas_mod,
+                                                          measurement_noise, **kwargs)
+
+    sensor = LinearGaussian(4, [0, 2], np.eye(2))
+    prediction = fss.KalmanPredictor(CombinedLinearGaussianTransitionModel(
+        [ConstantVelocity(0.1)] * 2)).predict(_prior(), timestamp=LATER)
+    plain = fss.KalmanUpdater(sensor).predict_measurement(prediction)
+    scaled = ScaledNoise(sensor).predict_measurement(prediction, scale=4)
+    np.testing.assert_allclose(scaled.covar, 4 * plain.covar, rtol=1e-12)
+    assert fss.fallbacks() == {("ScaledNoise", "predict_measurement",
+                                "keyword arguments scale"): 1}

@@ -49,11 +49,14 @@ def fallbacks(clear=False):
 MODEL_KEYWORDS = frozenset({"time_interval", "noise"})
 
 
-def keywords(kwargs):
-    """The reason Stone Soup's code must run for keyword arguments that the built-in models
-    read, or None."""
-    read = sorted(MODEL_KEYWORDS.intersection(kwargs))
-    return f"keyword arguments {', '.join(read)}" if read else None
+def keywords(kwargs, *components):
+    """The reason Stone Soup's code must run for keyword arguments, or None: those the
+    built-in models read, and any at all for ``components`` of a user's subclass (whose own
+    methods may read them, as Stone Soup's recursive updaters read ``scale_factor``)."""
+    read = set(MODEL_KEYWORDS.intersection(kwargs))
+    if any(not type(c).__module__.startswith(__package__) for c in components):
+        read = set(kwargs)
+    return f"keyword arguments {', '.join(sorted(read))}" if read else None
 
 
 def unknown_model(model):

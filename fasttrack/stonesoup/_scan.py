@@ -117,11 +117,11 @@ def _recipe(hypothesiser):
 
 def _scan(hypothesiser, tracks, detections, timestamp, kwargs, kind=None, single=False):
     """The vectorised :class:`_Scan`, or the reason Stone Soup's code must run."""
-    if keywords(kwargs):
-        return keywords(kwargs)
     recipe = _recipe(hypothesiser)
     if isinstance(recipe, str):
         return recipe
+    if keywords(kwargs, recipe.predictor, recipe.updater):  # they get the keywords
+        return keywords(kwargs, recipe.predictor, recipe.updater)
     if kind is not None and recipe.kind != kind:
         return f"{recipe.kind} hypotheses for a {kind} associator"
     try:

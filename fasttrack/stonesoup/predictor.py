@@ -58,8 +58,8 @@ class ParticlePredictor(ss_particle.ParticlePredictor):
             return "a control model"
         if fast_model(proposal.transition_model) is None:
             return unknown_model(proposal.transition_model)
-        if keywords(kwargs):
-            return keywords(kwargs)
+        if keywords(kwargs, self):
+            return keywords(kwargs, self)
         if not plain_particles(prior):
             return f"prior {type(prior).__name__} indexes its particles its own way"
         return _timestamps(timestamp, prior)
@@ -97,8 +97,8 @@ class _Kalman:
         model = fast_model(self.transition_model)
         if model is None:
             return unknown_model(self.transition_model)
-        if keywords(kwargs):
-            return keywords(kwargs)
+        if keywords(kwargs, self):
+            return keywords(kwargs, self)
         if control_input is not None or not zero_control(self.control_model):
             return "a control input"
         if type(prior) not in _GAUSSIAN_STATES:
@@ -164,7 +164,7 @@ class AdaptiveKernelKalmanPredictor(ss_kernel.AdaptiveKernelKalmanPredictor):
             return unknown_model(self.transition_model)
         if fast_kernel(self.kernel) is None:
             return unknown_kernel(self.kernel)
-        return keywords(kwargs) or _timestamps(timestamp, prior)
+        return keywords(kwargs, self) or _timestamps(timestamp, prior)
 
     @predict_lru_cache()
     def predict(self, prior, timestamp=None, proposal=None, **kwargs):

@@ -21,7 +21,7 @@ from stonesoup.types.prediction import Prediction
 
 from ..core import smooth as ft_smooth
 from ._convert import fast_model
-from ._fallback import fall_back, keywords, unknown_model
+from ._fallback import fall_back, unknown_model
 
 #: The hooks of Stone Soup's smoothers that the fast path computes itself.
 _HOOKS = ("_prediction", "_transition_model", "_transition_matrix", "_smooth_gain")
@@ -67,7 +67,8 @@ class _Kalman:
         """
         if kwargs or any(getattr(type(self), hook) is not getattr(self._stonesoup, hook)
                          for hook in _HOOKS):
-            fall_back(self, "smooth", keywords(kwargs) if kwargs else "a subclass's own hooks")
+            fall_back(self, "smooth", f"keyword arguments {', '.join(sorted(kwargs))}" if kwargs
+                      else "a subclass's own hooks")
             return self._stonesoup.smooth(self, track, **kwargs)
         states = list(track.states)
         start = self._start(states)

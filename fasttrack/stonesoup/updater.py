@@ -42,8 +42,8 @@ class ParticleUpdater(ss_particle.ParticleUpdater):
         """Why Stone Soup's code must run this update, or None."""
         if fast_model(model) is None:
             return unknown_model(model)
-        if keywords(kwargs):
-            return keywords(kwargs)
+        if keywords(kwargs, self):
+            return keywords(kwargs, self)
         if self.constraint_func is not None:
             return "a constraint function"
         if self.regulariser is not None:
@@ -108,8 +108,8 @@ class _Kalman:
                             measurement_noise=True, **kwargs):
         model = self._check_measurement_model(measurement_model)
         fast = self._fast_for(model, predicted_state)
-        if isinstance(fast, str) or keywords(kwargs):
-            moments = fast if isinstance(fast, str) else keywords(kwargs)
+        if isinstance(fast, str) or keywords(kwargs, self):
+            moments = fast if isinstance(fast, str) else keywords(kwargs, self)
         else:  # any z: only the measurement prediction is kept
             moments = self._update(fast, predicted_state, np.zeros((fast.ndim_meas, 1)))
         if isinstance(moments, str):
@@ -170,8 +170,8 @@ class _Kalman:
     def update(self, hypothesis, **kwargs):
         model = self._check_measurement_model(hypothesis.measurement.measurement_model)
         fast = self._fast_for(model, hypothesis.prediction)
-        if isinstance(fast, str) or keywords(kwargs):
-            reason = fast if isinstance(fast, str) else keywords(kwargs)
+        if isinstance(fast, str) or keywords(kwargs, self):
+            reason = fast if isinstance(fast, str) else keywords(kwargs, self)
             return self._stonesoup_update(hypothesis, kwargs, reason)
         if hypothesis.measurement_prediction is not None:
             update = self._update_given(model, fast, hypothesis)
@@ -231,7 +231,7 @@ class UnscentedKalmanUpdater(_Kalman, ss_kalman.UnscentedKalmanUpdater):
 
     def update(self, hypothesis, **kwargs):
         if (self.use_joseph_cov and hypothesis.measurement_prediction is None
-                and not keywords(kwargs)):
+                and not keywords(kwargs, self)):
             # the Joseph form from the measurement prediction, with the model's H
             model = self._check_measurement_model(hypothesis.measurement.measurement_model)
             if not isinstance(self._fast_for(model, hypothesis.prediction), LinearGaussian):
@@ -263,9 +263,10 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
         model = self._check_measurement_model(hypothesis.measurement.measurement_model)
         fast = fast_model(model)
         kernel = fast_kernel(self.kernel)
-        if fast is None or kernel is None or keywords(kwargs):
+        if fast is None or kernel is None or keywords(kwargs, self):
             fall_back(self, "update", unknown_model(model) if fast is None
-                      else unknown_kernel(self.kernel) if kernel is None else keywords(kwargs))
+                      else unknown_kernel(self.kernel) if kernel is None
+                      else keywords(kwargs, self))
             return ss_kernel.AdaptiveKernelKalmanUpdater.update(self, hypothesis, **kwargs)
         if hypothesis.measurement_prediction is None:
             hypothesis.measurement_prediction = self.predict_measurement(
