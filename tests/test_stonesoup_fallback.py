@@ -113,3 +113,14 @@ def test_a_subclass_gets_its_keywords_through_stone_soups_code(counting):
     np.testing.assert_allclose(scaled.covar, 4 * plain.covar, rtol=1e-12)
     assert fss.fallbacks() == {("ScaledNoise", "predict_measurement",
                                 "keyword arguments scale"): 1}
+
+
+def test_the_counts_stay_bounded(monkeypatch, counting):
+    from fasttrack.stonesoup import _fallback
+    monkeypatch.setattr(_fallback, "MAX_REASONS", 3)
+    for k in range(10):
+        _fallback.fall_back(object(), "method", f"reason {k}")
+    found = fss.fallbacks()
+    assert len(found) == 4 and sum(found.values()) == 10
+    assert found[("(any)", "(any)", "other reasons, beyond the first 3")] == 7
+    assert len(_records(counting)) == 10  # every call is logged

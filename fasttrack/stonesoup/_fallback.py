@@ -12,14 +12,20 @@ logger = logging.getLogger("fasttrack.stonesoup")
 _counts = collections.Counter()
 _lock = threading.Lock()
 
+#: Distinct (class, method, reason) counts kept; later ones are counted together (a reason
+#: may quote an error message, and a long run must not grow without bound).
+MAX_REASONS = 1000
+
 
 def fall_back(component, method, reason):
     """Record that ``component``'s ``method`` runs Stone Soup's code because of ``reason``
     (text completing "runs Stone Soup's code: ...")."""
     key = (type(component).__name__, method, reason)
-    with _lock:
-        _counts[key] += 1
     logger.debug("%s.%s runs Stone Soup's code: %s", *key)
+    with _lock:
+        if key not in _counts and len(_counts) >= MAX_REASONS:
+            key = ("(any)", "(any)", f"other reasons, beyond the first {MAX_REASONS}")
+        _counts[key] += 1
 
 
 def fallbacks(clear=False):
