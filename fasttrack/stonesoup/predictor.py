@@ -49,6 +49,8 @@ def _timestamps(timestamp, prior):
 class ParticlePredictor(ss_particle.ParticlePredictor):
     """Stone Soup's ``ParticlePredictor``, compiled for its built-in linear models."""
 
+    _stonesoup = ss_particle.ParticlePredictor  # (bound here: a script may patch the module)
+
     def _refusal(self, prior, timestamp, kwargs):
         """Why Stone Soup's code must run this prediction, or None."""
         proposal = self.proposal
@@ -72,7 +74,7 @@ class ParticlePredictor(ss_particle.ParticlePredictor):
         reason = self._refusal(prior, timestamp, kwargs)
         if reason:
             fall_back(self, "predict", reason)
-            return uncached(ss_particle.ParticlePredictor.predict)(
+            return uncached(self._stonesoup.predict)(
                 self, prior, timestamp, measurement, **kwargs)
         model = fast_model(proposal.transition_model)
         state = ft_particle.predict(model, floats(prior.state_vector),
@@ -158,6 +160,8 @@ class AdaptiveKernelKalmanPredictor(ss_kernel.AdaptiveKernelKalmanPredictor):
     """Stone Soup's ``AdaptiveKernelKalmanPredictor``, computed in fasttrack's factored form
     (see ``fasttrack.AdaptiveKernelKalmanPredictor``)."""
 
+    _stonesoup = ss_kernel.AdaptiveKernelKalmanPredictor
+
     def _refusal(self, prior, timestamp, kwargs):
         """Why Stone Soup's code must run this prediction, or None."""
         if fast_model(self.transition_model) is None:
@@ -171,7 +175,7 @@ class AdaptiveKernelKalmanPredictor(ss_kernel.AdaptiveKernelKalmanPredictor):
         reason = self._refusal(prior, timestamp, kwargs)
         if reason:
             fall_back(self, "predict", reason)
-            return uncached(ss_kernel.AdaptiveKernelKalmanPredictor.predict)(
+            return uncached(self._stonesoup.predict)(
                 self, prior, timestamp, proposal, **kwargs)
         model = fast_model(self.transition_model)
         kernel = fast_kernel(self.kernel)

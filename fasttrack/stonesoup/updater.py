@@ -38,6 +38,8 @@ def _measurement_model(updater, hypothesis):
 class ParticleUpdater(ss_particle.ParticleUpdater):
     """Stone Soup's ``ParticleUpdater``, compiled for its built-in measurement models."""
 
+    _stonesoup = ss_particle.ParticleUpdater  # (bound here: a script may patch the module)
+
     def _refusal(self, model, prediction, kwargs):
         """Why Stone Soup's code must run this update, or None."""
         if fast_model(model) is None:
@@ -58,7 +60,7 @@ class ParticleUpdater(ss_particle.ParticleUpdater):
         reason = self._refusal(model, prediction, kwargs)
         if reason:
             fall_back(self, "update", reason)
-            return ss_particle.ParticleUpdater.update(self, hypothesis, **kwargs)
+            return self._stonesoup.update(self, hypothesis, **kwargs)
         model = fast_model(model)
         state = Update.from_state(state=prediction, hypothesis=hypothesis,
                                   timestamp=prediction.timestamp)
@@ -247,13 +249,15 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
     (see ``fasttrack.AdaptiveKernelKalmanUpdater``); the proposal is drawn from NumPy's
     global random state."""
 
+    _stonesoup = ss_kernel.AdaptiveKernelKalmanUpdater
+
     @lru_cache()
     def predict_measurement(self, state_prediction, measurement_model=None, **kwargs):
         model = measurement_model or self.measurement_model
         fast = fast_model(model)
         if fast is None:
             fall_back(self, "predict_measurement", unknown_model(model))
-            return uncached(ss_kernel.AdaptiveKernelKalmanUpdater.predict_measurement)(
+            return uncached(self._stonesoup.predict_measurement)(
                 self, state_prediction, measurement_model, **kwargs)
         y = fast.function(floats(state_prediction.state_vector))
         return MeasurementPrediction.from_state(state_prediction, state_vector=StateVectors(y))
@@ -267,7 +271,7 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
             fall_back(self, "update", unknown_model(model) if fast is None
                       else unknown_kernel(self.kernel) if kernel is None
                       else keywords(kwargs, self))
-            return ss_kernel.AdaptiveKernelKalmanUpdater.update(self, hypothesis, **kwargs)
+            return self._stonesoup.update(self, hypothesis, **kwargs)
         if hypothesis.measurement_prediction is None:
             hypothesis.measurement_prediction = self.predict_measurement(
                 prediction, measurement_model=model)
