@@ -112,7 +112,13 @@ def test_a_subclass_gets_its_keywords_through_stone_soups_code(counting):
     scaled = ScaledNoise(sensor).predict_measurement(prediction, scale=4)
     np.testing.assert_allclose(scaled.covar, 4 * plain.covar, rtol=1e-12)
     assert fss.fallbacks() == {("ScaledNoise", "predict_measurement",
-                                "keyword arguments scale"): 1}
+                                "a subclass's own _innovation_covariance"): 1}
+
+    class Keyed(fss.KalmanUpdater):
+        """A subclass whose own code might read a keyword."""
+
+    Keyed(sensor).predict_measurement(prediction, scale=4)
+    assert fss.fallbacks()[("Keyed", "predict_measurement", "keyword arguments scale")] == 1
 
 
 def test_the_counts_stay_bounded(monkeypatch, counting):
@@ -124,3 +130,32 @@ def test_the_counts_stay_bounded(monkeypatch, counting):
     assert len(found) == 4 and sum(found.values()) == 10
     assert found[("(any)", "(any)", "other reasons, beyond the first 3")] == 7
     assert len(_records(counting)) == 10  # every call is logged
+
+
+def test_a_subclass_overriding_stone_soups_hooks_runs_stone_soups_code(counting):
+    """The fast paths compute Stone Soup's hooks themselves: a subclass that overrides one
+    (as Stone Soup's own iterated and recursive updaters and k-d tree associators do) gets
+    its own code."""
+    class Inflated(fss.KalmanUpdater):
+        def _innovation_covariance(self, *args, **kwargs):
+            return 2 * super()._innovation_covariance(*args, **kwargs)
+
+    class Ordered(fss.GNNWith2DAssignment):
+        def generate_hypotheses(self, tracks, detections, timestamp, **kwargs):
+            return super().generate_hypotheses(tracks, detections, timestamp, **kwargs)
+
+    sensor = LinearGaussian(4, [0, 2], np.eye(2))
+    predictor = fss.KalmanPredictor(CombinedLinearGaussianTransitionModel(
+        [ConstantVelocity(0.1)] * 2))
+    prediction = predictor.predict(_prior(), timestamp=LATER)
+    plain = fss.KalmanUpdater(sensor).predict_measurement(prediction)
+    inflated = Inflated(sensor).predict_measurement(prediction)
+    np.testing.assert_allclose(inflated.covar, 2 * plain.covar, rtol=1e-12)
+    hypothesiser = fss.DistanceHypothesiser(predictor, fss.KalmanUpdater(sensor),
+                                            fss.Mahalanobis(), missed_distance=3)
+    Ordered(hypothesiser).associate({Track([_prior()])},
+                                    {Detection([[1.0], [1.0]], timestamp=LATER)}, LATER)
+    found = fss.fallbacks()
+    assert found[("Inflated", "predict_measurement",
+                  "a subclass's own _innovation_covariance")] == 1
+    assert found[("Ordered", "associate", "a subclass's own generate_hypotheses")] == 1

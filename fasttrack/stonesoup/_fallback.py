@@ -77,3 +77,12 @@ def unknown_model(model):
 def unknown_kernel(kernel):
     """The reason for a kernel that fasttrack does not compute."""
     return f"kernel {type(kernel).__name__} is not one fasttrack computes"
+
+
+def overridden(component, stonesoup_class, hooks):
+    """The reason for a subclass that overrides one of Stone Soup's ``hooks`` (methods of
+    ``stonesoup_class`` that the fast path computes itself), or None."""
+    for hook in hooks:
+        if getattr(type(component), hook) is not getattr(stonesoup_class, hook):
+            return f"a subclass's own {hook}"
+    return None

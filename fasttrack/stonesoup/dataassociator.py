@@ -19,7 +19,7 @@ from stonesoup.dataassociator import neighbour as ss_neighbour
 from stonesoup.dataassociator import probability as ss_probability
 from stonesoup.types.hypothesis import JointHypothesis
 
-from ._fallback import fall_back
+from ._fallback import fall_back, overridden
 from ._scan import _scan
 
 __all__ = ["GNNWith2DAssignment", "GlobalNearestNeighbour", "JPDA", "JPDAwithEHM",
@@ -70,7 +70,8 @@ class _Vectorised:
         dict
             ``{track: hypothesis}`` as the Stone Soup class returns it (see the class).
         """
-        scan = _scan(self.hypothesiser, tracks, detections, timestamp, kwargs, self._kind)
+        scan = overridden(self, _Vectorised, ("generate_hypotheses",)) \
+            or _scan(self.hypothesiser, tracks, detections, timestamp, kwargs, self._kind)
         associations = scan if isinstance(scan, str) else self._solve(scan)
         if isinstance(associations, str):
             fall_back(self, "associate", associations)

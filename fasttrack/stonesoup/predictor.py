@@ -23,7 +23,7 @@ from ..core import unscented as ft_unscented
 from ..types import dense_kernel_covar
 from ._convert import (fast_kernel, fast_model, fits, floats, model_rng, plain_particles,
                        sigma_parameters, uncached, zero_control)
-from ._fallback import fall_back, keywords, unknown_kernel, unknown_model
+from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
 from .state import kernel_factors, remember_factors
 
 #: Gaussian state types whose predictions the Kalman kernel builds, with the weight and tag
@@ -85,6 +85,12 @@ class ParticlePredictor(ss_particle.ParticlePredictor):
                                      transition_model=proposal.transition_model, prior=prior)
 
 
+#: The methods of Stone Soup's Kalman predictors that the fast path computes itself: a
+#: subclass that overrides one runs Stone Soup's code.
+_HOOKS = ("_transition_matrix", "_transition_function", "_control_matrix",
+          "_predict_over_interval", "_predicted_covariance")
+
+
 class _Kalman:
     """``predict`` of the Kalman predictors through one of fasttrack's Gaussian kernels."""
 
@@ -99,6 +105,9 @@ class _Kalman:
         model = fast_model(self.transition_model)
         if model is None:
             return unknown_model(self.transition_model)
+        hook = overridden(self, self._stonesoup, _HOOKS)
+        if hook:
+            return hook
         if keywords(kwargs, self):
             return keywords(kwargs, self)
         if control_input is not None or not zero_control(self.control_model):

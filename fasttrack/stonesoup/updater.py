@@ -26,7 +26,7 @@ from ..models import LinearGaussian
 from ..types import dense_kernel_covar
 from ._convert import (angle_rows, fast_kernel, fast_model, fits, floats, global_rng,
                        plain_particles, sigma_parameters, typed_measurement, uncached)
-from ._fallback import fall_back, keywords, unknown_kernel, unknown_model
+from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
 from .state import kernel_factors, remember_factors
 
 
@@ -72,6 +72,12 @@ class ParticleUpdater(ss_particle.ParticleUpdater):
         return state
 
 
+#: The methods of Stone Soup's Kalman updaters that the fast path computes itself: a
+#: subclass that overrides one runs Stone Soup's code.
+_HOOKS = ("_measurement_matrix", "_measurement_cross_covariance",
+          "_innovation_covariance", "_posterior_mean", "_posterior_covariance")
+
+
 class _Kalman:
     """``predict_measurement`` and ``update`` through fasttrack's Kalman kernels (the
     extended updater with Stone Soup's forward-difference Jacobian rule)."""
@@ -85,6 +91,9 @@ class _Kalman:
         fast = fast_model(model)
         if fast is None:
             return unknown_model(model)
+        hook = overridden(self, self._stonesoup, _HOOKS)
+        if hook:
+            return hook
         if self.force_positive_definite_covariance:
             return "force_positive_definite_covariance"
         if self._linear_only and not isinstance(fast, LinearGaussian):
