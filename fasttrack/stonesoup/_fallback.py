@@ -49,17 +49,19 @@ def fallbacks(clear=False):
     return found
 
 
-#: The keyword arguments that Stone Soup's built-in models read; they accept any other and
-#: ignore it (e.g. the ``measurement`` a ``DistanceHypothesiser`` passes its predictor), and
-#: so do the drop-ins.
-MODEL_KEYWORDS = frozenset({"time_interval", "noise"})
+#: The keyword arguments that Stone Soup's built-in models and its Kalman and particle
+#: methods read (the extended filters' ``linearisation_point``, which its iterated updaters
+#: pass); they accept any other and ignore it (e.g. the ``measurement`` a
+#: ``DistanceHypothesiser`` passes its predictor), and so do the drop-ins.
+READ_KEYWORDS = frozenset({"time_interval", "noise", "linearisation_point", "random_state",
+                           "num_samples"})
 
 
 def keywords(kwargs, *components):
     """The reason Stone Soup's code must run for keyword arguments, or None: those the
     built-in models read, and any at all for ``components`` of a user's subclass (whose own
     methods may read them, as Stone Soup's recursive updaters read ``scale_factor``)."""
-    read = set(MODEL_KEYWORDS.intersection(kwargs))
+    read = set(READ_KEYWORDS.intersection(kwargs))
     if any(not type(c).__module__.startswith(__package__) for c in components):
         read = set(kwargs)
     return f"keyword arguments {', '.join(sorted(read))}" if read else None
