@@ -159,3 +159,8 @@ def test_a_subclass_overriding_stone_soups_hooks_runs_stone_soups_code(counting)
     assert found[("Inflated", "predict_measurement",
                   "a subclass's own _innovation_covariance")] == 1
     assert found[("Ordered", "associate", "a subclass's own generate_hypotheses")] == 1
+
+
+def test_clear_must_be_a_bool():
+    with pytest.raises(TypeError, match="clear must be a bool, got str"):
+        fss.fallbacks(clear="yes")

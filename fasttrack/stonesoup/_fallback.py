@@ -41,7 +41,14 @@ def fallbacks(clear=False):
     collections.Counter
         ``{(class name, method, reason): calls}``; ``.most_common()`` lists the most
         frequent first. Empty when every call took fasttrack's path.
+
+    Raises
+    ------
+    TypeError
+        If ``clear`` is not a bool.
     """
+    if not isinstance(clear, bool):
+        raise TypeError(f"clear must be a bool, got {type(clear).__name__}")
     with _lock:
         found = collections.Counter(_counts)
         if clear:
