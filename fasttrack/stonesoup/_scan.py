@@ -120,8 +120,8 @@ def _scan(hypothesiser, tracks, detections, timestamp, kwargs, kind=None, single
     recipe = _recipe(hypothesiser)
     if isinstance(recipe, str):
         return recipe
-    if keywords(kwargs, recipe.predictor, recipe.updater):  # they get the keywords
-        return keywords(kwargs, recipe.predictor, recipe.updater)
+    if reason := keywords(kwargs, recipe.predictor, recipe.updater):  # they get them
+        return reason
     if kind is not None and recipe.kind != kind:
         return f"{recipe.kind} hypotheses for a {kind} associator"
     try:

@@ -60,8 +60,8 @@ class ParticlePredictor(ss_particle.ParticlePredictor):
             return "a control model"
         if fast_model(proposal.transition_model) is None:
             return unknown_model(proposal.transition_model)
-        if keywords(kwargs, self):
-            return keywords(kwargs, self)
+        if reason := keywords(kwargs, self):
+            return reason
         if not plain_particles(prior):
             return f"prior {type(prior).__name__} indexes its particles its own way"
         return _timestamps(timestamp, prior)
@@ -108,8 +108,8 @@ class _Kalman:
         hook = overridden(self, self._stonesoup, _HOOKS)
         if hook:
             return hook
-        if keywords(kwargs, self):
-            return keywords(kwargs, self)
+        if reason := keywords(kwargs, self):
+            return reason
         if control_input is not None or not zero_control(self.control_model):
             return "a control input"
         if type(prior) not in _GAUSSIAN_STATES:

@@ -44,8 +44,8 @@ class ParticleUpdater(ss_particle.ParticleUpdater):
         """Why Stone Soup's code must run this update, or None."""
         if fast_model(model) is None:
             return unknown_model(model)
-        if keywords(kwargs, self):
-            return keywords(kwargs, self)
+        if reason := keywords(kwargs, self):
+            return reason
         if self.constraint_func is not None:
             return "a constraint function"
         if self.regulariser is not None:
@@ -119,9 +119,8 @@ class _Kalman:
                             measurement_noise=True, **kwargs):
         model = self._check_measurement_model(measurement_model)
         fast = self._fast_for(model, predicted_state)
-        if isinstance(fast, str) or keywords(kwargs, self):
-            moments = fast if isinstance(fast, str) else keywords(kwargs, self)
-        else:  # any z: only the measurement prediction is kept
+        moments = fast if isinstance(fast, str) else keywords(kwargs, self)
+        if not moments:  # any z: only the measurement prediction is kept
             moments = self._update(fast, predicted_state, np.zeros((fast.ndim_meas, 1)))
         if isinstance(moments, str):
             fall_back(self, "predict_measurement", moments)
@@ -181,8 +180,8 @@ class _Kalman:
     def update(self, hypothesis, **kwargs):
         model = self._check_measurement_model(hypothesis.measurement.measurement_model)
         fast = self._fast_for(model, hypothesis.prediction)
-        if isinstance(fast, str) or keywords(kwargs, self):
-            reason = fast if isinstance(fast, str) else keywords(kwargs, self)
+        reason = fast if isinstance(fast, str) else keywords(kwargs, self)
+        if reason:
             return self._stonesoup_update(hypothesis, kwargs, reason)
         if hypothesis.measurement_prediction is not None:
             update = self._update_given(model, fast, hypothesis)
@@ -276,10 +275,10 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
         model = self._check_measurement_model(hypothesis.measurement.measurement_model)
         fast = fast_model(model)
         kernel = fast_kernel(self.kernel)
-        if fast is None or kernel is None or keywords(kwargs, self):
-            fall_back(self, "update", unknown_model(model) if fast is None
-                      else unknown_kernel(self.kernel) if kernel is None
-                      else keywords(kwargs, self))
+        reason = unknown_model(model) if fast is None \
+            else unknown_kernel(self.kernel) if kernel is None else keywords(kwargs, self)
+        if reason:
+            fall_back(self, "update", reason)
             return self._stonesoup.update(self, hypothesis, **kwargs)
         if hypothesis.measurement_prediction is None:
             hypothesis.measurement_prediction = self.predict_measurement(
