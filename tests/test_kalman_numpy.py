@@ -174,8 +174,9 @@ _FIRST_STEPS = r"""
 import json, sys
 import numpy as np
 import fasttrack as ft
+from fasttrack import _jit
 from fasttrack.core import kalman, unscented
-kalman._numpy_steps = int(sys.argv[1])
+_jit._numpy_work = int(sys.argv[1])
 transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
 sensor = ft.CartesianToBearingRange(4, (0, 2), np.diag([1e-4, 1.0]), translation_offset=[50, 0])
 x, covar = np.array([[0.0], [1.0], [0.0], [1.0]]), np.diag([1.5, 0.5, 1.5, 0.5])
@@ -193,8 +194,8 @@ print(json.dumps({"loaded": loaded, "x": x.ravel().tolist(), "covar": covar.rave
 """
 
 
-def _first_steps(numpy_steps):
-    done = subprocess.run([sys.executable, "-c", _FIRST_STEPS, str(numpy_steps)],
+def _first_steps(numpy_work):
+    done = subprocess.run([sys.executable, "-c", _FIRST_STEPS, str(numpy_work)],
                           capture_output=True, text=True, timeout=600, check=True)
     return json.loads(done.stdout.splitlines()[-1])
 

@@ -3,7 +3,8 @@
 Every kernel is compiled through :func:`jit` (:mod:`dispatch`), the one place where
 compilation options live. This package and its modules of constants (``status``,
 ``tunables``, ``kinds``) import without Numba; the array layer holds the kernel modules
-through :func:`lazy`, so that Numba is imported with the first kernel a program needs.
+through :func:`lazy`, so that Numba is imported with the first kernel a program needs;
+until then, a program's first small calls run in NumPy (:func:`numpy_first`).
 
 Rules for ``parallel=True`` kernels, each learnt from a wrong result:
 
@@ -32,6 +33,9 @@ Three properties of the dispatchers made here go beyond Numba's defaults:
   lock, so kernels may be called from several threads on every layer.
 """
 import importlib
+import sys
+
+from .tunables import NUMPY_WORK
 
 #: What :mod:`dispatch` defines, read through this package (``fasttrack._jit.jit``).
 _DISPATCH = frozenset({
@@ -65,3 +69,21 @@ def lazy(name):
     first read: the array layer holds these, so Numba is imported with the first kernel a
     program needs, not with fasttrack."""
     return _Kernels(f"{__name__}.{name}")
+
+
+#: Work units (filters, tracks, detections) still to run in NumPy before the first kernel.
+_numpy_work = NUMPY_WORK
+
+
+def numpy_first(work=1):
+    """Whether a call of ``work`` units (the filters, tracks and detections it handles)
+    runs in NumPy: while no kernel is loaded, a process's calls do until their work totals
+    :data:`~fasttrack._jit.tunables.NUMPY_WORK`; a larger call, and every call after it,
+    loads the kernels (a short script never pays Numba's set-up, a long one pays NumPy's
+    slower steps a bounded number of times). The NumPy twins use the kernels' formulas,
+    tolerances and status codes: results equal to rounding, the same errors."""
+    global _numpy_work
+    if work > _numpy_work or f"{__name__}.dispatch" in sys.modules:
+        return False
+    _numpy_work -= work
+    return True

@@ -64,9 +64,13 @@ MAX_FRONTIER = 63
 #: Default most nodes of one cluster's EHM net (memory: roughly 8 bytes per node, 8 per
 #: node and hypothesis, plus 16 for its forward and backward weights).
 MAX_NODES = 2**22
+#: Most joint events times tracks of a JPDA cluster that a process's first calls enumerate
+#: in NumPy (``fasttrack.core.jpda``) instead of loading the EHM kernels.
+ENUMERATED_EVENTS = 4096
 
-#: One-filter (extended, unscented) Kalman steps on built-in models that a process runs in
-#: NumPy before its first kernel (``fasttrack.core.kalman_numpy``): a short script never
-#: pays Numba's set-up (about 0.6 s), and a long one pays NumPy's slower steps (tens of
-#: microseconds) at most this many times.
-NUMPY_STEPS = 500
+#: Work a process runs in NumPy before its first kernel (``fasttrack._jit.numpy_first``), in
+#: units of one filter, track or detection handled (a one-filter Kalman step is one unit,
+#: 50-90 us in NumPy; a scan of K tracks and M detections a few times K + M units, 1-8 us
+#: each): a short script never pays Numba's set-up (its import, target, kernel loads and
+#: exit, about 0.7 s), and a long one spends at most about as long again in NumPy first.
+NUMPY_WORK = 8000

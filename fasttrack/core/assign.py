@@ -32,6 +32,7 @@ import numpy as np
 from .. import _jit
 from .. import _validate
 from .._validate import _describe, float_array
+from . import gating_numpy as _numpy
 from .gating import clusters as _clusters
 
 __all__ = ["assign2d", "assign2d_batch", "global_nearest_neighbour", "gnn_assign",
@@ -250,6 +251,9 @@ def nearest_neighbour(gate, missed_distance, costs=None):
         Each track's detection, -1 if missed.
     """
     costs, missed = _gate_costs(gate, missed_distance, costs)
+    if _jit.numpy_first(gate.n_tracks + gate.n_detections):
+        return _numpy.greedy_assignments(gate.starts, gate.detections, costs, missed,
+                                         gate.n_detections)
     assigned = np.empty(gate.n_tracks, dtype=np.int64)
     _kernels.greedy_assignments(gate.starts, gate.detections, costs, missed,
                                 gate.n_detections, assigned)
@@ -289,6 +293,12 @@ def global_nearest_neighbour(gate, missed_distance, clusters=None, costs=None):
     clusters = _clusters(gate) if clusters is None else clusters
     labels = np.concatenate((clusters.track_labels, clusters.detection_labels))
     c, k, m = clusters.n_clusters, gate.n_tracks, gate.n_detections
+    if _jit.numpy_first(k + m):
+        assigned = _numpy.global_nearest_neighbour(gate.starts, gate.detections, costs, missed,
+                                                   labels, c)
+        if isinstance(assigned, tuple):
+            _no_finite_association(*assigned)
+        return assigned
     shapes = np.empty((c, 2), dtype=np.int64)
     offsets, row_offsets = np.empty(c + 1, dtype=np.int64), np.empty(c + 1, dtype=np.int64)
     track_rows, detection_columns = np.empty(k, dtype=np.int64), np.empty(m, dtype=np.int64)
@@ -302,11 +312,14 @@ def global_nearest_neighbour(gate, missed_distance, clusters=None, costs=None):
     _assign.lsap_batch(flat, offsets, shapes, row_offsets, row_to_col, feasible)
     if not feasible.all():
         bad = int(np.flatnonzero(~feasible)[0])
-        raise ValueError(f"no association of finite cost: the {shapes[bad, 0]} tracks of a "
-                         f"cluster cannot all take one of its "
-                         f"{shapes[bad, 1] - shapes[bad, 0]} detections (missed_distance is "
-                         f"inf)")
+        _no_finite_association(shapes[bad, 0], shapes[bad, 1] - shapes[bad, 0])
     assigned = np.empty(k, dtype=np.int64)
     _kernels.gnn_assignments(labels, shapes, row_offsets, track_rows, detection_columns, m,
                              row_to_col, assigned)
     return assigned
+
+
+def _no_finite_association(tracks, detections):
+    raise ValueError(f"no association of finite cost: the {tracks} tracks of a cluster "
+                     f"cannot all take one of its {detections} detections (missed_distance "
+                     f"is inf)")

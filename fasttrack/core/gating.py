@@ -6,6 +6,7 @@ import numpy as np
 
 from .. import _jit
 from .. import _validate
+from . import gating_numpy as _numpy
 
 _kernels = _jit.lazy("gating")
 
@@ -128,6 +129,11 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
     if angles.shape != (m,):
         raise ValueError(f"angles must have shape ({m},), got {angles.shape}")
     axes = _grid_axes(m, angles, grid_axes)
+    if _jit.numpy_first(k + detections.shape[0]):
+        found = _numpy.gate(z_hats, covars, detections, threshold, angles)
+        if isinstance(found, int):
+            _not_positive_definite(found)
+        return Gate(*found, detections.shape[0])
     origin, cell, shape = _grid(detections, covars, axes, threshold)
     keys = np.empty(detections.shape[0], dtype=np.int64)
     _kernels.cell_keys(detections, axes, origin, cell, shape, keys)
@@ -140,12 +146,15 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
     none = np.empty(0, dtype=np.int64), np.empty(0), np.empty(0)
     _kernels.gate(*grid, False, starts, *none, status)
     if status.any():
-        bad = int(np.flatnonzero(status)[0])
-        raise ValueError(f"innovation_covars[{bad}] is not positive definite")
+        _not_positive_definite(int(np.flatnonzero(status)[0]))
     n = int(starts[-1])
     found = np.empty(n, dtype=np.int64), np.empty(n), np.empty(n)
     _kernels.gate(*grid, True, starts, *found, status)
     return Gate(starts, *found, detections.shape[0])
+
+
+def _not_positive_definite(track):
+    raise ValueError(f"innovation_covars[{track}] is not positive definite")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -176,6 +185,9 @@ def clusters(gate):
     """The clusters of a :class:`Gate`, numbered in order of their first track (then of
     the detections in no gate)."""
     k = gate.n_tracks
-    labels = np.empty(k + gate.n_detections, dtype=np.int64)
-    n = _kernels.clusters(gate.starts, gate.detections, gate.n_detections, labels)
+    if _jit.numpy_first(k + gate.n_detections):
+        labels, n = _numpy.clusters(gate.starts, gate.detections, gate.n_detections)
+    else:
+        labels = np.empty(k + gate.n_detections, dtype=np.int64)
+        n = _kernels.clusters(gate.starts, gate.detections, gate.n_detections, labels)
     return Clusters(labels[:k], labels[k:], int(n))

@@ -30,7 +30,7 @@ import numpy as np
 
 from .. import _jit
 from .. import _validate
-from .._jit.tunables import MAX_FRONTIER, MAX_NODES
+from .._jit.tunables import ENUMERATED_EVENTS, MAX_FRONTIER, MAX_NODES
 
 _kernels = _jit.lazy("jpda")
 
@@ -209,11 +209,49 @@ def _raise(code, detail, name, shape, max_nodes):
             f"{name} ({size}) is too big for exact JPDA: its EHM net needs more than "
             f"max_nodes={max_nodes} nodes; split the cluster (tighter gating), raise "
             f"max_nodes or use an approximate association")
-    if detail >= 0:
-        raise ValueError(f"{name} row {detail} is all zero: track {detail} has no possible "
+    _unassociable(detail, name, shape)
+
+
+def _unassociable(row, name, shape):
+    """Raise for a cluster with a row of zero weights (``row`` >= 0) or no joint event of
+    positive weight (``row`` -1)."""
+    if row >= 0:
+        raise ValueError(f"{name} row {row} is all zero: track {row} has no possible "
                          f"hypothesis")
-    raise ValueError(f"{name} ({size}) has no joint association of positive weight: every "
-                     f"joint event gives some detection to two tracks")
+    raise ValueError(f"{name} ({shape[0]} tracks x {shape[1] - 1} detections) has no joint "
+                     f"association of positive weight: every joint event gives some "
+                     f"detection to two tracks")
+
+
+def _enumerable(clusters, max_nodes):
+    """Whether the clusters' joint events are few enough to enumerate in NumPy (a process's
+    first small calls, see :func:`fasttrack._jit.numpy_first`; not more than an EHM net of
+    ``max_nodes`` nodes could hold)."""
+    events = [np.prod((w > 0).sum(axis=1), dtype=np.float64) for w in clusters]
+    return all(e * w.shape[0] <= min(max_nodes, ENUMERATED_EVENTS)
+               for e, w in zip(events, clusters)) and _jit.numpy_first(int(sum(events)))
+
+
+def _enumerated(w):
+    """``(marginals, row)`` of a (T, M + 1) cluster by enumerating its joint events in
+    NumPy; ``row`` None, else as :func:`_unassociable` takes it."""
+    if w.shape[0] == 0:
+        return np.zeros_like(w), None
+    options = [np.flatnonzero(row > 0) for row in w]
+    if any(o.size == 0 for o in options):
+        return None, next(t for t, o in enumerate(options) if o.size == 0)
+    t = w.shape[0]
+    events = np.stack(np.meshgrid(*options, indexing="ij"), axis=-1).reshape(-1, t)
+    ordered = np.sort(events, axis=1)
+    events = events[~((ordered[:, 1:] == ordered[:, :-1]) & (ordered[:, 1:] > 0)).any(axis=1)]
+    weights = np.prod(w[np.arange(t), events], axis=1)
+    total = weights.sum()
+    if t and not total > 0:
+        return None, -1
+    out = np.zeros_like(w)
+    for row in range(t):
+        np.add.at(out[row], events[:, row], weights / total)
+    return out, None
 
 
 def jpda_marginals(weights, max_nodes=MAX_NODES):
@@ -251,6 +289,11 @@ def jpda_marginals(weights, max_nodes=MAX_NODES):
     if not _is_cluster_list(weights):
         w = _cluster(weights, "weights")
         _check(w, "weights")
+        if _enumerable([w], max_nodes):
+            out, row = _enumerated(w)
+            if out is None:
+                _unassociable(row, "weights", w.shape)
+            return out
         out = np.empty_like(w)
         code, detail = _kernels.ehm_marginals(w, max_nodes, out)
         if code != _kernels.EHM_OK:
@@ -266,6 +309,12 @@ def jpda_marginals(weights, max_nodes=MAX_NODES):
     if not (np.isfinite(flat).all() and flat.min(initial=0.0) >= 0.0):
         for k, w in enumerate(clusters):
             _check(w, f"weights[{k}]")
+    if _enumerable(clusters, max_nodes):
+        found = [_enumerated(w) for w in clusters]
+        for k, (w, (out, row)) in enumerate(zip(clusters, found)):
+            if out is None:
+                _unassociable(row, f"weights[{k}]", w.shape)
+        return [out for out, _ in found]
     out = np.empty_like(flat)
     info = np.empty((len(clusters), 2), dtype=np.int64)
     _kernels.ehm_marginals_batch(flat, offsets, shapes, max_nodes, out, info)

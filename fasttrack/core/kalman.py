@@ -1,11 +1,8 @@
 """Kalman and extended Kalman steps of one Gaussian state."""
-import sys
-
 import numpy as np
 
 from .. import _errors
 from .. import _jit
-from .._jit.tunables import NUMPY_STEPS
 from . import kalman_numpy as _numpy
 from . import stack as _stack
 from .kinds import ANALYTIC, CENTRAL, FORWARD, FUNCTION, SELECT
@@ -25,20 +22,11 @@ def check_jacobian(name, allowed=tuple(JACOBIANS)):
     return name
 
 
-#: One-filter steps still to run in NumPy (:mod:`kalman_numpy`) while no kernel is loaded.
-_numpy_steps = NUMPY_STEPS
-
-
 def in_numpy(kind):
     """Whether a one-filter step (Kalman, extended or unscented) on a model of ``kind``
-    runs in NumPy (:mod:`kalman_numpy`): the process's first
-    :data:`~fasttrack._jit.tunables.NUMPY_STEPS` steps on built-in models do, until a
-    kernel is loaded (then Numba's set-up is paid and the kernels are faster)."""
-    global _numpy_steps
-    if kind == FUNCTION or _numpy_steps <= 0 or "fasttrack._jit.dispatch" in sys.modules:
-        return False
-    _numpy_steps -= 1
-    return True
+    runs in NumPy (:mod:`kalman_numpy`): on built-in models, a process's first steps do
+    (see :func:`fasttrack._jit.numpy_first`)."""
+    return kind != FUNCTION and _jit.numpy_first()
 
 
 def predict(model, dt, x, covar, jacobian="forward"):
@@ -140,6 +128,12 @@ def stack_predict(transition_model, model, intervals, means, covars, jacobian="a
         return tuple(out)
     k, d = means.shape
     sensor = model.spec
+    if k and sensor.kind != FUNCTION and _jit.numpy_first(k):
+        _stack.transition(transition_model, intervals)  # refuses what the kernels refuse
+        status, *out = _numpy.stack_predict(transition_model, sensor, JACOBIANS[jacobian],
+                                            intervals, means, covars)
+        _stack.check(status)
+        return tuple(out)
     out = (np.empty((k, d)), np.empty((k, d, d)), np.empty((k, sensor.ndim_meas)),
            np.empty((k, sensor.ndim_meas, sensor.ndim_meas)))
     status = np.zeros(k, dtype=np.int64)

@@ -1,12 +1,11 @@
-"""One filter's Kalman, extended and unscented Kalman step in NumPy, for a program's first
-steps.
+"""Kalman, extended and unscented Kalman steps in NumPy, for a program's first steps.
 
 The first compiled kernel of a process costs Numba's set-up (its import, target and exit:
 about 0.6 s), more than a short script's whole filtering. :mod:`kalman` and
-:mod:`unscented` therefore run a process's first one-filter steps on built-in models here
-(see :func:`kalman.in_numpy`), with the kernels' formulas, tolerances and status codes
-(``fasttrack._jit.kalman`` and ``unscented``): results agree with the kernels' to
-rounding, errors are the same.
+:mod:`unscented` therefore run a process's first one-filter steps and small stacks on
+built-in models here (see :func:`fasttrack._jit.numpy_first`), with the kernels' formulas,
+tolerances and status codes (``fasttrack._jit.kalman`` and ``unscented``): results agree
+with the kernels' to rounding, errors are the same.
 
 ``x`` is (d, 1), covariances (d, d), ``z`` (m, 1); functions return new arrays.
 """
@@ -142,6 +141,28 @@ def update(sensor, method, joseph, x, covar, z):
     cross = covar @ h.T
     s = _symmetric(h @ cross + sensor.noise_covar)
     return _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross)
+
+
+def stack_predict(transition_model, sensor, method, intervals, means, covars):
+    """``(status, means, covars, z_hats, S)``: K filters (means (K, d), covariances
+    (K, d, d)) predicted ``intervals`` (K,) seconds ahead through a linear
+    ``transition_model``, their measurements (K, m) by ``sensor`` and innovation
+    covariances ``H P H^T + R`` (K, m, m), H linearised by ``method``; one status per
+    filter (the prior's covariance, then the Jacobian)."""
+    k, d = means.shape
+    m = sensor.ndim_meas
+    status = np.zeros(k, dtype=np.int64)
+    out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))
+    for t in range(k):
+        status[t], x, covar = predict(transition_model.spec(float(intervals[t])),
+                                      means[t, :, None], covars[t])
+        h = jacobian(sensor, method, x)
+        if status[t] == OK and not np.all(np.isfinite(h)):
+            status[t] = JACOBIAN_UNDEFINED
+        for whole, value in zip(out, (x[:, 0], covar, measure(sensor, x)[:, 0],
+                                      _symmetric(h @ covar @ h.T + sensor.noise_covar))):
+            whole[t] = value
+    return (status, *out)
 
 
 def _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross):

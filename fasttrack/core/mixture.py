@@ -11,9 +11,24 @@ _mixture = _jit.lazy("mixture")
 def segment_logsumexp(values, starts):
     """(S,) ``log sum exp`` of each CSR segment ``values[starts[s]:starts[s + 1]]`` of a
     (K,) float64 array (-inf for an empty segment or one of zero weights)."""
+    if _jit.numpy_first(starts.size - 1):
+        return _segment_logsumexp(np.asarray(values, dtype=np.float64), starts)
     out = np.empty(starts.size - 1)
     _mixture.segment_logsumexp(np.ascontiguousarray(values, dtype=np.float64),
                                np.ascontiguousarray(starts, dtype=np.int64), out)
+    return out
+
+
+def _segment_logsumexp(values, starts):
+    """:func:`segment_logsumexp` in NumPy, as the kernel computes it (NaN for a NaN value,
+    +inf for a +inf one)."""
+    out = np.empty(starts.size - 1)
+    for s in range(out.size):
+        segment = values[starts[s]:starts[s + 1]]
+        peak = segment.max() if segment.size else -np.inf
+        shift = peak if abs(peak) <= np.finfo(np.float64).max else 0.0
+        total = np.exp(segment - shift).sum()
+        out[s] = -np.inf if total == 0.0 else np.log(total) + shift
     return out
 
 

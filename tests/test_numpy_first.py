@@ -1,0 +1,221 @@
+"""A process's first small calls run in NumPy (``fasttrack._jit.numpy_first``): stacks of
+Kalman predictions, gating, clusters, assignment, JPDA marginals and segment log-sum-exp
+give the kernels' results and errors, and a small tracking script never loads Numba."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import fasttrack as ft
+from fasttrack import _jit
+from fasttrack.association import (clusters, gate, global_nearest_neighbour, jpda_marginals,
+                                   nearest_neighbour)
+from fasttrack.core import kalman
+from fasttrack.core.kinds import SELECT
+from fasttrack.core.mixture import segment_logsumexp
+
+
+def _both(monkeypatch, call):
+    """``call()`` with the kernels, then in NumPy."""
+    results = []
+    for first in (False, True):
+        monkeypatch.setattr(_jit, "numpy_first", lambda work=1: first)
+        results.append(call())
+    return results
+
+
+def _error(call):
+    with pytest.raises(ValueError) as error:
+        call()
+    return str(error.value)
+
+
+def _scan(seed, k, m, spread=30.0):
+    """K tracks' predicted measurements and innovation covariances, M detections around
+    them (2-D, a bearing-range layout when ``angles``)."""
+    rng = np.random.default_rng(seed)
+    z_hats = rng.uniform(-spread, spread, (k, 2))
+    roots = rng.normal(size=(k, 2, 2))
+    covars = roots @ roots.transpose(0, 2, 1) + np.eye(2)
+    detections = rng.uniform(-spread, spread, (m, 2))
+    return z_hats, covars, detections
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(0, 6), st.integers(0, 9), st.booleans(),
+       st.sampled_from([4.0, 16.0, np.inf]))
+def test_gate_and_clusters_are_the_kernels(seed, k, m, angles, threshold):
+    z_hats, covars, detections = _scan(seed, k, m)
+    if angles:
+        z_hats[:, 0] = np.remainder(z_hats[:, 0], 2 * np.pi) - np.pi
+        detections[:, 0] = np.remainder(detections[:, 0], 2 * np.pi) - np.pi
+    flags = np.array([angles, False])
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        found = _both(monkeypatch, lambda: gate(z_hats, covars, detections, threshold, flags,
+                                                grid_axes=None if np.isfinite(threshold)
+                                                else ()))
+        kernel, numpy = found
+        np.testing.assert_array_equal(numpy.starts, kernel.starts)
+        np.testing.assert_array_equal(numpy.detections, kernel.detections)
+        np.testing.assert_allclose(numpy.distances2, kernel.distances2, rtol=1e-12,
+                                   atol=1e-12)
+        np.testing.assert_allclose(numpy.log_likelihoods, kernel.log_likelihoods,
+                                   rtol=1e-12, atol=1e-12)
+        groups = _both(monkeypatch, lambda: clusters(kernel))
+    np.testing.assert_array_equal(groups[1].track_labels, groups[0].track_labels)
+    np.testing.assert_array_equal(groups[1].detection_labels, groups[0].detection_labels)
+    assert groups[1].n_clusters == groups[0].n_clusters
+
+
+def test_gate_refuses_as_the_kernel_does(monkeypatch):
+    z_hats, covars, detections = _scan(1, 3, 4)
+    covars[1] = [[1.0, 2.0], [2.0, 1.0]]
+    messages = _both(monkeypatch, lambda: _error(lambda: gate(z_hats, covars, detections,
+                                                              9.0)))
+    assert messages[0] == messages[1] == "innovation_covars[1] is not positive definite"
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 6), st.integers(0, 8),
+       st.sampled_from([0.5, 2.0, np.inf]))
+def test_assignments_are_the_kernels(seed, k, m, missed):
+    z_hats, covars, detections = _scan(seed, k, m, spread=5.0)
+    pairs = gate(z_hats, covars, detections, 25.0)
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        greedy = _both(monkeypatch, lambda: nearest_neighbour(pairs, missed))
+        np.testing.assert_array_equal(greedy[1], greedy[0])
+
+        def best():
+            try:
+                return global_nearest_neighbour(pairs, missed)
+            except ValueError as error:
+                return str(error)
+        found = _both(monkeypatch, best)
+    if isinstance(found[0], str):
+        assert found[1] == found[0]
+    else:
+        np.testing.assert_array_equal(found[1], found[0])
+
+
+def test_an_infeasible_association_raises_as_the_kernels_do(monkeypatch):
+    z_hats = np.zeros((2, 2))
+    pairs = gate(z_hats, np.broadcast_to(np.eye(2), (2, 2, 2)), np.ones((1, 2)), 25.0)
+    messages = _both(monkeypatch,
+                     lambda: _error(lambda: global_nearest_neighbour(pairs, np.inf)))
+    assert messages[0] == messages[1] and "2 tracks" in messages[0]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(0, 5), st.integers(0, 5), st.floats(0, 0.6))
+def test_jpda_marginals_are_the_kernels(seed, t, m, zeros):
+    rng = np.random.default_rng(seed)
+    weights = rng.uniform(0.1, 2.0, (t, m + 1)) * (rng.uniform(size=(t, m + 1)) >= zeros)
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        def marginals():
+            try:
+                return jpda_marginals(weights), jpda_marginals([weights, weights[:1]])
+            except ValueError as error:
+                return str(error)
+        found = _both(monkeypatch, marginals)
+    if isinstance(found[0], str):
+        assert found[1] == found[0]
+        return
+    np.testing.assert_allclose(found[1][0], found[0][0], rtol=1e-12, atol=1e-15)
+    for numpy, kernel in zip(found[1][1], found[0][1]):
+        np.testing.assert_allclose(numpy, kernel, rtol=1e-12, atol=1e-15)
+
+
+def test_jpda_enumerates_only_small_clusters(monkeypatch):
+    """A cluster of more joint events than an EHM net of ``max_nodes`` would hold is
+    the kernels' (which refuse it), whatever the NumPy budget."""
+    monkeypatch.setattr(_jit, "numpy_first", lambda work=1: True)
+    weights = np.ones((4, 5))
+    with pytest.raises(ValueError, match="max_nodes=3"):
+        jpda_marginals(weights, max_nodes=3)
+
+
+def test_segment_logsumexp_is_the_kernels(monkeypatch):
+    values = np.array([0.5, -np.inf, 3.0, -np.inf, -np.inf, np.inf, 1.0, np.nan, 2.0, 700.0,
+                       710.0])
+    starts = np.array([0, 0, 3, 5, 7, 9, 11])
+    found = _both(monkeypatch, lambda: segment_logsumexp(values, starts))
+    np.testing.assert_allclose(found[1], found[0], rtol=1e-14)
+
+
+@pytest.mark.parametrize("sensor", [
+    ft.LinearGaussian(4, (0, 2), np.diag([2.0, 3.0])),
+    ft.CartesianToBearingRange(4, (0, 2), np.diag([1e-4, 1.0]), translation_offset=[50, 0])])
+@pytest.mark.parametrize("jacobian", ["analytic", "forward", "central"])
+def test_stack_predictions_are_the_kernels(monkeypatch, sensor, jacobian):
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    rng = np.random.default_rng(4)
+    means = rng.normal(0, 20, (5, 4))
+    roots = rng.normal(size=(5, 4, 4))
+    covars = roots @ roots.transpose(0, 2, 1) + np.eye(4)
+    intervals = np.array([1.0, 2.0, 1.0, 0.5, 3.0])
+    found = _both(monkeypatch, lambda: kalman.stack_predict(transition, sensor, intervals,
+                                                            means, covars, jacobian))
+    # finite differences turn an ulp of the predicted mean into more: Stone Soup's forward
+    # steps (1e8 ulps) into 1e-6
+    rtol = {"analytic": 1e-9, "central": 1e-7, "forward": 1e-5}[jacobian]
+    rtol = 1e-9 if sensor.spec.kind == SELECT else rtol
+    for numpy, kernel in zip(*found[::-1]):
+        np.testing.assert_allclose(numpy, kernel, rtol=rtol, atol=1e-12)
+    covars[3, 0, 0] = -1.0
+    messages = _both(monkeypatch, lambda: _error(
+        lambda: kalman.stack_predict(transition, sensor, intervals, means, covars, jacobian)))
+    assert messages[0] == messages[1] and "filter 3" in messages[0]
+
+
+_TRACKING = r"""
+import json, sys
+import numpy as np
+import fasttrack as ft
+from fasttrack import _jit
+from fasttrack.association import clusters, gate, global_nearest_neighbour, jpda_marginals
+from fasttrack.core import kalman
+_jit._numpy_work = int(sys.argv[1])
+transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+sensor = ft.LinearGaussian(4, (0, 2), np.diag([0.75, 0.75]))
+means = np.array([[0.0, 1.0, 0.0, 1.0], [0.0, 1.0, 20.0, -1.0], [40.0, 0.0, 40.0, 0.0]])
+covars = np.repeat(np.eye(4)[None], 3, axis=0)
+rng = np.random.default_rng(7)
+loaded, chosen = [], []
+for k in range(1, 16):
+    means, covars, z_hats, s = kalman.stack_predict(transition, sensor, np.ones(3), means,
+                                                    covars)
+    truth = np.array([[k, k], [k, 20.0 - k], [40.0, 40.0]])
+    detections = np.vstack([truth + rng.normal(0, 0.8, truth.shape),
+                            rng.uniform(0, 40, (2, 2))])
+    pairs = gate(z_hats, s, detections, 16.0)
+    assigned = global_nearest_neighbour(pairs, 4.0, clusters(pairs))
+    jpda_marginals(np.hstack([np.full((3, 1), 0.1), np.exp(-0.5 * pairs.dense())]))
+    for t in np.flatnonzero(assigned >= 0):
+        x, covar = kalman.update(sensor, means[t, :, None], covars[t],
+                                 detections[assigned[t], :, None])[:2]
+        means[t], covars[t] = x[:, 0], covar
+    chosen.append(assigned.tolist())
+    loaded.append("numba" in sys.modules)
+print(json.dumps({"loaded": loaded, "chosen": chosen, "means": means.ravel().tolist()}))
+"""
+
+
+def _tracking(numpy_work):
+    done = subprocess.run([sys.executable, "-c", _TRACKING, str(numpy_work)],
+                          capture_output=True, text=True, timeout=600, check=True)
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def test_a_small_tracking_script_leaves_numba_unloaded_then_the_kernels_take_over():
+    short = _tracking(100_000)
+    assert not any(short["loaded"])
+    switching = _tracking(150)
+    assert not switching["loaded"][0] and switching["loaded"][-1]
+    compiled = _tracking(0)
+    assert all(compiled["loaded"])
+    for run in (short, switching):
+        assert run["chosen"] == compiled["chosen"]
+        np.testing.assert_allclose(run["means"], compiled["means"], rtol=1e-10)
