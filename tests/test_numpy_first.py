@@ -1,6 +1,7 @@
 """A process's first small calls run in NumPy (``fasttrack._jit.numpy_first``): stacks of
-Kalman predictions, gating, clusters, assignment, JPDA marginals and segment log-sum-exp
-give the kernels' results and errors, and a small tracking script never loads Numba."""
+Kalman predictions, gating, clusters, assignment, JPDA marginals, segment log-sum-exp and
+the particle filter's steps give the kernels' results and errors, and small tracking and
+particle-filter scripts never load Numba."""
 import json
 import subprocess
 import sys
@@ -13,9 +14,10 @@ import fasttrack as ft
 from fasttrack import _jit
 from fasttrack.association import (clusters, gate, global_nearest_neighbour, jpda_marginals,
                                    nearest_neighbour)
-from fasttrack.core import kalman
+from fasttrack.core import kalman, particle, particle_numpy
 from fasttrack.core.kinds import SELECT
 from fasttrack.core.mixture import segment_logsumexp
+from fasttrack.core.resample import ResidualMethod, draw
 
 
 def _both(monkeypatch, call):
@@ -219,3 +221,102 @@ def test_a_small_tracking_script_leaves_numba_unloaded_then_the_kernels_take_ove
     for run in (short, switching):
         assert run["chosen"] == compiled["chosen"]
         np.testing.assert_allclose(run["means"], compiled["means"], rtol=1e-10)
+
+
+# -- the particle filter ----------------------------------------------------------------------
+
+def test_the_stream_is_the_kernels():
+    from fasttrack._jit import numeric
+    counters = np.array([0, 1, 2, 3, 1000, 2**40, 2**62], dtype=np.int64)
+    for key in (0, 1, 12345, 2**63 - 2):
+        expected = [numeric.uniform(key, int(c)) for c in counters]
+        np.testing.assert_array_equal(particle_numpy.uniforms(key, counters), expected)
+
+
+@pytest.mark.parametrize("n", [1, 1000, 2500])
+@pytest.mark.parametrize("transition", [
+    ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2),
+    ft.LinearGaussianTransitionModel(np.eye(3) + np.eye(3, k=1),
+                                     np.diag([1.0, 0.5, 2.0]) + 0.1)])  # odd dimension
+def test_propagation_draws_the_kernels_noise(monkeypatch, n, transition):
+    x = np.random.default_rng(n).normal(0, 10, (transition.ndim_state, n))
+    found = _both(monkeypatch, lambda: particle.predict(transition, x, 1.5, 99))
+    np.testing.assert_allclose(found[1], found[0], rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("sensor", [
+    ft.LinearGaussian(4, (0, 2), np.diag([2.0, 3.0])),
+    ft.CartesianToBearingRange(4, (0, 2), np.diag([1e-4, 1.0]), translation_offset=[50, 0]),
+    ft.Cartesian2DToBearing(4, (0, 2), np.array([[1e-3]]), translation_offset=[5, -3])])
+def test_weights_are_the_kernels(monkeypatch, sensor):
+    rng = np.random.default_rng(2)
+    x = rng.normal(0, 20, (4, 3000))
+    z = sensor.measurement_vector(sensor.function(x[:, :1])[:, 0] + 0.1)
+    log_weight = np.log(rng.uniform(0.1, 1.0, 3000))
+    found = _both(monkeypatch, lambda: particle.weigh(sensor, z, x, log_weight))
+    np.testing.assert_allclose(found[1][0], found[0][0], rtol=1e-12, atol=1e-12)
+    assert found[1][1] == pytest.approx(found[0][1], rel=1e-12)
+    measured = _both(monkeypatch, lambda: particle.measure(sensor.spec, x))
+    np.testing.assert_allclose(measured[1], measured[0], rtol=1e-13, atol=1e-13)
+    decisions = _both(monkeypatch, lambda: particle.resampling_decision(found[0][0], 1500.0))
+    assert decisions[1][1] == decisions[0][1]
+    assert decisions[1][0] == pytest.approx(decisions[0][0], rel=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 3000), st.integers(1, 3000),
+       st.sampled_from(list(ResidualMethod)), st.floats(0, 0.9), st.booleans())
+def test_resampling_draws_the_kernels_ancestors(seed, n, nparts, method, zeros, compact):
+    rng = np.random.default_rng(seed)
+    log_w = rng.normal(0, 3, n)
+    log_w[rng.uniform(size=n) < zeros] = -np.inf
+    log_w[rng.integers(n)] = 0.0
+    columns = rng.normal(size=(3, n))
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        found = _both(monkeypatch, lambda: draw(log_w, nparts, method, rng=seed,
+                                                columns=columns, compact=compact))
+        np.testing.assert_array_equal(found[1][0], found[0][0])
+        assert found[1][0].dtype == found[0][0].dtype
+        np.testing.assert_array_equal(found[1][1], found[0][1])
+        gathered = _both(monkeypatch, lambda: particle.gather(columns, found[0][0]))
+    np.testing.assert_array_equal(gathered[1], gathered[0])
+
+
+_PARTICLES = r"""
+import json, sys
+import numpy as np
+import fasttrack as ft
+from fasttrack import _jit
+from fasttrack.core import particle
+from fasttrack.core.resample import draw
+_jit._numpy_work = int(sys.argv[1])
+transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+sensor = ft.CartesianToBearingRange(4, (0, 2), np.diag([1e-3, 1.0]), translation_offset=[50, 0])
+rng = np.random.default_rng(3)
+x = rng.normal([[0.0], [1.0], [0.0], [1.0]], 1.0, (4, 1000))
+log_w = np.full(1000, -np.log(1000))
+loaded, ancestors = [], []
+for k in range(1, 21):
+    x = particle.predict(transition, x, 1.0, rng)
+    z = sensor.measurement_vector([np.arctan2(k, k - 50.0), np.hypot(k - 50.0, k)])
+    log_w, ess = particle.weigh(sensor, z, x, log_w)
+    if particle.resampling_decision(log_w)[1]:
+        idx, x = draw(log_w, rng=rng, columns=x)
+        log_w = np.full(1000, -np.log(1000))
+        ancestors.append(idx[::97].tolist())
+    loaded.append("numba" in sys.modules)
+print(json.dumps({"loaded": loaded, "ancestors": ancestors, "x": x.ravel().tolist()}))
+"""
+
+
+def test_a_small_particle_filter_leaves_numba_unloaded_then_the_kernels_take_over():
+    runs = [json.loads(subprocess.run(
+        [sys.executable, "-c", _PARTICLES, str(work)], capture_output=True, text=True,
+        timeout=600, check=True).stdout.splitlines()[-1]) for work in (100_000, 40, 0)]
+    short, switching, compiled = runs
+    assert not any(short["loaded"]) and all(compiled["loaded"])
+    assert not switching["loaded"][0] and switching["loaded"][-1]
+    assert compiled["ancestors"]  # the filter resampled
+    for run in (short, switching):
+        assert run["ancestors"] == compiled["ancestors"]
+        np.testing.assert_allclose(run["x"], compiled["x"], rtol=1e-9, atol=1e-9)

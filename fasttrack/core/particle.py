@@ -7,6 +7,7 @@ from .. import _errors
 from .. import _jit
 from .. import _validate
 from .. import random as _random
+from . import particle_numpy as _numpy
 from .kinds import FUNCTION
 
 _likelihood = _jit.lazy("likelihood")
@@ -25,6 +26,8 @@ def propagate(spec, x, key):
     """A new (d, N) array: the states ``x`` (d, N) through the transition ``spec`` (a
     :class:`~fasttrack.models.spec.TransitionSpec`) plus process noise from the stream
     ``key``. Raises ValueError naming the user's function if it returns a bad output."""
+    if spec.kind != FUNCTION and _jit.numpy_first(_numpy.work(x)):
+        return _numpy.propagate(spec, x, key)
     out = _buffers.empty_like(x)
     if spec.kind == FUNCTION:
         code = _propagate.propagate_function(spec.function.function, spec.dt, x,
@@ -38,6 +41,8 @@ def propagate(spec, x, key):
 def measure(spec, x):
     """The noise-free measurements (m, N) of states ``x`` (d, N) by the measurement
     ``spec`` (a :class:`~fasttrack.models.spec.MeasurementSpec`)."""
+    if spec.kind != FUNCTION and _jit.numpy_first(_numpy.work(x)):
+        return _numpy.measure(spec, x)
     out = np.empty((spec.ndim_meas, x.shape[1]))
     if spec.kind == FUNCTION:
         code = _likelihood.measure_function(spec.function.function, x, spec.angles, out)
@@ -50,6 +55,9 @@ def measure(spec, x):
 def log_likelihood(spec, z, x, log_w, out):
     """``out = log_w + log p(z | x[:, i])`` for the measurement ``spec``, a validated (m,)
     ``z`` and (d, N) ``x``, with (N,) ``log_w`` and ``out``; returns ``max(out)``."""
+    if spec.kind != FUNCTION and _jit.numpy_first(_numpy.work(x)):
+        out[:], top = _numpy.log_likelihood(spec, z, x, log_w)
+        return top
     whiten, log_norm = spec.noise.whitening()
     if spec.kind != FUNCTION:
         return _likelihood.log_likelihood(spec.kind, z, x, spec.mapping, spec.offset,
@@ -87,6 +95,9 @@ def weigh(model, z, particles, log_weight):
     if top == -np.inf:
         raise ValueError("every particle has zero likelihood for this measurement: "
                          "no weight survives")
+    if _jit.numpy_first(_numpy.work(log_w)):
+        log_w[:], ess = _numpy.normalise(log_w, top)
+        return log_w, float(ess)
     return log_w, float(_weights.normalise_in_place(log_w, top))
 
 
@@ -94,7 +105,8 @@ def resampling_decision(log_weight, threshold=None):
     """``(ess, resample)``: Kish's effective sample size of unnormalised log weights, and
     whether it is below ``threshold`` (None: half the number of particles)."""
     log_w, log_w_max = _validate.log_weights(log_weight, "particles.log_weight")
-    ess = float(_weights.ess(log_w, log_w_max))
+    ess = float(_numpy.ess(log_w, log_w_max) if _jit.numpy_first(_numpy.work(log_w))
+                else _weights.ess(log_w, log_w_max))
     return ess, ess < (log_w.size / 2 if threshold is None else threshold)
 
 
@@ -103,7 +115,10 @@ def gather(particles, index, out=None):
     gather), written into ``out`` if given, else a new array."""
     if out is None:
         out = np.empty((particles.shape[0], index.size))
-    _resample.take_columns(particles, index, out)
+    if _jit.numpy_first(_numpy.work(out)):
+        np.take(particles, index, axis=1, out=out)
+    else:
+        _resample.take_columns(particles, index, out)
     return out
 
 

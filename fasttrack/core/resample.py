@@ -16,6 +16,7 @@ from .. import _buffers
 from .. import _jit
 from .. import _validate
 from .. import random as _random
+from . import particle_numpy as _numpy
 
 __all__ = ["ResidualMethod", "ess", "multinomial", "normalise", "resampling_points", "residual",
            "stratified", "systematic"]
@@ -139,6 +140,11 @@ def draw(log_weights, nparts=None, method=ResidualMethod.SYSTEMATIC, residual=Fa
     n = _validate.count(nparts, "nparts", default=log_w.size)
     key = _random.stream_key(rng)
     dtype = np.int32 if compact and max(n, log_w.size) < 2**31 - 1 else np.int64
+    if not residual and method is not ResidualMethod.MULTINOMIAL \
+            and _jit.numpy_first(_numpy.work(log_w) + n // 4096):
+        starts = _numpy.starts(method is ResidualMethod.STRATIFIED, log_w, log_w_max, n, key)
+        idx = _numpy.expand(starts, n).astype(dtype)
+        return idx if columns is None else (idx, columns[:, idx])
     cdf = _cdf(log_w, log_w_max)
     if residual:
         starts = _residual_starts(log_w, log_w_max, cdf, n, method, key, dtype)
