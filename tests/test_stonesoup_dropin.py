@@ -718,3 +718,40 @@ def test_unscented_drop_ins_in_an_associator_give_stone_soups_hypotheses():
         else:
             assert not hypothesis
     assert sum(map(bool, found[1].values())) == 2
+
+
+@pytest.mark.parametrize("noise", [True, False])
+def test_particle_measurement_prediction_equals_stone_soup(noise):
+    """The drop-in's measurement prediction: Stone Soup's values (to rounding), types,
+    weights and its draw of noise from NumPy's global state (the same numbers left)."""
+    from stonesoup.models.measurement.linear import LinearGaussian
+    from stonesoup.models.measurement.nonlinear import (Cartesian2DToBearing,
+                                                        CartesianToBearingRange)
+    from stonesoup.types.array import StateVectors
+    from stonesoup.types.state import ParticleState
+    from stonesoup.updater.particle import ParticleUpdater as StoneSoupUpdater
+    models = [CartesianToBearingRange(4, (0, 2), np.diag([0.01, 2.0]),
+                                      translation_offset=np.array([[-5.0], [3.0]]),
+                                      rotation_offset=np.array([[0.0], [0.0], [0.3]])),
+              Cartesian2DToBearing(4, (0, 2), np.array([[0.01]])),
+              LinearGaussian(4, (0, 2), np.diag([1.0, 2.0]))]
+    rng = np.random.default_rng(0)
+    fss.fallbacks(clear=True)
+    for model in models:
+        prior = ParticleState(StateVectors(rng.normal(0, 10, (4, 700))),
+                              log_weight=np.log(rng.uniform(0.1, 1, 700)), timestamp=START)
+        found = []
+        for updater in (StoneSoupUpdater(model), fss.ParticleUpdater(model)):
+            np.random.seed(5)
+            found.append((updater.predict_measurement(prior, measurement_noise=noise),
+                          np.random.random()))
+        (theirs, their_next), (ours, our_next) = found
+        assert type(ours) is type(theirs) and our_next == their_next
+        assert [type(v) for v in ours.state_vector[:, 0]] == \
+            [type(v) for v in theirs.state_vector[:, 0]]
+        np.testing.assert_allclose(np.asarray(ours.state_vector, dtype=float),
+                                   np.asarray(theirs.state_vector, dtype=float),
+                                   rtol=1e-13, atol=1e-13)
+        np.testing.assert_array_equal(ours.log_weight, theirs.log_weight)
+        assert ours.timestamp == theirs.timestamp
+    assert not fss.fallbacks()

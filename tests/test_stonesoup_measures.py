@@ -33,3 +33,39 @@ def test_mahalanobis_measure_equals_stone_soup():
     np.testing.assert_array_equal(ours(singular, several), theirs(singular, several))
     mapped = fss.Mahalanobis(mapping=[0])
     assert mapped(bearing, z) == ss_measures.Mahalanobis(mapping=[0])(bearing, z)
+
+
+def _particles(rng, n, bearing_near_pi):
+    """A particle measurement prediction of bearings (about pi when ``bearing_near_pi``,
+    where the wrap matters) and ranges, as Stone Soup's measurement functions type it."""
+    from stonesoup.types.prediction import ParticleMeasurementPrediction
+    centre = np.pi - 0.05 if bearing_near_pi else 0.4
+    bearings = np.remainder(rng.normal(centre, 0.1, n) + np.pi, 2 * np.pi) - np.pi
+    vectors = np.empty((2, n), dtype=object)
+    vectors[0] = [Bearing(b) for b in bearings]
+    vectors[1] = rng.normal(30.0, 2.0, n)
+    return ParticleMeasurementPrediction(StateVectors(vectors),
+                                         log_weight=np.log(rng.uniform(0.1, 1.0, n)))
+
+
+@pytest.mark.parametrize("bearing_near_pi", [False, True])
+def test_mahalanobis_of_particles_equals_stone_soup_and_runs_no_fallback(bearing_near_pi):
+    rng = np.random.default_rng(3)
+    ours, theirs = fss.Mahalanobis(), ss_measures.Mahalanobis()
+    fss.fallbacks(clear=True)
+    for n in (1, 2, 500):
+        prediction = _particles(rng, n, bearing_near_pi)
+        z = Detection(StateVector([[Bearing(-np.pi + 0.01)], [31.0]]))
+        if n == 1:  # a zero covariance: Stone Soup's code, which fails on its objects
+            for measure in (theirs, ours):
+                with pytest.raises(TypeError):
+                    measure(prediction, z)
+            continue
+        assert ours(prediction, z) == pytest.approx(theirs(prediction, z), rel=1e-10)
+    floats = _particles(rng, 300, bearing_near_pi)
+    floats.state_vector = StateVectors(np.asarray(floats.state_vector, dtype=np.float64))
+    assert ours(floats, z) == pytest.approx(theirs(floats, z), rel=1e-10)
+    found = fss.fallbacks(clear=True)  # one particle; two span a line (rank one)
+    assert sum(found.values()) == 2 and {reason for _, _, reason in found} <= {
+        "a covariance that is not positive definite",
+        "an ill-conditioned covariance (Stone Soup's pseudo-inverse)"}

@@ -100,6 +100,11 @@ def floats(array):
     return np.ascontiguousarray(np.asarray(array, dtype=np.float64))
 
 
+def mod_bearing(angles):
+    """Stone Soup's bearing wrap ``((a + pi) mod 2 pi) - pi`` of a float array."""
+    return (angles + np.pi) % (2.0 * np.pi) - np.pi
+
+
 def angle_rows(array):
     """Rows of an object array whose entries are Stone Soup angles."""
     if array.dtype != object or array.size == 0:

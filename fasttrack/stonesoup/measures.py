@@ -2,9 +2,10 @@
 import numpy as np
 from stonesoup import measures as ss_measures
 from stonesoup.types.angle import Angle, Bearing
-from stonesoup.types.state import GaussianState
+from stonesoup.types.state import GaussianState, ParticleState
 
-from ._convert import floats
+from .._jit.tunables import CHOLESKY_CONDITION
+from ._convert import floats, mod_bearing
 from ._fallback import fall_back
 
 __all__ = ["Mahalanobis"]
@@ -26,26 +27,69 @@ def _angle_rows(vectors, m):
     return rows
 
 
+def _particle_moments(state):
+    """``(mean (m, 1), covar (m, m), angles (m,))`` of a particle state as Stone Soup's
+    ``mean`` and ``covar`` compute them from its (m, N) state vectors and log weights, on
+    floats: the ``angles`` rows (of ``Bearing`` entries) by their circular mean and wrapped
+    deviations; or the reason Stone Soup's own code is needed."""
+    vectors = state.state_vector
+    if not isinstance(vectors, np.ndarray) or vectors.ndim != 2 or vectors.shape[1] == 0:
+        return "particle state vectors that are not a 2-D array"
+    m, n = vectors.shape
+    angles = _angle_rows((vectors,), m)  # Stone Soup types a row by its first entry
+    if angles is None:
+        return "angles other than bearings"
+    try:
+        values, log_weight = floats(vectors), floats(state.log_weight)
+        covar = None if state.fixed_covar is None else floats(state.fixed_covar)
+    except (TypeError, ValueError):
+        return "values that are not numbers"
+    if n == 1:
+        mean = values
+    else:
+        weights = np.exp(log_weight - log_weight.max())
+        total = weights.sum()
+        mean = (values @ weights / total)[:, None]
+        turns = values[angles]
+        mean[angles, 0] = mod_bearing(np.arctan2(np.sin(turns) @ weights / total,
+                                                 np.cos(turns) @ weights / total))
+    if covar is None:
+        if n == 1:
+            return mean, np.zeros((m, m)), angles
+        deviations = values - mean
+        deviations[angles] = mod_bearing(deviations[angles])
+        covar = deviations @ (deviations * weights).T * (1.0 / total)
+    return mean, covar, angles
+
+
 def _squared_mahalanobis(measure, state1, state2):
-    """Stone Soup's squared Mahalanobis distance of a Gaussian ``state1`` and one vector
-    ``state2`` by a Cholesky factor, or the reason Stone Soup's own code is needed (a
-    mapping, several columns, a covariance that is not positive definite)."""
+    """Stone Soup's squared Mahalanobis distance of a Gaussian or particle ``state1`` and
+    one vector ``state2`` by a Cholesky factor, or the reason Stone Soup's own code is
+    needed (a mapping, several columns, a covariance that is not positive definite)."""
     if measure.mapping is not None:
         return "a mapping"
-    if not isinstance(state1, GaussianState):
-        return f"state1 {type(state1).__name__} is not Gaussian"
-    u = getattr(state1, "mean", state1.state_vector)
+    if isinstance(state1, ParticleState):
+        moments = _particle_moments(state1)
+        if isinstance(moments, str):
+            return moments
+        u, covar, u_angles = moments
+    elif isinstance(state1, GaussianState):
+        u, covar, u_angles = getattr(state1, "mean", state1.state_vector), state1.covar, None
+    else:
+        return f"state1 {type(state1).__name__} is not Gaussian or particles"
     v = getattr(state2, "mean", state2.state_vector)
     if not isinstance(u, np.ndarray) or not isinstance(v, np.ndarray):
         return "state vectors that are not arrays"
     m = u.shape[0]
-    if u.shape != (m, 1) or v.shape != (m, 1) or np.shape(state1.covar) != (m, m):
+    if u.shape != (m, 1) or v.shape != (m, 1) or np.shape(covar) != (m, m):
         return "several columns, or shapes that do not match"
     angles = _angle_rows((u, v), m)
     if angles is None:
         return "angles other than bearings"
+    if u_angles is not None:
+        angles |= u_angles
     try:
-        u, v, covar = floats(u).ravel(), floats(v).ravel(), floats(state1.covar)
+        u, v, covar = floats(u).ravel(), floats(v).ravel(), floats(covar)
     except (TypeError, ValueError):
         return "values that are not numbers"
     if not np.isfinite(covar).all():
@@ -54,6 +98,8 @@ def _squared_mahalanobis(measure, state1, state2):
         lower = np.linalg.cholesky(covar)
     except np.linalg.LinAlgError:
         return "a covariance that is not positive definite"
+    if lower.diagonal().min() ** 2 * CHOLESKY_CONDITION < covar.diagonal().max():
+        return "an ill-conditioned covariance (Stone Soup's pseudo-inverse)"
     difference = v - u
     difference[angles] -= 2 * np.pi * np.floor((difference[angles] + np.pi) / (2 * np.pi))
     whitened = np.linalg.solve(lower, difference)
@@ -64,11 +110,13 @@ def _squared_mahalanobis(measure, state1, state2):
 class Mahalanobis(ss_measures.Mahalanobis):
     """Stone Soup's ``Mahalanobis`` measure.
 
-    Between a Gaussian state and one state vector, with no ``mapping``, the distance is
-    computed from a Cholesky factor by fasttrack's kernel (bearings wrapped as Stone Soup's
-    ``Bearing`` arithmetic wraps them) instead of a pseudo-inverse; equal to rounding. Other
-    cases (a mapping, several columns, a covariance that is not positive definite) run
-    Stone Soup's code. The drop-in associators recognise this measure and Stone Soup's.
+    Between a Gaussian or particle state and one state vector, with no ``mapping``, the
+    distance is computed from a Cholesky factor (bearings wrapped as Stone Soup's
+    ``Bearing`` arithmetic wraps them) instead of a pseudo-inverse; a particle state's mean
+    and covariance as Stone Soup computes them (circular means of bearings), on floats
+    instead of ``Bearing`` objects. Equal to rounding. Other cases (a mapping, several
+    columns, a covariance that is not positive definite) run Stone Soup's code. The
+    drop-in associators recognise this measure and Stone Soup's.
     """
 
     def __call__(self, state1, state2):

@@ -10,6 +10,7 @@ weights.
 from functools import lru_cache
 
 import numpy as np
+from stonesoup.models.base import GaussianModel
 from stonesoup.types.angle import Bearing
 from stonesoup.types.array import StateVectors
 from stonesoup.types.prediction import MeasurementPrediction
@@ -25,7 +26,8 @@ from ..core import unscented as ft_unscented
 from ..models import LinearGaussian
 from ..types import dense_kernel_covar
 from ._convert import (angle_rows, fast_kernel, fast_model, fits, floats, global_rng,
-                       plain_particles, sigma_parameters, typed_measurement, uncached)
+                       mod_bearing, plain_particles, sigma_parameters, typed_measurement,
+                       uncached)
 from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
 from .state import kernel_factors, remember_factors
 
@@ -70,6 +72,41 @@ class ParticleUpdater(ss_particle.ParticleUpdater):
         if self.resampler is not None:
             state = self.resampler.resample(state)
         return state
+
+    @lru_cache()
+    def predict_measurement(self, predicted_state, measurement_model=None,
+                            measurement_noise=True, **kwargs):
+        """Stone Soup's particle measurement prediction: each particle measured by the
+        model, plus a noise draw from the model's random state (Stone Soup's own draw)
+        unless ``measurement_noise`` is False; angle rows as ``Bearing`` objects, computed
+        on floats."""
+        model = self.measurement_model if measurement_model is None else measurement_model
+        fast = fast_model(model)
+        reason = unknown_model(model) if fast is None else (
+            keywords(kwargs, self)
+            or (not isinstance(measurement_noise, bool) and "measurement noise given as values")
+            or (not plain_particles(predicted_state)
+                and f"prediction {type(predicted_state).__name__} indexes its particles its "
+                    f"own way"))
+        if reason:
+            fall_back(self, "predict_measurement", reason)
+            return uncached(self._stonesoup.predict_measurement)(
+                self, predicted_state, model, measurement_noise, **kwargs)
+        values = ft_particle.measure(fast.spec, floats(predicted_state.state_vector))
+        angles = list(fast.angle_components)
+        if measurement_noise:  # Stone Soup: Bearing(Bearing(n) + h(x)): wrapped twice
+            noise = floats(GaussianModel.rvs(model, values.shape[1])).reshape(values.shape)
+            noise[angles] = mod_bearing(noise[angles])
+            values = values + noise
+            values[angles] = mod_bearing(values[angles])
+        vectors = values
+        if angles:
+            vectors = values.astype(object)
+            for row in angles:
+                vectors[row] = [Bearing(value) for value in values[row]]
+        return MeasurementPrediction.from_state(
+            predicted_state, state_vector=StateVectors(vectors),
+            timestamp=predicted_state.timestamp)
 
 
 #: The methods of Stone Soup's Kalman updaters that the fast path computes itself: a
