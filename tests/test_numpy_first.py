@@ -258,6 +258,10 @@ def test_weights_are_the_kernels(monkeypatch, sensor):
     assert found[1][1] == pytest.approx(found[0][1], rel=1e-12)
     measured = _both(monkeypatch, lambda: particle.measure(sensor.spec, x))
     np.testing.assert_allclose(measured[1], measured[0], rtol=1e-13, atol=1e-13)
+    moments = _both(monkeypatch, lambda: (particle.mean(x, found[0][0]),
+                                          *particle.mean_covar(x, found[0][0])))
+    for numpy, kernel in zip(*moments[::-1]):
+        np.testing.assert_allclose(numpy, kernel, rtol=1e-11, atol=1e-12)
     decisions = _both(monkeypatch, lambda: particle.resampling_decision(found[0][0], 1500.0))
     assert decisions[1][1] == decisions[0][1]
     assert decisions[1][0] == pytest.approx(decisions[0][0], rel=1e-12)

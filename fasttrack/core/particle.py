@@ -125,6 +125,8 @@ def gather(particles, index, out=None):
 def mean(particles, log_weight):
     """The (d, 1) weighted mean of (d, N) ``particles`` with (N,) unnormalised
     ``log_weight``, in one pass."""
+    if _jit.numpy_first(_numpy.work(particles)):
+        return _numpy.mean_covar(particles, log_weight)[0]
     out = np.empty(particles.shape[0])
     _weights.weighted_mean(particles, log_weight, log_weight.max(), out)
     return out.reshape(-1, 1)
@@ -133,6 +135,8 @@ def mean(particles, log_weight):
 def mean_covar(particles, log_weight):
     """``(mean, covar)``, (d, 1) and (d, d): the weighted mean and covariance
     ``sum w (x - mean)(x - mean)^T / sum w`` of (d, N) ``particles``, in two passes."""
+    if _jit.numpy_first(_numpy.work(particles)):
+        return _numpy.mean_covar(particles, log_weight)
     d = particles.shape[0]
     mean_out, covar = np.empty(d), np.empty((d, d))
     _weights.weighted_mean_covar(particles, log_weight, log_weight.max(), mean_out, covar)

@@ -80,6 +80,16 @@ def normalise(log_w, log_w_max):
     return (log_w - log_w_max) - np.log(s1), s1 * s1 / s2
 
 
+def mean_covar(x, log_w):
+    """``(mean (d, 1), covar (d, d))``: the weighted mean and covariance of the columns of
+    ``x`` (d, N) with unnormalised ``log_w`` (two passes, as ``weighted_mean_covar``)."""
+    w = np.exp(log_w - log_w.max())
+    total = w.sum()
+    mean = (x @ w / total)[:, None]
+    deviations = x - mean
+    return mean, deviations @ (deviations * w).T / total
+
+
 def starts(stratified, log_w, log_w_max, n, key):
     """The starts (see ``fasttrack._jit.resample``) of a systematic draw of ``n`` points
     (one uniform for all), or a ``stratified`` one (one per stratum)."""
