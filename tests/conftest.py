@@ -6,7 +6,7 @@ from fasttrack import _jit
 
 # The unit tests test the kernels from the first call on; the NumPy calls that precede a
 # process's first kernel (fasttrack._jit.numpy_first) have tests of their own.
-_jit._numpy_work = 0
+_jit.kernels_from_now()
 
 
 @pytest.fixture(autouse=True)

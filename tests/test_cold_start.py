@@ -251,7 +251,8 @@ _SAME_KERNEL = {"int64": "ft.systematic(np.zeros(8), rng=0)",
 
 @pytest.mark.slow
 def test_processes_compiling_other_signatures_of_one_kernel_at_once_lose_no_entry(tmp_path):
-    code = "import numpy as np, fasttrack as ft\n{}"
+    code = ("import numpy as np, fasttrack as ft, fasttrack._jit\n"
+            "fasttrack._jit.kernels_from_now()\n{}")
     for attempt in range(5):
         env = dict(os.environ, FASTTRACK_CACHE_DIR=str(tmp_path / str(attempt)),
                    FASTTRACK_SHIPPED_KERNELS="0")

@@ -191,7 +191,7 @@ import pytest
 import fasttrack as ft
 from fasttrack import _jit
 from fasttrack.scenarios import particle_filter_tutorial
-_jit._numpy_work = 0  # the kernels from the first step (NumPy's first steps agree to rounding)
+_jit.kernels_from_now()  # (NumPy's first steps agree to rounding only)
 
 def run(results, key):
     scenario = particle_filter_tutorial(20_000, seed=key)

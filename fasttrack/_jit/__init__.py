@@ -87,3 +87,11 @@ def numpy_first(work=1):
         return False
     _numpy_work -= work
     return True
+
+
+def kernels_from_now():
+    """End the NumPy first calls: the kernels run from the next call on, for work whose
+    results must not depend on what the process ran before (the bits of a Monte Carlo run
+    wherever it runs, a warmup that compiles every kernel)."""
+    global _numpy_work
+    _numpy_work = 0

@@ -6,6 +6,7 @@ import numpy as np
 
 from .. import _jit
 from .. import _validate
+from .._jit.tunables import CHOLESKY_CONDITION
 from . import gating_numpy as _numpy
 
 _kernels = _jit.lazy("gating")
@@ -50,6 +51,21 @@ class Gate:
         out = np.full((self.n_tracks, self.n_detections), fill)
         out[self.tracks(), self.detections] = getattr(self, value)
         return out
+
+
+def squared_distance(difference, covar):
+    """``v^T S^-1 v`` for a (m,) ``difference`` v and a (m, m) covariance S, by S's
+    Cholesky factor; None if S is not positive definite, or so ill-conditioned (its
+    Cholesky pivots spread beyond ``CHOLESKY_CONDITION``) that the factor's answer could
+    differ from a pseudo-inverse's by more than rounding."""
+    try:
+        lower = np.linalg.cholesky(covar)
+    except np.linalg.LinAlgError:
+        return None
+    if lower.diagonal().min() ** 2 * CHOLESKY_CONDITION < covar.diagonal().max():
+        return None
+    whitened = np.linalg.solve(lower, difference)
+    return float(whitened @ whitened)
 
 
 def _grid_axes(m, angles, grid_axes):

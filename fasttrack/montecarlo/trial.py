@@ -8,6 +8,7 @@ import traceback
 
 import numpy as np
 
+from .. import _jit
 from .._validate import count
 from ..types import SingleHypothesis, time_interval
 from ..simulate import MultiTargetScenario
@@ -87,6 +88,7 @@ def run_trial(scenario, make_filter, run_seed, metrics=None, position_mapping=(0
     if not isinstance(run_seed, np.random.SeedSequence):
         raise TypeError(f"run_seed must be a numpy.random.SeedSequence (see run_seeds), "
                         f"got {type(run_seed).__name__}")
+    _jit.kernels_from_now()  # a run's results are the same bits in every process
     scenario_seed, filter_seed = _children(run_seed, 2)
     world = scenario(seed=scenario_seed)
     multi_target = isinstance(world, MultiTargetScenario)

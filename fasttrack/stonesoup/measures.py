@@ -4,7 +4,7 @@ from stonesoup import measures as ss_measures
 from stonesoup.types.angle import Angle, Bearing
 from stonesoup.types.state import GaussianState, ParticleState
 
-from .._jit.tunables import CHOLESKY_CONDITION
+from ..core.gating import squared_distance
 from ._convert import floats, mod_bearing
 from ._fallback import fall_back
 
@@ -65,7 +65,7 @@ def _particle_moments(state):
 def _squared_mahalanobis(measure, state1, state2):
     """Stone Soup's squared Mahalanobis distance of a Gaussian or particle ``state1`` and
     one vector ``state2`` by a Cholesky factor, or the reason Stone Soup's own code is
-    needed (a mapping, several columns, a covariance that is not positive definite)."""
+    needed (a mapping, several columns, a singular or ill-conditioned covariance)."""
     if measure.mapping is not None:
         return "a mapping"
     if isinstance(state1, ParticleState):
@@ -94,16 +94,11 @@ def _squared_mahalanobis(measure, state1, state2):
         return "values that are not numbers"
     if not np.isfinite(covar).all():
         return "a covariance that is not finite"
-    try:
-        lower = np.linalg.cholesky(covar)
-    except np.linalg.LinAlgError:
-        return "a covariance that is not positive definite"
-    if lower.diagonal().min() ** 2 * CHOLESKY_CONDITION < covar.diagonal().max():
-        return "an ill-conditioned covariance (Stone Soup's pseudo-inverse)"
     difference = v - u
-    difference[angles] -= 2 * np.pi * np.floor((difference[angles] + np.pi) / (2 * np.pi))
-    whitened = np.linalg.solve(lower, difference)
-    d2 = float(whitened @ whitened)
+    difference[angles] = mod_bearing(difference[angles])
+    d2 = squared_distance(difference, covar)
+    if d2 is None:
+        return "a covariance that is singular or ill-conditioned (Stone Soup's pseudo-inverse)"
     return d2 if np.isfinite(d2) else "a distance that is not finite"
 
 
@@ -115,7 +110,7 @@ class Mahalanobis(ss_measures.Mahalanobis):
     ``Bearing`` arithmetic wraps them) instead of a pseudo-inverse; a particle state's mean
     and covariance as Stone Soup computes them (circular means of bearings), on floats
     instead of ``Bearing`` objects. Equal to rounding. Other cases (a mapping, several
-    columns, a covariance that is not positive definite) run Stone Soup's code. The
+    columns, a singular or ill-conditioned covariance) run Stone Soup's code. The
     drop-in associators recognise this measure and Stone Soup's.
     """
 
