@@ -19,7 +19,9 @@ STEPPER = """
 import sys, time
 import numpy as np
 import fasttrack as ft
+import fasttrack._jit
 from fasttrack.scenarios import particle_filter_tutorial
+fasttrack._jit.kernels_from_now()  # the kernels' step, from the first
 n, seconds = int(sys.argv[1]), float(sys.argv[2])
 s = particle_filter_tutorial(n, steps=3)
 predictor = ft.ParticlePredictor(s.transition_model, rng=1)
