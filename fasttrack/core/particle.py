@@ -126,7 +126,7 @@ def mean(particles, log_weight):
     """The (d, 1) weighted mean of (d, N) ``particles`` with (N,) unnormalised
     ``log_weight``, in one pass."""
     if _jit.numpy_first(_numpy.work(particles)):
-        return _numpy.mean_covar(particles, log_weight)[0]
+        return _numpy.mean(particles, log_weight)[0]
     out = np.empty(particles.shape[0])
     _weights.weighted_mean(particles, log_weight, log_weight.max(), out)
     return out.reshape(-1, 1)

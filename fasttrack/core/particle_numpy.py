@@ -80,14 +80,20 @@ def normalise(log_w, log_w_max):
     return (log_w - log_w_max) - np.log(s1), s1 * s1 / s2
 
 
+def mean(x, log_w):
+    """``(mean (d, 1), weights (N,), total)``: the weighted mean of the columns of ``x``
+    (d, N) with unnormalised ``log_w``, the weights ``exp(log_w - max)`` and their sum."""
+    w = np.exp(log_w - log_w.max())
+    total = w.sum()
+    return (x @ w / total)[:, None], w, total
+
+
 def mean_covar(x, log_w):
     """``(mean (d, 1), covar (d, d))``: the weighted mean and covariance of the columns of
     ``x`` (d, N) with unnormalised ``log_w`` (two passes, as ``weighted_mean_covar``)."""
-    w = np.exp(log_w - log_w.max())
-    total = w.sum()
-    mean = (x @ w / total)[:, None]
-    deviations = x - mean
-    return mean, deviations @ (deviations * w).T / total
+    centre, w, total = mean(x, log_w)
+    deviations = x - centre
+    return centre, deviations @ (deviations * w).T / total
 
 
 def starts(stratified, log_w, log_w_max, n, key):
