@@ -10,12 +10,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from conftest import from_python
+
 import fasttrack as ft
 from fasttrack import _jit
 from fasttrack.association import (clusters, gate, global_nearest_neighbour, jpda_marginals,
                                    nearest_neighbour)
-from fasttrack.core import kalman, particle, particle_numpy
-from fasttrack.core.kinds import SELECT
+from fasttrack.core import akkf_numpy, kalman, particle, particle_numpy
+from fasttrack.core.kinds import MATRIX, SELECT
 from fasttrack.core.mixture import segment_logsumexp
 from fasttrack.core.resample import ResidualMethod, draw
 
@@ -324,3 +326,97 @@ def test_a_small_particle_filter_leaves_numba_unloaded_then_the_kernels_take_ove
     for run in (short, switching):
         assert run["ancestors"] == compiled["ancestors"]
         np.testing.assert_allclose(run["x"], compiled["x"], rtol=1e-9, atol=1e-9)
+
+
+# -- the adaptive kernel Kalman filter ----------------------------------------------------
+
+_KERNELS = {"quadratic": ft.QuadraticKernel(c=1, ialpha=1),
+            "quartic": ft.QuarticKernel(c=0.5, ialpha=3),
+            "gaussian": ft.GaussianKernel(variance=0.7)}
+
+
+def _close(numpy, kernel, rtol=1e-8):
+    np.testing.assert_allclose(numpy, kernel, atol=rtol * max(np.abs(kernel).max(), 1e-300))
+
+
+@pytest.mark.parametrize("name", _KERNELS)
+@pytest.mark.parametrize("m", [12, 40])
+def test_akkf_steps_are_the_kernels(name, m):
+    """Two cycles of predict and update, NumPy's factored steps against the kernels' on the
+    same input (quartic at M = 12: more features than particles); the weights, the kernel
+    covariance the factors stand for, and the proposal drawn from the same stream."""
+    from fasttrack._jit import akkf as kernels, gram
+    from fasttrack.types import dense_kernel_covar
+    kernel = _KERNELS[name]
+    kind, params = kernel._kind, kernel._parameters()
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(4, m)) * 0.4
+    w = rng.uniform(-0.2, 1.0, m) / m
+    root = rng.normal(size=(m, m + 2)) / m
+    covar = root @ root.T
+    lt = akkf_numpy.factor(MATRIX, None, None, covar)
+    _close(lt.T @ lt, gram.factor(MATRIX, np.empty(0), np.zeros(0, np.bool_), covar).T
+           @ gram.factor(MATRIX, np.empty(0), np.zeros(0, np.bool_), covar))
+    factors = (lt, 0.0, np.zeros((0, m)), np.zeros((0, m)))
+    proposal = x + rng.normal(size=(4, m)) * 0.1
+    state_angles, meas_angles = np.zeros(4, np.bool_), np.array([True, False])
+    for cycle in range(2):
+        arguments = (kind, params, state_angles, proposal, x, w, *factors, 1e-2)
+        numpy = akkf_numpy.predict_embedding(*arguments)
+        compiled = kernels.predict_embedding(*arguments)
+        _close(numpy[0], compiled[0])
+        ours, theirs = ((out[1], 1.0 / m, out[2], out[3]) for out in (numpy, compiled))
+        _close(dense_kernel_covar(ours), dense_kernel_covar(theirs))
+        _close(akkf_numpy.sandwich(x, *ours), kernels.sandwich(x, *theirs))
+        w, factors = compiled[0], theirs
+        x = proposal + 0.05
+        y = np.vstack([np.arctan2(x[2], x[0]), x[1]])
+        z = np.array([[0.4], [0.1]])
+        arguments = (kind, params, meas_angles, y, z, w, *factors, 1e-2, x, 77 + cycle)
+        numpy = akkf_numpy.update_embedding(*arguments)
+        proposal = np.empty_like(x)
+        compiled = kernels.update_embedding(*arguments, proposal)
+        _close(numpy[0], compiled[0])
+        ours, theirs = ((out[1], factors[1], out[2], out[3]) for out in (numpy, compiled))
+        _close(dense_kernel_covar(ours), dense_kernel_covar(theirs))
+        np.testing.assert_allclose(numpy[4], proposal, rtol=1e-7, atol=1e-9)
+        w, factors = compiled[0], theirs
+
+
+def test_ridge_map_takes_either_route_as_the_kernels_do():
+    from fasttrack._jit import akkf as kernels
+    rng = np.random.default_rng(2)
+    for scale in (1.0, 1e10):  # Cholesky, then the QR route of an ill-conditioned F
+        f = rng.normal(size=(5, 9)) * scale
+        expected = from_python(kernels._ridge_map)(f, 1e-3)
+        _close(akkf_numpy.ridge_map(f, 1e-3), expected, rtol=1e-6)
+
+
+_AKKF = r"""
+import json, sys
+import numpy as np
+import fasttrack as ft
+from fasttrack import _jit
+from fasttrack.scenarios import adaptive_kernel_tutorial
+_jit._numpy_work = int(sys.argv[1])
+s = adaptive_kernel_tutorial(30, seed=3)
+predictor = ft.AdaptiveKernelKalmanPredictor(s.transition_model, ft.QuadraticKernel())
+updater = ft.AdaptiveKernelKalmanUpdater(s.measurement_model, ft.QuadraticKernel(), rng=4)
+state, loaded = s.prior, []
+for detection in s.detections[1:]:
+    state = updater.update(ft.SingleHypothesis(predictor.predict(state, detection.timestamp),
+                                               detection))
+    loaded.append("numba" in sys.modules)
+print(json.dumps({"loaded": loaded, "mean": state.mean.ravel().tolist()}))
+"""
+
+
+def test_a_small_akkf_leaves_numba_unloaded_then_the_kernels_take_over():
+    runs = [json.loads(subprocess.run(
+        [sys.executable, "-c", _AKKF, str(work)], capture_output=True, text=True,
+        timeout=600, check=True).stdout.splitlines()[-1]) for work in (100_000, 100, 0)]
+    short, switching, compiled = runs
+    assert not any(short["loaded"]) and all(compiled["loaded"])
+    assert not switching["loaded"][0] and switching["loaded"][-1]
+    for run in (short, switching):
+        np.testing.assert_allclose(run["mean"], compiled["mean"], rtol=1e-6, atol=1e-6)

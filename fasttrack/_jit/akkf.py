@@ -328,17 +328,6 @@ def update_embedding(kind, params, angles, y, z, w, lt, sigma, v1t, v2t, lam, x,
 
 
 @jit()
-def largest_magnitude(w):
-    """``max |w_i|`` of a weight vector, NaN if any entry is NaN."""
-    top = 0.0
-    for value in w:
-        if value != value:
-            return value
-        top = max(top, abs(value))
-    return top
-
-
-@jit()
 def draw_proposal(x, w, lt, sigma, v1t, v2t, key, out):
     """Draw ``out`` (d, M): column j is ``mu + sqrt(diag(Sigma)) * n_j``, ``mu = x w``,
     ``Sigma = x S x^T``, n_j standard normals of stream ``key``."""

@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import _jit
 from .. import random as _random
+from . import akkf_numpy as _numpy
 from .kinds import MATRIX
 
 _akkf = _jit.lazy("akkf")
@@ -52,19 +53,23 @@ def gram(kind, params, angles, x1, x2, others):
 def covariance(x, factors):
     """``X S X^T`` (d, d) of particles ``x`` (d, M) and the factors of the kernel
     covariance S."""
+    if _jit.numpy_first(_numpy.work(x.shape[1])):
+        return _numpy.sandwich(x, *factors)
     return _akkf.sandwich(x, *factors)
 
 
 def factor_matrix(s):
     """The pivoted Cholesky factor ``Lt`` (r, M) of a positive semi-definite (M, M) ``s``
     (``Lt^T Lt = s``)."""
+    if _jit.numpy_first(_numpy.work(s.shape[0])):
+        return _numpy.factor(MATRIX, None, None, s)
     return _gram.factor(MATRIX, np.empty(0), np.zeros(0, dtype=np.bool_), s)
 
 
 def check_weights(weight, which):
     """Raise if kernel filter weights are not finite (the kernel values overflowed) or all
     zero (nothing carried over)."""
-    largest = _akkf.largest_magnitude(weight)
+    largest = np.nan if np.isnan(weight).any() else np.abs(weight).max(initial=0.0)
     if not largest <= 1.7976931348623157e308:
         raise ValueError(f"the {which} kernel weights are not finite: the kernel values "
                          f"overflow (rescale the states or use a lower-degree kernel)")
@@ -81,8 +86,10 @@ def predict(model, kernel, dt, proposal, x, weight, factors, lambda_predictor):
     embedding of ``kernel`` (a fasttrack :class:`~fasttrack.kernel.Kernel` on states)."""
     angles = angle_mask(x.shape[0])
     kind, params = kernel.spec(angles, proposal, x)
-    w, lt, v1t, v2t = _akkf.predict_embedding(kind, params, angles, proposal, x, weight,
-                                              *factors, lambda_predictor)
+    embed = _numpy.predict_embedding if _jit.numpy_first(_numpy.work(weight.size)) \
+        else _akkf.predict_embedding
+    w, lt, v1t, v2t = embed(kind, params, angles, proposal, x, weight, *factors,
+                            lambda_predictor)
     check_weights(w, "predicted")
     return model.spec(dt).mean(proposal), w, (lt, 1.0 / w.size, v1t, v2t)
 
@@ -95,9 +102,13 @@ def update(model, kernel, y, z, x, weight, factors, lambda_updater, rng):
     angles = model.spec.angles
     z = z.reshape(-1, 1)
     kind, params = kernel.spec(angles, y, z)
-    proposal = np.empty_like(x)
-    w, lt, v1t, v2t = _akkf.update_embedding(kind, params, angles, y, z, weight, *factors,
-                                             lambda_updater, x, _random.stream_key(rng),
-                                             proposal)
+    key = _random.stream_key(rng)
+    if _jit.numpy_first(_numpy.work(weight.size)):
+        w, lt, v1t, v2t, proposal = _numpy.update_embedding(
+            kind, params, angles, y, z, weight, *factors, lambda_updater, x, key)
+    else:
+        proposal = np.empty_like(x)
+        w, lt, v1t, v2t = _akkf.update_embedding(kind, params, angles, y, z, weight,
+                                                 *factors, lambda_updater, x, key, proposal)
     check_weights(w, "updated")
     return w, (lt, factors[1], v1t, v2t), proposal

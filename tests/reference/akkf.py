@@ -68,10 +68,6 @@ def proposal_dense(x, w, s, key, out):
     out[:] = (x @ w)[:, None] + scale[:, None] * normals[:d * m].reshape(d, m)
 
 
-def largest_magnitude(w):
-    return np.nan if np.isnan(w).any() else float(np.abs(w).max(initial=0.0))
-
-
 def draw_proposal(x, w, lt, sigma, v1t, v2t, key, out):
     """``x w + sqrt(diag(x S x^T)) * normals`` (normals of stream ``key``, row-major)."""
     proposal_dense(x, w, dense_covariance(lt, sigma, v1t, v2t), key, out)
