@@ -17,7 +17,7 @@ from fasttrack import _jit
 from fasttrack.association import (clusters, gate, global_nearest_neighbour, jpda_marginals,
                                    nearest_neighbour)
 from fasttrack.core import akkf_numpy, kalman, particle, particle_numpy
-from fasttrack.core.kinds import MATRIX, SELECT
+from fasttrack.core.kinds import GAUSSIAN, MATRIX, SELECT
 from fasttrack.core.mixture import segment_logsumexp
 from fasttrack.core.resample import ResidualMethod, draw
 
@@ -330,7 +330,7 @@ def test_a_small_particle_filter_leaves_numba_unloaded_then_the_kernels_take_ove
 
 # -- the adaptive kernel Kalman filter ----------------------------------------------------
 
-_KERNELS = {"quadratic": ft.QuadraticKernel(c=1, ialpha=1),
+_KERNELS = {"linear": ft.LinearKernel(), "quadratic": ft.QuadraticKernel(c=1, ialpha=1),
             "quartic": ft.QuarticKernel(c=0.5, ialpha=3),
             "gaussian": ft.GaussianKernel(variance=0.7)}
 
@@ -381,6 +381,19 @@ def test_akkf_steps_are_the_kernels(name, m):
         _close(dense_kernel_covar(ours), dense_kernel_covar(theirs))
         np.testing.assert_allclose(numpy[4], proposal, rtol=1e-7, atol=1e-9)
         w, factors = compiled[0], theirs
+
+
+@pytest.mark.parametrize("n", [1, 2, 20, 40])
+def test_the_median_length_scale_is_the_kernels(n):
+    from fasttrack._jit import gram
+    x = np.random.default_rng(n).normal(size=(3, n))
+    angles = np.array([False, True, False])
+    assert akkf_numpy.median_variance(angles, x) == pytest.approx(
+        gram.median_variance(angles, x), rel=1e-12)
+    params = ft.GaussianKernel(width=1.5)._parameters()
+    np.testing.assert_allclose(akkf_numpy.resolve(GAUSSIAN, params, angles, x, x[:, :1]),
+                               gram.resolve(GAUSSIAN, params, angles, x, x[:, :1]),
+                               rtol=1e-12)
 
 
 def test_ridge_map_takes_either_route_as_the_kernels_do():

@@ -31,12 +31,16 @@ def angle_mask(ndim, angle_components=()):
 def resolve(kind, params, angles, x1, x2):
     """The kernel parameters with any length scale from the data (the points ``x1`` and
     ``x2`` together, (d, A) and (d, B)) resolved."""
+    if _jit.numpy_first(_numpy.work(x1.shape[1] + x2.shape[1])):
+        return _numpy.resolve(kind, params, angles, x1, x2)
     return _gram.resolve(kind, params, angles, x1, x2)
 
 
 def median_variance(angles, x):
     """The median squared distance between the columns of ``x`` (d, N), angle rows
     wrapped."""
+    if _jit.numpy_first(_numpy.work(x.shape[1])):
+        return _numpy.median_variance(angles, x)
     return _gram.median_variance(angles, x)
 
 

@@ -8,7 +8,7 @@ kernel covariances are their factors ``(Lt, sigma, V1t, V2t)``.
 """
 import numpy as np
 
-from .._jit.tunables import CHOLESKY_CONDITION
+from .._jit.tunables import CHOLESKY_CONDITION, MEDIAN_PAIRS
 from .kinds import GAUSSIAN, MATRIX, POLYNOMIAL
 from .particle_numpy import _block_normals
 
@@ -26,6 +26,39 @@ def gram(kind, params, angles, x1, x2):
     differences = x1[:, :, None] - x2[:, None, :]
     differences[angles] = 2.0 * np.sin(0.5 * differences[angles])
     return params[1] * np.exp(-0.5 / params[0] * (differences ** 2).sum(axis=0))
+
+
+def median_variance(angles, x):
+    """The median squared distance between the columns of ``x`` (d, n) (chords of angle
+    rows), over all pairs or ``MEDIAN_PAIRS`` fixed quasi-random ones, as
+    ``fasttrack._jit.gram.median_variance``."""
+    n = x.shape[1]
+    if n < 2:
+        return 1.0
+    if n * (n - 1) // 2 <= MEDIAN_PAIRS:
+        i, j = np.triu_indices(n, 1)
+    else:
+        k = np.arange(MEDIAN_PAIRS)
+        u, v = k * 0.6180339887498949, k * 0.41421356237309503
+        i = ((u - np.floor(u)) * n).astype(np.int64)
+        j = i + 1 + ((v - np.floor(v)) * (n - 1)).astype(np.int64)
+        j = np.where(j >= n, j - n, j)
+    differences = x[:, i] - x[:, j]
+    differences[angles] = 2.0 * np.sin(0.5 * differences[angles])
+    distances = (differences ** 2).sum(axis=0)
+    for variance in (np.median(distances), distances.mean()):
+        if variance > 0.0:
+            return float(variance)
+    return 1.0
+
+
+def resolve(kind, params, angles, x1, x2):
+    """The kernel's parameters for the points ``x1`` and ``x2`` together (a Gaussian
+    variance from the data resolved), as ``fasttrack._jit.gram.resolve``."""
+    if kind != GAUSSIAN or params[0] > 0.0:
+        return params
+    variance = params[2] ** 2 * median_variance(angles, np.hstack((x1, x2)))
+    return np.array([variance, 1.0, params[2]])
 
 
 def _diagonal(kind, params, points):
