@@ -207,19 +207,23 @@ print(json.dumps({"loaded": loaded, "chosen": chosen, "means": means.ravel().tol
 """
 
 
-def _tracking(numpy_work):
-    done = subprocess.run([sys.executable, "-c", _TRACKING, str(numpy_work)],
-                          capture_output=True, text=True, timeout=600, check=True)
-    return json.loads(done.stdout.splitlines()[-1])
+def _runs(script, switching_work):
+    """``(short, switching, compiled)``: ``script`` in new processes with a NumPy budget
+    that outlasts it, one that runs out on the way, and none; checks that Numba is loaded
+    never, from a later step on, and from the first step."""
+    runs = []
+    for work in (100_000, switching_work, 0):
+        done = subprocess.run([sys.executable, "-c", script, str(work)], capture_output=True,
+                              text=True, timeout=600, check=True)
+        runs.append(json.loads(done.stdout.splitlines()[-1]))
+    short, switching, compiled = runs
+    assert not any(short["loaded"]) and all(compiled["loaded"])
+    assert not switching["loaded"][0] and switching["loaded"][-1]
+    return runs
 
 
 def test_a_small_tracking_script_leaves_numba_unloaded_then_the_kernels_take_over():
-    short = _tracking(100_000)
-    assert not any(short["loaded"])
-    switching = _tracking(150)
-    assert not switching["loaded"][0] and switching["loaded"][-1]
-    compiled = _tracking(0)
-    assert all(compiled["loaded"])
+    short, switching, compiled = _runs(_TRACKING, 150)
     for run in (short, switching):
         assert run["chosen"] == compiled["chosen"]
         np.testing.assert_allclose(run["means"], compiled["means"], rtol=1e-10)
@@ -316,12 +320,7 @@ print(json.dumps({"loaded": loaded, "ancestors": ancestors, "x": x.ravel().tolis
 
 
 def test_a_small_particle_filter_leaves_numba_unloaded_then_the_kernels_take_over():
-    runs = [json.loads(subprocess.run(
-        [sys.executable, "-c", _PARTICLES, str(work)], capture_output=True, text=True,
-        timeout=600, check=True).stdout.splitlines()[-1]) for work in (100_000, 40, 0)]
-    short, switching, compiled = runs
-    assert not any(short["loaded"]) and all(compiled["loaded"])
-    assert not switching["loaded"][0] and switching["loaded"][-1]
+    short, switching, compiled = _runs(_PARTICLES, 40)
     assert compiled["ancestors"]  # the filter resampled
     for run in (short, switching):
         assert run["ancestors"] == compiled["ancestors"]
@@ -425,11 +424,6 @@ print(json.dumps({"loaded": loaded, "mean": state.mean.ravel().tolist()}))
 
 
 def test_a_small_akkf_leaves_numba_unloaded_then_the_kernels_take_over():
-    runs = [json.loads(subprocess.run(
-        [sys.executable, "-c", _AKKF, str(work)], capture_output=True, text=True,
-        timeout=600, check=True).stdout.splitlines()[-1]) for work in (100_000, 100, 0)]
-    short, switching, compiled = runs
-    assert not any(short["loaded"]) and all(compiled["loaded"])
-    assert not switching["loaded"][0] and switching["loaded"][-1]
+    short, switching, compiled = _runs(_AKKF, 100)
     for run in (short, switching):
         np.testing.assert_allclose(run["mean"], compiled["mean"], rtol=1e-6, atol=1e-6)

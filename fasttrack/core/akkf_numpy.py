@@ -10,7 +10,7 @@ import numpy as np
 
 from .._jit.tunables import CHOLESKY_CONDITION, MEDIAN_PAIRS
 from .kinds import GAUSSIAN, MATRIX, POLYNOMIAL
-from .particle_numpy import _block_normals
+from .particle_numpy import block_normals
 
 
 def work(m):
@@ -155,6 +155,6 @@ def draw_proposal(x, w, lt, sigma, v1t, v2t, key):
     """(d, M) proposal: ``x w + sqrt(diag(x S x^T))`` times the stream's normals, row-major,
     as ``fasttrack._jit.akkf.draw_proposal``."""
     d, m = x.shape
-    normals = _block_normals(key, 1, d * m + (d * m) % 2)[0, :d * m].reshape(d, m)
+    normals = block_normals(key, 1, d * m + (d * m) % 2)[0, :d * m].reshape(d, m)
     scale = np.sqrt(sandwich(x, lt, sigma, v1t, v2t).diagonal())
     return (x @ w)[:, None] + scale[:, None] * normals

@@ -246,11 +246,12 @@ def _enumerated(w):
     events = events[~((ordered[:, 1:] == ordered[:, :-1]) & (ordered[:, 1:] > 0)).any(axis=1)]
     weights = np.prod(w[np.arange(t), events], axis=1)
     total = weights.sum()
-    if t and not total > 0:
+    if not total > 0:
         return None, -1
+    weights /= total
     out = np.zeros_like(w)
     for row in range(t):
-        np.add.at(out[row], events[:, row], weights / total)
+        np.add.at(out[row], events[:, row], weights)
     return out, None
 
 

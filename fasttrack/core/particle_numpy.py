@@ -31,7 +31,7 @@ def uniforms(key, counters):
     return (z >> np.uint64(11)).astype(np.float64) * (1.0 / 9007199254740992.0)
 
 
-def _block_normals(key, blocks, size):
+def block_normals(key, blocks, size):
     """(blocks, size) normals: row b as ``fill_normals`` fills a block's ``size`` entries
     from pair ``b * size / 2`` on (cosine normals, then sine normals)."""
     pairs = np.arange(blocks * size // 2, dtype=np.int64).reshape(blocks, size // 2)
@@ -48,7 +48,7 @@ def propagate(spec, x, key):
         return out
     d, n = x.shape
     even, blocks = d + (d & 1), -(-n // BLOCK)
-    z = _block_normals(key, blocks, even * BLOCK).reshape(blocks, even, BLOCK)
+    z = block_normals(key, blocks, even * BLOCK).reshape(blocks, even, BLOCK)
     noise = z[:, :d].transpose(1, 0, 2).reshape(d, blocks * BLOCK)[:, :n]
     return out + spec.noise_root @ noise
 
