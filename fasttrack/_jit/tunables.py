@@ -70,7 +70,7 @@ ENUMERATED_EVENTS = 4096
 
 #: Work a process runs in NumPy before its first kernel (``fasttrack._jit.numpy_first``), in
 #: units of one filter, track or detection handled (a one-filter Kalman step is one unit,
-#: 50-90 us in NumPy; a scan of K tracks and M detections a few times K + M units, 1-8 us
+#: 30-60 us in NumPy; a scan of K tracks and M detections a few times K + M units, 1-8 us
 #: each): a short script never pays Numba's set-up (its import, target, kernel loads and
 #: exit, about 0.7 s), and a long one spends at most about as long again in NumPy first.
 NUMPY_WORK = 8000
