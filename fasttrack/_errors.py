@@ -13,6 +13,9 @@ MESSAGES = {
     _status.JACOBIAN_UNDEFINED: "the measurement Jacobian is undefined at the predicted "
                                 "state (for a polar sensor: the target is at the sensor)",
     _status.MEASUREMENT_NOT_FINITE: "hypothesis.measurement contains NaN or infinite values",
+    _status.UPDATE_NOT_PSD: "the update by hypothesis.measurement left a covariance that is "
+                            "not positive semi-definite (the standard form P - K S K^T; "
+                            "use_joseph_cov=True keeps it)",
 }
 
 #: Codes about the output of a user's model function.

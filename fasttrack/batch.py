@@ -247,11 +247,11 @@ class BatchUnscentedKalmanFilter(_BatchFilter):
     kappa : float, optional
         Secondary spread; None means ``3 - ndim_state``.
     use_joseph_cov : bool
-        As :class:`~fasttrack.UnscentedKalmanUpdater` (default False, the standard form).
+        As :class:`~fasttrack.UnscentedKalmanUpdater` (default True, the Joseph form).
     """
 
     def __init__(self, transition_model, measurement_model, alpha=0.5, beta=2.0, kappa=None,
-                 use_joseph_cov=False):
+                 use_joseph_cov=True):
         super().__init__(transition_model, measurement_model)
         self.alpha, self.beta, self.kappa = _unscented.check_parameters(alpha, beta, kappa)
         self._kappa = _unscented.scaling(self.alpha, self.kappa, transition_model.ndim_state)

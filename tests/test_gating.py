@@ -284,6 +284,16 @@ def test_linear_kernels_match_their_mirrors(joseph):
     reference.kalman.linear_update(*args, *updated[1])
     for a, b in zip(*updated):
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+    assert not updated[0][2].any()
+    covars = outs[0][1].copy()
+    covars[3, 1, 1] = -covars[3, 1, 1]  # an indefinite prediction
+    covars[5, 0, 1] += 1.0  # an asymmetric one
+    args = args[:5] + (covars, z)
+    kalman.linear_update(*args, *updated[0])
+    reference.kalman.linear_update(*args, *updated[1])
+    np.testing.assert_array_equal(updated[0][2], updated[1][2])
+    assert updated[0][2][3] == kalman.PREDICTION_NOT_PSD
+    assert updated[0][2][5] == kalman.PREDICTION_NOT_SYMMETRIC
 
 
 def test_batch_update_of_a_nonlinear_sensor_equals_step():
@@ -312,3 +322,10 @@ def test_batch_predict_and_update_name_a_bad_filter():
     with pytest.raises(ValueError, match="measurements contains NaN"):
         batch.update(np.zeros((3, 4)), np.broadcast_to(np.eye(4), (3, 4, 4)),
                      np.full((3, 2), np.nan))
+    covars[2, 2, 2], covars[2, 1, 1] = 1.0, -1.0  # an unmeasured velocity: S is fine
+    for joseph in (True, False):
+        with pytest.raises(ValueError, match="filter 2: the prediction's covariance is not "
+                                             "positive semi-definite"):
+            ft.BatchExtendedKalmanFilter(batch.transition_model, batch.measurement_model,
+                                         use_joseph_cov=joseph).update(
+                np.zeros((3, 4)), covars, np.zeros((3, 2)))

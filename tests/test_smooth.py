@@ -423,7 +423,7 @@ def _turn_tracks(n, missed=()):
         mean, covar, timestamp=START)
     predictor, updater = UnscentedKalmanPredictor(turn), UnscentedKalmanUpdater(sensor)
     our_predictor, our_updater = ft.UnscentedKalmanPredictor(ours), ft.UnscentedKalmanUpdater(
-        our_sensor)
+        our_sensor, use_joseph_cov=False)
     kept = []  # fasttrack's updates link their predictions weakly: keep them, as Stone Soup
     for k in range(n):
         truth = constant_turn(truth, 1.0)

@@ -174,14 +174,14 @@ def test_update_kernel_matches_the_mirror(sensor, joseph):
 
 def test_ekf_tutorial_scenario_equals_stone_soup():
     """The bearing-range tutorial (the sensor at (50, 0) sees the target near bearing pi,
-    so sigma-point bearings straddle the wrap): every posterior, predicted measurement,
-    innovation and cross covariance equal to 1e-9."""
+    so sigma-point bearings straddle the wrap), in Stone Soup's standard form: every
+    posterior, predicted measurement, innovation and cross covariance equal to 1e-9."""
     pytest.importorskip("stonesoup")
     scenario = extended_kalman_tutorial()
     measurements = _measurements(scenario)
     theirs = _run_stonesoup(*_stonesoup(), [0, 1, 0, 1], measurements)
     predictor = ft.UnscentedKalmanPredictor(scenario.transition_model)
-    updater = ft.UnscentedKalmanUpdater(scenario.measurement_model)
+    updater = ft.UnscentedKalmanUpdater(scenario.measurement_model, use_joseph_cov=False)
     ours = _run_fasttrack(predictor, updater, [0, 1, 0, 1], measurements)
     assert _worst(ours, theirs) < 1e-9
     assert isinstance(ours[0][0], ft.GaussianStateUpdate)
@@ -197,7 +197,8 @@ def test_other_sigma_point_parameters_equal_stone_soup(parameters):
     measurements = _measurements(scenario)
     theirs = _run_stonesoup(*_stonesoup(**parameters), [0, 1, 0, 1], measurements)
     ours = _run_fasttrack(ft.UnscentedKalmanPredictor(scenario.transition_model, **parameters),
-                          ft.UnscentedKalmanUpdater(scenario.measurement_model, **parameters),
+                          ft.UnscentedKalmanUpdater(scenario.measurement_model,
+                                                    use_joseph_cov=False, **parameters),
                           [0, 1, 0, 1], measurements)
     assert _worst(ours, theirs) < 1e-9
 
@@ -240,6 +241,120 @@ def test_linear_sensor_equals_stone_soup_and_the_kalman_filter():
     theirs = _run_stonesoup(*_stonesoup(0.1, "linear", np.array([[0.5, 0.1], [0.1, 0.8]])),
                             [0, 1, 0, 1], measurements, bearing=False)
     assert _worst(ukf, theirs) < 1e-9
+
+
+# --- close passes: the default update keeps the covariance positive semi-definite ---------
+
+PASS_NOISE = np.diag([np.radians(1.0) ** 2, 4.0])  # 1 degree, 2 m
+
+
+def _close_passes(n, steps=40):
+    """n targets at 10 m/s passing 1 m from a bearing-range sensor at the origin: the
+    transition, the sensor, the prior and each pass's (steps, 2) measurements."""
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(1.0)] * 2)
+    sensor = ft.CartesianToBearingRange(4, (0, 2), PASS_NOISE)
+    start = np.array([-200.0, 10.0, 1.0, 0.0])
+    z = np.empty((steps, n, 2))
+    for i in range(n):
+        rng = np.random.default_rng([1, i])
+        truth = ft.ground_truth(transition, start, steps, rng=rng)
+        z[:, i] = [d.state_vector[:, 0] for d in ft.detections(truth, sensor, rng=rng)]
+    return transition, sensor, ft.GaussianState(start, np.diag([4.0, 1, 4, 1]), 0.0), z
+
+
+def _filter(predictor, updater, prior, z):
+    """The posteriors of one pass; raises where a step is undefined."""
+    state, states = prior, []
+    for t, measurement in enumerate(z, start=1):
+        detection = ft.Detection(measurement, timestamp=float(t))
+        state = updater.update(ft.SingleHypothesis(predictor.predict(state, t), detection))
+        states.append(state)
+    return states
+
+
+def _positive_semi_definite(covar):
+    values = np.linalg.eigvalsh(covar)
+    return values.min() >= -1e-9 * values.max()
+
+
+@pytest.mark.parametrize("kind", ["extended", "unscented"])
+def test_close_passes_complete_with_every_default_gaussian_filter(kind):
+    """100 passes 1 m from the sensor: one filter at a time and as a batch, every update is
+    positive semi-definite and the batch agrees with the single filters."""
+    transition, sensor, prior, z = _close_passes(100)
+    if kind == "extended":
+        step = ft.ExtendedKalmanPredictor(transition), ft.ExtendedKalmanUpdater(sensor)
+        batch = ft.BatchExtendedKalmanFilter(transition, sensor)
+    else:
+        step = ft.UnscentedKalmanPredictor(transition), ft.UnscentedKalmanUpdater(sensor)
+        batch = ft.BatchUnscentedKalmanFilter(transition, sensor)
+    k = z.shape[1]
+    means, covars = batch.run(np.tile(prior.state_vector[:, 0], (k, 1)),
+                              np.tile(prior.covar, (k, 1, 1)), z, np.ones((z.shape[0], k)))
+    for i in range(k):
+        states = _filter(*step, prior, z[:, i])
+        assert all(_positive_semi_definite(state.covar) for state in states)
+        np.testing.assert_allclose(covars[:, i], [state.covar for state in states],
+                                   rtol=1e-8, atol=1e-10)
+        np.testing.assert_allclose(means[:, i], [state.state_vector[:, 0] for state in states],
+                                   rtol=1e-8, atol=1e-8)
+
+
+def test_the_standard_form_raises_at_the_update_where_stone_soup_loses_psd():
+    """Pass 88 of the close passes: Stone Soup's UKF (standard form) leaves a covariance
+    with a negative eigenvalue there and goes on silently; fasttrack's standard form
+    equals it until then and raises at that update, the single filter and the batch."""
+    pytest.importorskip("stonesoup")
+    from stonesoup.predictor.kalman import UnscentedKalmanPredictor
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.state import GaussianState
+    from stonesoup.updater.kalman import UnscentedKalmanUpdater
+    transition, sensor, prior, z = _close_passes(89)
+    z = z[:, 88]
+    _, _, their_sensor = _stonesoup(1.0, noise=PASS_NOISE)
+    their_sensor.translation_offset = np.zeros((2, 1))
+    predictor, updater = UnscentedKalmanPredictor(_stonesoup(1.0)[0].transition_model), \
+        UnscentedKalmanUpdater(their_sensor)
+    state = GaussianState(prior.state_vector, prior.covar, timestamp=START)
+    theirs = []
+    for t, measurement in enumerate(z, start=1):
+        detection = _stonesoup_detection(measurement, START + t * SECOND, their_sensor)
+        state = updater.update(SingleHypothesis(
+            predictor.predict(state, timestamp=detection.timestamp), detection))
+        theirs.append(np.asarray(state.covar, float))
+    lost = next(t for t, covar in enumerate(theirs) if not _positive_semi_definite(covar))
+    standard = (ft.UnscentedKalmanPredictor(transition),
+                ft.UnscentedKalmanUpdater(sensor, use_joseph_cov=False))
+    ours = _filter(*standard, prior, z[:lost])
+    for mine, their in zip(ours, theirs):
+        assert _relative(mine.covar, their) < 1e-9
+    with pytest.raises(ValueError, match="the update by hypothesis.measurement left a "
+                                         "covariance that is not positive semi-definite"):
+        _filter(*standard, prior, z[:lost + 1])
+    batch = ft.BatchUnscentedKalmanFilter(transition, sensor, use_joseph_cov=False)
+    with pytest.raises(ValueError, match=f"filter 0 at step {lost}: the update by"):
+        batch.run(prior.state_vector.T, prior.covar[None], z[:, None], np.ones((z.shape[0], 1)))
+
+
+def test_the_default_form_is_the_standard_one_less_the_unexplained_spread():
+    """One update near the sensor: the Joseph form with the statistical linearisation
+    H = C^T P^-1 equals P - K S K^T - K (P_zz - H P H^T) K^T, P_zz = S - R."""
+    prediction = ft.GaussianStatePrediction([-3.0, 10.0, 1.0, 0.0], np.diag([4.0, 1, 4, 1]),
+                                            timestamp=1.0)
+    sensor = ft.CartesianToBearingRange(4, (0, 2), PASS_NOISE)
+    detection = ft.Detection([2.8, 3.2], timestamp=1.0)
+    standard = ft.UnscentedKalmanUpdater(sensor, use_joseph_cov=False).update(
+        ft.SingleHypothesis(prediction, detection))
+    default = ft.UnscentedKalmanUpdater(sensor).update(
+        ft.SingleHypothesis(prediction, detection))
+    s, cross = standard.hypothesis.measurement_prediction.covar, \
+        standard.hypothesis.measurement_prediction.cross_covar
+    gain = cross @ np.linalg.inv(s)
+    unexplained = s - PASS_NOISE - cross.T @ np.linalg.solve(prediction.covar, cross)
+    np.testing.assert_allclose(default.covar, standard.covar - gain @ unexplained @ gain.T,
+                               rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(default.state_vector, standard.state_vector, rtol=1e-14)
+    assert np.abs(default.covar - standard.covar).max() > 1e-3  # a nonlinear sensor
 
 
 def test_predictions_equal_stone_soup_and_keep_their_links():
@@ -356,7 +471,8 @@ def test_user_function_models_equal_stone_soup():
     theirs = _run_stonesoup(UnscentedKalmanPredictor(turn), UnscentedKalmanUpdater(their_sensor),
                             their_sensor, [0, 1, 0, 1], measurements)
     ours = _run_fasttrack(ft.UnscentedKalmanPredictor(transition),
-                          ft.UnscentedKalmanUpdater(sensor), [0, 1, 0, 1], measurements)
+                          ft.UnscentedKalmanUpdater(sensor, use_joseph_cov=False),
+                          [0, 1, 0, 1], measurements)
     assert _worst(ours, theirs) < 1e-9
 
 
@@ -452,7 +568,7 @@ def _batch(**kwargs):
 
 
 @pytest.mark.parametrize("kwargs", [{}, dict(alpha=1.0, beta=0.0, kappa=0.0),
-                                    dict(use_joseph_cov=True)])
+                                    dict(use_joseph_cov=False)])
 def test_batch_filter_equals_one_filter_at_a_time(kwargs):
     """``run`` over 12 steps of 200 filters with per-filter intervals equals each filter
     through UnscentedKalmanPredictor/Updater; ``predict`` gives their measurement
@@ -467,7 +583,7 @@ def test_batch_filter_equals_one_filter_at_a_time(kwargs):
                   np.hypot(truth[..., 0] - 50.0, truth[..., 2]) + 0.3], axis=-1)
     batch = _batch(**kwargs)
     run_means, run_covars = batch.run(means, covars, z, intervals)
-    joseph = kwargs.get("use_joseph_cov", False)
+    joseph = kwargs.get("use_joseph_cov", True)
     sigma = {key: value for key, value in kwargs.items() if key != "use_joseph_cov"}
     predictor = ft.UnscentedKalmanPredictor(_transition(), **sigma)
     updater = ft.UnscentedKalmanUpdater(_sensor(), use_joseph_cov=joseph, **sigma)

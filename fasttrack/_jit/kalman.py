@@ -34,7 +34,7 @@ from .linalg import _check_covariance, _cholesky, _sandwich, _solve
 from .numeric import copy_into, fill, wrap_angle
 from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
                      PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
-                     PRIOR_NOT_SYMMETRIC)
+                     PRIOR_NOT_SYMMETRIC, UPDATE_NOT_PSD)
 from .user import output_status
 from .tunables import FILTERS_PER_BLOCK
 
@@ -162,7 +162,8 @@ def _update(nb, x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out,
     ``z - z_hat`` with angle rows wrapped, ``x_out = x + K v`` and ``P_out = P - K S K^T``
     (``K S K^T = W^T W`` with ``W = L^-1 cross^T``), or with ``joseph``
     ``(I - K H) P (I - K H)^T + K R K^T``. Filters whose S is not positive definite get
-    INNOVATION_NOT_PD, non-finite measurements MEASUREMENT_NOT_FINITE.
+    INNOVATION_NOT_PD, non-finite measurements MEASUREMENT_NOT_FINITE, a standard-form
+    ``P_out`` that is not positive semi-definite UPDATE_NOT_PSD.
     """
     _innovation_covar(nb, covariance, jacobian, noise, cross, innovation_covar)
     _correct(nb, x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out, covariance_out,
@@ -208,6 +209,7 @@ def _correct(nb, x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out
                         s -= whitened[k, r, b] * whitened[k, c, b]
                     covariance_out[r, c, b] = s
                     covariance_out[c, r, b] = s
+        _check_covariance(nb, covariance_out, status, UPDATE_NOT_PSD, UPDATE_NOT_PSD)
         return
     square = np.empty((d, d, nb))  # I - K H
     for r in range(d):
@@ -381,8 +383,9 @@ def linear_update(mapping, noise, angles, joseph, means, covariances, measuremen
     rows: ``S = P[mapping, mapping] + R`` by Cholesky, gain ``K = P[:, mapping] S^-1``,
     innovation with angle rows wrapped, and ``(I - K H) P`` or with ``joseph``
     ``(I - K H) P (I - K H)^T + K R K^T`` (lower triangles, mirrored). ``status[k]`` =
-    INNOVATION_NOT_PD where S is not positive definite, MEASUREMENT_NOT_FINITE for a
-    non-finite measurement (else OK)."""
+    PREDICTION_NOT_SYMMETRIC / PREDICTION_NOT_PSD for a bad P, INNOVATION_NOT_PD where S is
+    not positive definite, MEASUREMENT_NOT_FINITE for a non-finite measurement,
+    UPDATE_NOT_PSD where ``(I - K H) P`` is not positive semi-definite (else OK)."""
     k_tracks, d = means.shape
     m = mapping.size
     lower = np.empty((m, m))
@@ -391,6 +394,8 @@ def linear_update(mapping, noise, angles, joseph, means, covariances, measuremen
     work = np.empty((d, d))
     for t in range(k_tracks):
         status[t] = OK
+        _check_covariance(1, covariances[t].reshape((d, d, 1)), status[t:t + 1],
+                          PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
         for j in range(m):
             if not np.isfinite(measurements[t, j]):
                 status[t] = MEASUREMENT_NOT_FINITE
@@ -448,6 +453,9 @@ def linear_update(mapping, noise, angles, joseph, means, covariances, measuremen
                     s = work[r, c]
                 covariances_out[t, r, c] = s
                 covariances_out[t, c, r] = s
+        if not joseph:
+            _check_covariance(1, covariances_out[t].reshape((d, d, 1)), status[t:t + 1],
+                              UPDATE_NOT_PSD, UPDATE_NOT_PSD)
 
 
 # --- one filter: a state's (d, 1) column, its (d, d) covariance (a block of one) -----------

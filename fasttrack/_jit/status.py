@@ -21,3 +21,6 @@ FUNCTION_NOT_FINITE = np.int64(7)
 PRIOR_NOT_SYMMETRIC = np.int64(8)
 #: A predicted covariance that is not symmetric.
 PREDICTION_NOT_SYMMETRIC = np.int64(9)
+#: An update in the standard form ``P - K S K^T`` that left a covariance that is not
+#: positive semi-definite.
+UPDATE_NOT_PSD = np.int64(10)

@@ -16,7 +16,7 @@ import numpy as np
 
 from .._jit.status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
                            PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
-                           PRIOR_NOT_SYMMETRIC)
+                           PRIOR_NOT_SYMMETRIC, UPDATE_NOT_PSD)
 from .._jit.tunables import PSD_TOLERANCE
 from .kinds import ANALYTIC, BEARING_RANGE, CENTRAL, SELECT
 
@@ -181,7 +181,8 @@ def _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross):
     """The gain step of an update given ``z_hat``, the innovation covariance ``s``, the
     cross covariance and the linearisation ``h`` (read by the Joseph form only): as
     :func:`update` returns it, ``S`` by Cholesky (INNOVATION_NOT_PD) and ``z`` checked
-    (MEASUREMENT_NOT_FINITE) unless ``status`` is already set."""
+    (MEASUREMENT_NOT_FINITE) unless ``status`` is already set, a standard-form posterior
+    that is not positive semi-definite UPDATE_NOT_PSD."""
     try:
         lower = np.linalg.cholesky(s)
     except np.linalg.LinAlgError:
@@ -199,10 +200,11 @@ def _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross):
     x_out = x + gain @ innovation
     if joseph:
         square = np.eye(x.shape[0]) - gain @ h
-        covar_out = square @ covar @ square.T + gain @ sensor.noise_covar @ gain.T
-    else:
-        covar_out = covar - whitened.T @ whitened
-    return status, x_out, _symmetric(covar_out), z_hat, s, cross
+        return (status, x_out, _symmetric(square @ covar @ square.T
+                                          + gain @ sensor.noise_covar @ gain.T), z_hat, s, cross)
+    covar_out = _symmetric(covar - whitened.T @ whitened)
+    status = covariance_status(covar_out, UPDATE_NOT_PSD, UPDATE_NOT_PSD)
+    return status, x_out, covar_out, z_hat, s, cross
 
 
 # -- the unscented transform (``fasttrack._jit.unscented``) ----------------------------------

@@ -100,8 +100,10 @@ class KalmanUpdater(Updater):
         ------
         ValueError
             If the prediction's covariance is not positive semi-definite, the innovation
-            covariance is singular, the Jacobian undefined, or a user measurement function
-            returns a wrong shape or non-finite values.
+            covariance is singular, the Jacobian undefined, the standard form
+            (``use_joseph_cov=False``) leaves a covariance that is not positive
+            semi-definite, or a user measurement function returns a wrong shape or
+            non-finite values.
         """
         self._check_hypothesis(hypothesis)
         prediction = hypothesis.prediction

@@ -28,17 +28,21 @@ class UnscentedKalmanUpdater(KalmanUpdater):
         Secondary spread; None means ``3 - ndim_state``. ``alpha**2 * (ndim_state + kappa)``
         must be > 0.
     use_joseph_cov : bool
-        False (the default, Stone Soup's form): ``P - K S K^T``. True: the Joseph form
-        ``(I - K H) P (I - K H)^T + K R K^T`` with the statistical linearisation
-        ``H = C^T P^-1`` (C the cross covariance), which is exact for a linear sensor and
-        keeps the covariance positive semi-definite; for a nonlinear sensor it differs
-        from the standard form by the linearisation error.
+        True (the default): the Joseph form ``(I - K H) P (I - K H)^T + K R K^T`` with the
+        statistical linearisation ``H = C^T P^-1`` (C the cross covariance), which keeps
+        the covariance positive semi-definite. For a linear sensor it equals the standard
+        form; for a nonlinear one it is the standard form less ``K (P_zz - H P H^T) K^T``
+        (``P_zz`` the sigma points' measurement spread), the part of the spread that no
+        linear sensor explains. False: Stone Soup's standard form ``P - K S K^T``, which
+        can lose positive semi-definiteness close to a polar sensor, where the sigma
+        points' negative centre weight makes their joint spread indefinite; an update that
+        does raises a ValueError.
     force_symmetric_covariance : bool
         Accepted for compatibility: covariances are always computed exactly symmetric.
     """
 
     def __init__(self, measurement_model=None, alpha=0.5, beta=2.0, kappa=None,
-                 use_joseph_cov=False, force_symmetric_covariance=False):
+                 use_joseph_cov=True, force_symmetric_covariance=False):
         self.alpha, self.beta, self.kappa = _unscented.check_parameters(alpha, beta, kappa)
         self._kappas = {}  # the resolved kappa per state dimension
         self._checked = None  # the last model checked (its type and dimensions are fixed)

@@ -8,7 +8,7 @@ from .likelihood import measure
 from .numeric import wrap_angle
 from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
                      PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
-                     PRIOR_NOT_SYMMETRIC)
+                     PRIOR_NOT_SYMMETRIC, UPDATE_NOT_PSD)
 from .user import output_status
 
 
@@ -42,6 +42,12 @@ def _covariance_status(a, asymmetric, indefinite):
     if np.abs(a - a.T).max() > 1e-9 * np.abs(a).max():
         return asymmetric
     return OK if _positive_semi_definite(a) else indefinite
+
+
+def _standard_form(posterior, covariance_out):
+    """The status of a standard-form update that wrote ``posterior`` into ``covariance_out``."""
+    covariance_out[:] = posterior
+    return _covariance_status((posterior + posterior.T) / 2, UPDATE_NOT_PSD, UPDATE_NOT_PSD)
 
 
 def predict_one(kind, rates, fixed_matrix, fixed_covar, dt, x, covariance, x_out,
@@ -81,9 +87,8 @@ def _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out, cov
     if joseph:
         a = np.eye(x.shape[0]) - gain @ h
         covariance_out[:] = a @ covariance @ a.T + gain @ noise @ gain.T
-    else:
-        covariance_out[:] = covariance - gain @ innovation_covar @ gain.T
-    return OK
+        return OK
+    return _standard_form(covariance - gain @ innovation_covar @ gain.T, covariance_out)
 
 
 def update_one(kind, mapping, offset, rotation, noise, angles, method, joseph, x, covariance,
@@ -177,9 +182,11 @@ def linear_update(mapping, noise, angles, joseph, means, covariances, measuremen
     h[np.arange(m), mapping] = 1.0
     for k in range(means.shape[0]):
         x_out = np.empty((d, 1))
-        status[k] = _kalman_update(means[k][:, None], covariances[k], measurements[k][:, None],
-                                   means[k][mapping][:, None], h, noise, angles, joseph, x_out,
-                                   covariances_out[k], np.empty((m, m)), np.empty((d, m)))
+        code = _kalman_update(means[k][:, None], covariances[k], measurements[k][:, None],
+                              means[k][mapping][:, None], h, noise, angles, joseph, x_out,
+                              covariances_out[k], np.empty((m, m)), np.empty((d, m)))
+        prior = _covariance_status(covariances[k], PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+        status[k] = prior if prior != OK and code in (OK, UPDATE_NOT_PSD) else code
         means_out[k] = x_out[:, 0]
 
 

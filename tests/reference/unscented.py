@@ -2,7 +2,7 @@
 unscented Kalman prediction and update of one filter and of batches."""
 import numpy as np
 
-from .kalman import _covariance_status, _positive_definite, _transition
+from .kalman import _covariance_status, _positive_definite, _standard_form, _transition
 from .likelihood import measure
 from .numeric import wrap_angle
 from .status import (INNOVATION_NOT_PD, MEASUREMENT_NOT_FINITE, OK, PREDICTION_NOT_PSD,
@@ -121,9 +121,8 @@ def _unscented_correct(points, transformed, wm, wc, noise, angles, joseph, x, co
         h = np.linalg.solve(covariance, cross).T
         square = np.eye(x.shape[0]) - gain @ h
         covariance_out[:] = square @ covariance @ square.T + gain @ noise @ gain.T
-    else:
-        covariance_out[:] = covariance - gain @ innovation_covar @ gain.T
-    return OK
+        return OK
+    return _standard_form(covariance - gain @ innovation_covar @ gain.T, covariance_out)
 
 
 def unscented_update_function(function, noise, angles, alpha, beta, kappa, joseph, x,
