@@ -229,8 +229,9 @@ class KalmanSmoother:
             If ``track`` is not a Track, or a state is not a Gaussian prediction or update,
             or timestamps are missing or of mixed kinds.
         ValueError
-            If ``track`` is empty, a state has the wrong dimension, or a predicted
-            covariance is not positive definite.
+            If ``track`` is empty, a state has the wrong dimension, holds NaN or infinite
+            values or a covariance that is not symmetric positive semi-definite, the
+            timestamps go backwards, or a predicted covariance is not positive definite.
         """
         if not isinstance(track, StateSequence):
             raise TypeError(f"track must be a Track, got {type(track).__name__}")
@@ -254,7 +255,16 @@ class KalmanSmoother:
         d = model.ndim_state
         x = _stack(body, "state_vector", (d, 1), offset).reshape(1, n, d)
         covar = _stack(body, "covar", (d, d), offset).reshape(1, n, d, d)
+        for name, values in (("state_vector", x), ("covar", covar)):
+            finite = np.isfinite(values).reshape(n, -1).all(axis=1)
+            if not finite.all():
+                raise ValueError(f"track[{offset + np.argmin(finite)}].{name} contains NaN "
+                                 f"or infinite values")
         intervals = _track_intervals(body, offset)
+        if (intervals < 0).any():
+            t = int(np.argmax(intervals < 0))
+            raise ValueError(f"track[{offset + t + 1}].timestamp is before "
+                             f"track[{offset + t}]'s: the states must be in time order")
         x_pred, covar_pred, recompute, models = _held_predictions(body, model, offset)
         if self.predictions == "stonesoup":
             for t in range(1, n):
@@ -266,7 +276,10 @@ class KalmanSmoother:
                                                np.array([m[0] for m in matrices]),
                                                np.array([m[1] for m in matrices]), step)
         if status:
-            t = (status - 1) % n
+            _, t, what = _smooth.failure(status, n)
+            if what == "filtered":
+                raise ValueError(f"track[{offset + t}].covar is not symmetric positive "
+                                 f"semi-definite")
             raise ValueError(f"the predicted covariance of track[{offset + t}] is not "
                              f"positive definite: cannot form the smoothing gain")
         return _with_moments(body[:-1], x_out.reshape(n, d, 1), covar_out[0]) + [body[-1]]
@@ -332,8 +345,9 @@ class KalmanSmoother:
         TypeError
             If the transition model is not linear, or an argument is not numeric.
         ValueError
-            If a shape does not match, a value is not finite, or a predicted covariance is
-            not positive definite.
+            If a shape does not match, a value is not finite, a filtered covariance is not
+            symmetric positive semi-definite, an interval is negative, or a predicted
+            covariance is not positive definite.
         """
         model = self.transition_model
         if not hasattr(model, "matrix"):
@@ -371,8 +385,10 @@ class KalmanSmoother:
         x_out, covar_out, status = _smooth.rts_linear(model, x, covar, x_pred, covar_pred,
                                                       recompute, intervals)
         if status:
-            k, t = divmod(status - 1, n)
-            where = f"time {t}" if single else f"track {k}, time {t}"
+            k, t, what = _smooth.failure(status, n)
+            where = f"[{t}]" if single else f"[{k}, {t}]"
+            if what == "filtered":
+                raise ValueError(f"covars{where} is not symmetric positive semi-definite")
             raise ValueError(f"the predicted covariance at {where} is not positive definite: "
                              f"cannot form the smoothing gain")
         if single:
@@ -383,13 +399,20 @@ class KalmanSmoother:
     def _intervals(time_intervals, n):
         """(n - 1,) float seconds from a scalar, a timedelta or a sequence of either."""
         if np.ndim(time_intervals) == 0:
-            return np.full(n - 1, seconds(time_intervals, "time_intervals"))
+            value = seconds(time_intervals, "time_intervals")
+            if value < 0:
+                raise ValueError(f"time_intervals must be >= 0 seconds, got {value}")
+            return np.full(n - 1, value)
         values = list(time_intervals)
         if len(values) != n - 1:
             raise ValueError(f"time_intervals must hold T - 1 = {n - 1} intervals, "
                              f"got {len(values)}")
-        return np.array([seconds(v, f"time_intervals[{k}]") for k, v in enumerate(values)],
-                        dtype=np.float64)
+        out = np.array([seconds(v, f"time_intervals[{k}]") for k, v in enumerate(values)],
+                       dtype=np.float64)
+        if (out < 0).any():
+            k = int(np.argmax(out < 0))
+            raise ValueError(f"time_intervals[{k}] must be >= 0 seconds, got {out[k]}")
+        return out
 
 
 class ExtendedKalmanSmoother(KalmanSmoother):
@@ -531,8 +554,9 @@ def ffbs(particle_states, transition_model, n_paths, rng=None, method="rejection
     TypeError
         If an argument has the wrong type.
     ValueError
-        If ``particle_states`` is empty or its states differ in shape, ``n_paths < 1``,
-        ``method`` is not one of the two, or the noise covariance is not positive definite.
+        If ``particle_states`` is empty, its states differ in shape, hold NaN or infinite
+        values or are not in increasing time order, ``n_paths < 1``, ``method`` is not one
+        of the two, or the noise covariance is not positive definite.
     """
     from . import random as _random
 
@@ -560,7 +584,20 @@ def ffbs(particle_states, transition_model, n_paths, rng=None, method="rejection
     x = np.ascontiguousarray([state.state_vector for state in states], dtype=np.float64)
     log_weights = np.ascontiguousarray([state.log_weight for state in states],
                                        dtype=np.float64)
+    bad = ~np.isfinite(x).all(axis=(1, 2))
+    if bad.any():
+        raise ValueError(f"particle_states[{np.argmax(bad)}].state_vector contains NaN or "
+                         f"infinite values")
+    bad = np.isnan(log_weights).any(axis=1) | (log_weights == np.inf).any(axis=1) \
+        | (log_weights == -np.inf).all(axis=1)
+    if bad.any():
+        raise ValueError(f"particle_states[{np.argmax(bad)}].log_weight must hold no NaN or "
+                         f"+inf and not be all -inf")
     intervals = _track_intervals(states, 0) if n_times > 1 else np.empty(0)
+    if not (intervals > 0).all():
+        t = int(np.argmin(intervals > 0))
+        raise ValueError(f"particle_states[{t + 1}].timestamp must be after "
+                         f"particle_states[{t}]'s (got an interval of {intervals[t]} s)")
     mean_next = np.empty((max(n_times - 1, 0), d, shape[1]))
     for t in range(n_times - 1):
         mean_next[t] = transition_model.spec(intervals[t]).mean(x[t])

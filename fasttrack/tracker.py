@@ -35,9 +35,10 @@ class MultiTargetTracker:
         A new track's state in the components the sensor does not measure (the measured
         ones come from the detection, as Stone Soup's ``SimpleMeasurementInitiator``).
     prior_covar : (d, d) array_like
-        Its covariance there (the measured block comes from the sensor noise).
+        Its covariance there (the measured block comes from the sensor noise), symmetric
+        positive semi-definite.
     missed_distance : float
-        Mahalanobis distance of the gate and of the missed-detection option, > 0.
+        Mahalanobis distance of the gate and of the missed-detection option, finite, > 0.
     min_points : int
         Detections that confirm a tentative track (the first included), >= 1: M.
     confirm_within : int, optional
@@ -49,7 +50,8 @@ class MultiTargetTracker:
     tentative_misses : int
         The same for a tentative track.
     max_covar_trace : float, optional
-        Delete a confirmed track whose covariance trace exceeds it.
+        Delete a confirmed track whose covariance trace exceeds it (finite, > 0); None for
+        no limit.
     association : {'gnn', 'nn'}
         Global or greedy nearest neighbour.
     """
@@ -67,17 +69,16 @@ class MultiTargetTracker:
         mean = _validate.finite_array(prior_mean, "prior_mean").reshape(-1)
         if mean.shape != (d,):
             raise ValueError(f"prior_mean must have {d} components, got {mean.size}")
-        covar = _validate.covariance(prior_covar, "prior_covar", d)
+        covar = _validate.psd_covariance(prior_covar, "prior_covar", d)
         self._start = self._initiation(measurement_model, mean, covar)
-        self.missed_distance = float(missed_distance)
-        if not self.missed_distance > 0:
-            raise ValueError(f"missed_distance must be > 0, got {missed_distance}")
+        self.missed_distance = _validate.positive(missed_distance, "missed_distance")
         self.min_points = _validate.count(min_points, "min_points")
         self.delete_after_misses = _validate.count(delete_after_misses, "delete_after_misses")
         self.tentative_misses = _validate.count(tentative_misses, "tentative_misses")
         self.confirm_within = (None if confirm_within is None else _validate.count(
             confirm_within, "confirm_within", minimum=self.min_points))
-        self.max_covar_trace = None if max_covar_trace is None else float(max_covar_trace)
+        self.max_covar_trace = (None if max_covar_trace is None else _validate.positive(
+            max_covar_trace, "max_covar_trace"))
         if association not in _ASSOCIATORS:
             raise ValueError(f"association must be one of {sorted(_ASSOCIATORS)}, "
                              f"got {association!r}")
@@ -135,18 +136,17 @@ class MultiTargetTracker:
         Parameters
         ----------
         detections : (M, m) array_like
-            The scan's measurements.
+            The scan's measurements, finite (an empty list for none).
         time : float
-            The scan's time in seconds, after the previous scan's.
+            The scan's time in seconds, finite, after the previous scan's.
 
         Returns
         -------
         TrackSet
             The confirmed tracks after the scan.
         """
-        m = self.measurement_model.ndim_meas
-        detections = _validate.finite_array(detections, "detections").reshape(-1, m)
-        time = float(time)
+        detections = self._scan(detections)
+        time = _validate.real(time, "time")
         dt = 0.0 if self.time is None else time - self.time
         if self.time is not None and not dt > 0:
             raise ValueError(f"time must be after the previous scan's ({self.time} s), "
@@ -172,6 +172,17 @@ class MultiTargetTracker:
                                               self._start_tracks(detections[free]))
         return self.confirmed
 
+    def _scan(self, detections):
+        """``detections`` as a finite (M, m) array."""
+        m = self.measurement_model.ndim_meas
+        scan = _validate.finite_array(detections, "detections")
+        if scan.size == 0:
+            return scan.reshape(0, m)
+        if scan.ndim != 2 or scan.shape[1] != m:
+            raise ValueError(f"detections must have shape (M, {m}) (the sensor measures {m} "
+                             f"components), got shape {scan.shape}")
+        return scan
+
     def run(self, scans, time_interval=1.0):
         """Process scans at ``time_interval`` seconds; the confirmed tracks after each.
 
@@ -186,5 +197,6 @@ class MultiTargetTracker:
         -------
         list of TrackSet
         """
+        time_interval = _validate.positive(time_interval, "time_interval")
         start = 0.0 if self.time is None else self.time + time_interval
         return [self.step(scan, start + t * time_interval) for t, scan in enumerate(scans)]

@@ -128,6 +128,24 @@ def test_kernel_reports_non_pd_prediction_like_mirror(d):
     assert code == reference.smooth.rts(*args, *outs[1]) == 1 + 1 * 6 + 3
 
 
+@pytest.mark.parametrize("d", [3, 4])
+@pytest.mark.parametrize("bad", ["nan", "asymmetric", "indefinite"])
+def test_kernel_reports_a_bad_filtered_covariance_like_mirror(d, bad):
+    x, covar, x_pred, covar_pred, recompute, matrix, noise, step = _random_problem(
+        np.random.default_rng(1), 2, 6, d, 1.0)
+    if bad == "nan":
+        covar[1, 2, 0, 0] = np.nan
+    elif bad == "asymmetric":
+        covar[1, 2, 0, 1] += 1e-3 * np.abs(covar[1, 2]).max()
+    else:
+        covar[1, 2] -= 2 * np.linalg.eigvalsh(covar[1, 2]).max() * np.eye(d) / d
+        covar[1, 2] = np.diag(np.r_[-1.0, np.ones(d - 1)])
+    args = (x, covar, x_pred, covar_pred, recompute, matrix, noise, step)
+    outs = [(np.empty((2, 6, d)), np.empty((2, 6, d, d))) for _ in range(2)]
+    code = kernels.rts_kernel(d)(*args, *outs[0])
+    assert code == reference.smooth.rts(*args, *outs[1]) == -(1 + 1 * 6 + 2)
+
+
 # --- Stone Soup parity -----------------------------------------------------------------------
 
 def test_matches_stonesoup_kalman_smoother_1000_steps():
@@ -538,6 +556,35 @@ def test_bad_input_names_the_argument():
         smoother.smooth_arrays(x, p, "1s")
     with pytest.raises(ValueError, match="together"):
         smoother.smooth_arrays(x, p, 1.0, predicted_means=x)
+    with pytest.raises(ValueError, match=r"time_intervals must be >= 0 seconds, got -1.0"):
+        smoother.smooth_arrays(x, p, -1.0)
+    with pytest.raises(ValueError, match=r"time_intervals\[2\] must be >= 0 seconds"):
+        smoother.smooth_arrays(x, p, [1.0, 1.0, -1.0, 1.0])
+    for covar, what in ((np.diag([1.0, -1.0, 1.0, 1.0]), "indefinite"),
+                        (np.eye(4) + np.triu(np.ones((4, 4)), 1), "asymmetric")):
+        q = p.copy()
+        q[3] = covar
+        with pytest.raises(ValueError, match=r"covars\[3\] is not symmetric positive "
+                                             r"semi-definite"):
+            smoother.smooth_arrays(x, q, 1.0)
+        with pytest.raises(ValueError, match=r"covars\[1, 3\] is not symmetric positive"):
+            smoother.smooth_arrays(np.stack([x, x]), np.stack([p, q]), 1.0)
+    written = _ft_track(5)[0]  # a NaN or a bad covariance written into a state
+    written[2].state_vector[1, 0] = np.nan
+    with pytest.raises(ValueError, match=r"track\[2\]\.state_vector contains NaN"):
+        smoother.smooth(written)
+    written = _ft_track(5)[0]
+    written[3].covar[0, 0] = -1.0
+    with pytest.raises(ValueError, match=r"track\[3\]\.covar is not symmetric positive"):
+        smoother.smooth(written)
+    written = _ft_track(5)[0]
+    written[3].covar[0, 1] = 5.0
+    with pytest.raises(ValueError, match=r"track\[3\]\.covar is not symmetric positive"):
+        smoother.smooth(written)
+    backwards = ft.Track(track.states[:2])  # a Track sorts its states; its list need not be
+    backwards.states.append(track[0])
+    with pytest.raises(ValueError, match=r"track\[2\]\.timestamp is before track\[1\]'s"):
+        smoother.smooth(backwards)
     with pytest.raises(ValueError, match="predicted_covars"):
         smoother.smooth_arrays(x, p, 1.0, predicted_means=x, predicted_covars=p[:, :2])
     with pytest.raises(ValueError, match="not positive definite"):
@@ -651,3 +698,13 @@ def test_ffbs_bad_input():
     singular = ft.LinearGaussianTransitionModel([[1.0]], [[0.0]])
     with pytest.raises(ValueError, match="positive definite"):
         ft.ffbs(states, singular, 5)
+    backwards = [states[0], states[2], states[1]]
+    with pytest.raises(ValueError, match=r"particle_states\[2\]\.timestamp must be after "
+                                         r"particle_states\[1\]'s \(got an interval of -1.0 s\)"):
+        ft.ffbs(backwards, transition, 5)
+    with pytest.raises(ValueError, match=r"particle_states\[1\]\.timestamp must be after"):
+        ft.ffbs([states[0], states[0]], transition, 5)
+    written = [ft.ParticleState(np.zeros((1, 5)), timestamp=float(t)) for t in range(3)]
+    written[1].state_vector[0, 2] = np.inf
+    with pytest.raises(ValueError, match=r"particle_states\[1\]\.state_vector contains NaN"):
+        ft.ffbs(written, transition, 5)

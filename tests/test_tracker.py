@@ -138,7 +138,7 @@ def test_tracker_rejects_bad_input():
                            np.zeros(4), PRIOR_COVAR)
     with pytest.raises(ValueError, match="prior_mean must have 4 components"):
         _tracker(prior_mean=np.zeros(3))
-    with pytest.raises(ValueError, match="missed_distance must be > 0"):
+    with pytest.raises(ValueError, match="missed_distance must be finite and > 0"):
         _tracker(missed_distance=0)
     with pytest.raises(ValueError, match="association must be one of"):
         _tracker(association="jpda2")
@@ -150,6 +150,60 @@ def test_tracker_rejects_bad_input():
         tracker.step(np.full((1, 2), np.nan), 2.0)
     with pytest.raises(ValueError, match="region must be"):
         multi_target(TRANSITION, SENSOR, np.zeros((2, 4)), 3, [[0, 0], [-1, 1]])
+
+
+@pytest.mark.parametrize("arguments, error, match", [
+    (dict(missed_distance=np.inf), ValueError, "missed_distance must be finite, got inf"),
+    (dict(missed_distance=np.nan), ValueError, "missed_distance must be finite"),
+    (dict(missed_distance="3"), TypeError, "missed_distance must be a real number"),
+    (dict(max_covar_trace=np.nan), ValueError, "max_covar_trace must be finite"),
+    (dict(max_covar_trace=-1.0), ValueError, "max_covar_trace must be finite and > 0"),
+    (dict(prior_covar=np.diag([1.0, -1.0, 1.0, 1.0])), ValueError,
+     "prior_covar is not positive semi-definite"),
+])
+def test_tracker_names_a_bad_setting(arguments, error, match):
+    with pytest.raises(error, match=match):
+        _tracker(**arguments)
+
+
+@pytest.mark.parametrize("detections, time, error, match", [
+    (np.zeros((2, 3)), 1.0, ValueError, r"detections must have shape \(M, 2\).*\(2, 3\)"),
+    (np.zeros(2), 1.0, ValueError, r"detections must have shape \(M, 2\).*\(2,\)"),
+    (np.zeros((1, 1, 2)), 1.0, ValueError, "detections must have shape"),
+    ([["a", "b"]], 1.0, TypeError, "detections must be a numeric array"),
+    (np.zeros((1, 2)), np.nan, ValueError, "time must be finite"),
+    (np.zeros((1, 2)), np.inf, ValueError, "time must be finite"),
+    (np.zeros((1, 2)), None, TypeError, "time must be a real number, got NoneType"),
+    (np.zeros((1, 2)), "1", TypeError, "time must be a real number, got str"),
+    (np.zeros((1, 2)), datetime.datetime(2026, 1, 1), TypeError,
+     "time must be a real number, got datetime"),
+])
+def test_tracker_step_names_a_bad_scan(detections, time, error, match):
+    tracker = _tracker()
+    tracker.step([[0.0, 0.0]], 0.0)
+    with pytest.raises(error, match=match):
+        tracker.step(detections, time)
+    assert tracker.time == 0.0  # nothing changed
+    assert len(tracker.tentative) == 1
+
+
+def test_tracker_takes_an_empty_scan_in_any_empty_shape():
+    tracker = _tracker()
+    for t, scan in enumerate([[], np.empty((0, 2)), np.empty(0)]):
+        assert len(tracker.step(scan, float(t))) == 0
+
+
+def test_track_sets_are_not_changed_by_later_scans():
+    scenario = _scenario(n=10, steps=12, clutter=5.0)
+    tracker = _tracker()
+    kept = []
+    for t, detections in enumerate(scenario.detections):
+        tracks = tracker.step(detections, float(t))
+        kept.append((tracks, [field.copy() for field in tracks._fields()]))
+    assert len(kept[-1][0]) > 0
+    for tracks, copies in kept:
+        for field, copy in zip(tracks._fields(), copies):
+            np.testing.assert_array_equal(field, copy)
 
 
 @pytest.mark.parametrize("window, confirmed", [(None, True), (3, True), (2, False)])

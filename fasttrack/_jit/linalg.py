@@ -81,6 +81,43 @@ def _check_covariance(nb, a, status, asymmetric, indefinite):
 
 
 @jit()
+def _semi_definite(a, lower):
+    """Whether one (n, n) ``a`` is symmetric positive semi-definite by the rule of
+    :func:`_check_covariance` (False for NaN); ``lower`` (n, n) is scratch, so that a loop
+    over many matrices allocates nothing."""
+    n = a.shape[0]
+    top = 0.0
+    largest = 0.0
+    for i in range(n):
+        top = max(top, a[i, i])
+        for j in range(n):
+            largest = max(largest, abs(a[i, j]))
+    for i in range(n):
+        for j in range(i):
+            if not abs(a[i, j] - a[j, i]) <= 1e-9 * largest:
+                return False
+    tol = PSD_TOLERANCE * top
+    for j in range(n):
+        s = a[j, j]
+        for k in range(j):
+            s -= lower[j, k] * lower[j, k]
+        if not s >= -tol:
+            return False
+        lower[j, j] = np.sqrt(s) if s > tol else 0.0
+        for i in range(j + 1, n):
+            t = a[i, j]
+            for k in range(j):
+                t -= lower[i, k] * lower[j, k]
+            if lower[j, j] > 0.0:
+                lower[i, j] = t / lower[j, j]
+            elif abs(t) <= np.sqrt(PSD_TOLERANCE) * top:
+                lower[i, j] = 0.0
+            else:
+                return False
+    return True
+
+
+@jit()
 def _sandwich(nb, left, middle, work, out):
     """``out += left middle left^T`` per filter (lower triangle computed, mirrored)."""
     rows, inner = left.shape[0], left.shape[1]

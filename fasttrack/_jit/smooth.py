@@ -3,6 +3,7 @@ batch of K tracks of equal length, in one call."""
 import numpy as np
 
 from .dispatch import jit, with_constant
+from .linalg import _semi_definite
 from .numeric import fast_exp
 from .tunables import FFBS_BLOCK as _BLOCK
 from .tunables import MAX_PROPOSALS, PROPOSAL_COST, UNROLLED_DIMENSIONS
@@ -31,9 +32,10 @@ def rts(x, covar, x_pred, covar_pred, recompute, matrix, noise, step, x_out, cov
     hold the transition matrices F (Jacobians) and noise covariances Q, and ``step`` (T,)
     int64 names for each t < T - 1 the pair that leads from t to t + 1. Smoothed states go to
     ``x_out`` and ``covar_out``; the gain is ``G = covar[t] F^T covar_pred[t+1]^{-1}``
-    (through a Cholesky factor). Returns 0, or 1 + (k * T + t) for the first prediction
-    (track k, time t) whose covariance is not positive definite (then the outputs are
-    partial).
+    (through a Cholesky factor). Returns 0; or 1 + (k * T + t) for the first prediction
+    (track k, time t) whose covariance is not positive definite, -(1 + (k * T + t)) for the
+    first filtered covariance that is not symmetric positive semi-definite (then the
+    outputs are partial).
     """
     n_tracks, n_times = x.shape[0], x.shape[1]
     d = x.shape[2] if _DIMENSION == 0 else _DIMENSION
@@ -50,6 +52,9 @@ def rts(x, covar, x_pred, covar_pred, recompute, matrix, noise, step, x_out, cov
     diff = np.empty(d)
     inverse = np.empty(d)
     for k in range(n_tracks):
+        for t in range(n_times):
+            if not _semi_definite(covar[k, t], chol):
+                return -(1 + k * n_times + t)
         last = n_times - 1
         for i in range(d):
             x_out[k, last, i] = x[k, last, i]

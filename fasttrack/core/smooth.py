@@ -13,13 +13,22 @@ def rts(x, covar, x_pred, covar_pred, recompute, matrices, noises, step):
     ``x`` (K, n, d) and ``covar`` (K, n, d, d) are the filtered states; ``x_pred`` and
     ``covar_pred`` the one-step predictions (recomputed from ``matrices`` (S, d, d) and
     ``noises`` (S, d, d) where ``recompute`` (n,) uint8 says so); ``step`` (n,) int64 the
-    index of each step's (F, Q). ``status`` is 0, or ``1 + k n + t`` for the first track k
-    and time t whose predicted covariance is not positive definite.
+    index of each step's (F, Q). ``status`` is 0, ``1 + k n + t`` for the first track k
+    and time t whose predicted covariance is not positive definite, or ``-(1 + k n + t)``
+    for the first whose filtered covariance is not symmetric positive semi-definite (see
+    :func:`failure`).
     """
     x_out, covar_out = np.empty_like(x), np.empty_like(covar)
     status = _smooth.rts_kernel(x.shape[-1])(x, covar, x_pred, covar_pred, recompute, matrices,
                                              noises, step, x_out, covar_out)
     return x_out, covar_out, status
+
+
+def failure(status, n):
+    """``(k, t, what)`` of a non-zero :func:`rts` ``status`` over n steps: the track, the
+    time and which covariance failed ('predicted' or 'filtered')."""
+    k, t = divmod(abs(status) - 1, n)
+    return k, t, "predicted" if status > 0 else "filtered"
 
 
 def rts_linear(model, x, covar, x_pred, covar_pred, recompute, intervals):

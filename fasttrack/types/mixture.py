@@ -98,10 +98,14 @@ class TrackSet:
 
     def take(self, keep):
         """The tracks selected by a boolean mask or index array."""
-        return TrackSet(*[field[keep] for field in dataclasses.astuple(self)])
+        return TrackSet(*[field[keep] for field in self._fields()])
 
     @staticmethod
     def concatenate(first, second):
         """The tracks of both sets."""
         return TrackSet(*[np.concatenate((a, b)) for a, b in
-                          zip(dataclasses.astuple(first), dataclasses.astuple(second))])
+                          zip(first._fields(), second._fields())])
+
+    def _fields(self):
+        """The arrays, in field order (not copied, unlike ``dataclasses.astuple``)."""
+        return [getattr(self, field.name) for field in dataclasses.fields(self)]

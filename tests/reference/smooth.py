@@ -6,6 +6,11 @@ import numpy as np
 def rts(x, covar, x_pred, covar_pred, recompute, matrix, noise, step, x_out, covar_out):
     n_tracks, n_times, d = x.shape
     for k in range(n_tracks):
+        for t in range(n_times):
+            c = covar[k, t]
+            if not (np.isfinite(c).all() and np.abs(c - c.T).max() <= 1e-9 * np.abs(c).max()
+                    and np.linalg.eigvalsh(c).min() >= -1e-10 * max(c.diagonal().max(), 0)):
+                return -(1 + k * n_times + t)
         x_out[k, -1] = x[k, -1]
         covar_out[k, -1] = covar[k, -1]
         for t in range(n_times - 2, -1, -1):
