@@ -15,54 +15,22 @@ the prediction of such a state after smoothing it, so the correction of the stat
 is zero (that state keeps its filtered mean and covariance, and the states before it differ
 from the exact smoother's); ``predictions="stonesoup"`` reproduces that.
 """
-import datetime
-
 import numpy as np
 
 from . import _validate
+from ._states import check_finite, stack, track_intervals
 from .core import kalman as _kalman
 from .core import smooth as _smooth
 from .core import unscented as _unscented
 from .models.base import check_model
 from .models.transition import TransitionModel
 from .types import (GaussianState, GaussianStatePrediction, GaussianStateUpdate,
-                    StateSequence, seconds, time_interval)
+                    StateSequence, seconds)
 
 __all__ = ["KalmanSmoother", "ExtendedKalmanSmoother", "UnscentedKalmanSmoother", "ffbs"]
 
 
 _STEP_TYPES = (GaussianStatePrediction, GaussianStateUpdate)
-_MICROSECOND = datetime.timedelta(microseconds=1)
-
-
-def _track_intervals(states, offset):
-    """(n - 1,) seconds between consecutive states' timestamps (all datetimes or all
-    numbers), or a TypeError naming the first bad timestamp."""
-    stamps = [state.timestamp for state in states]
-    first = type(stamps[0])
-    if first is datetime.datetime:
-        origin = stamps[0]
-        try:  # whole microseconds from the first: exact, as timedelta.total_seconds()
-            micro = [(t - origin) // _MICROSECOND for t in stamps]
-        except TypeError:  # not all datetimes, or naive and aware mixed: named below
-            micro = None
-        if micro is not None:
-            return np.diff(np.array(micro, dtype=np.int64)).astype(np.float64) / 1e6
-    elif first in (int, float) and all(type(t) in (int, float) for t in stamps):
-        return np.diff(np.array(stamps, dtype=np.float64))
-    out = np.empty(len(stamps) - 1)
-    for t in range(len(stamps) - 1):
-        earlier, later = stamps[t], stamps[t + 1]
-        if earlier is None or later is None:
-            where = t if earlier is None else t + 1
-            raise TypeError(f"track[{offset + where}].timestamp must be a datetime or "
-                            f"seconds to smooth, got None")
-        try:
-            out[t] = time_interval(later, earlier, f"track[{offset + t + 1}].timestamp")
-        except TypeError as error:
-            raise TypeError(str(error).replace("the prior's timestamp",
-                                               f"track[{offset + t}].timestamp")) from None
-    return out
 
 
 def _is_gaussian_step(state):
@@ -77,23 +45,6 @@ def _predictions_of(states):
     return [state if isinstance(state, GaussianStatePrediction)
             else getattr(getattr(state, "hypothesis", None), "prediction", None)
             for state in states]
-
-
-def _stack(states, attribute, shape, offset):
-    """The ``attribute`` arrays of ``states`` stacked (n, *shape), or a ValueError naming
-    the first state whose array has another shape."""
-    arrays = [getattr(state, attribute) for state in states]
-    try:
-        out = np.array(arrays, dtype=np.float64)
-    except ValueError:
-        out = None
-    if out is None or out.shape[1:] != shape:
-        for k, a in enumerate(arrays):
-            if np.shape(a) != shape:
-                raise ValueError(f"track[{offset + k}].{attribute} must have shape {shape} "
-                                 f"(the transition model's ndim_state), got {np.shape(a)}")
-    return out
-
 
 
 def _check_step_types(body, offset):
@@ -253,18 +204,11 @@ class KalmanSmoother:
             return [body[0]]
         model = self.transition_model
         d = model.ndim_state
-        x = _stack(body, "state_vector", (d, 1), offset).reshape(1, n, d)
-        covar = _stack(body, "covar", (d, d), offset).reshape(1, n, d, d)
-        for name, values in (("state_vector", x), ("covar", covar)):
-            finite = np.isfinite(values).reshape(n, -1).all(axis=1)
-            if not finite.all():
-                raise ValueError(f"track[{offset + np.argmin(finite)}].{name} contains NaN "
-                                 f"or infinite values")
-        intervals = _track_intervals(body, offset)
-        if (intervals < 0).any():
-            t = int(np.argmax(intervals < 0))
-            raise ValueError(f"track[{offset + t + 1}].timestamp is before "
-                             f"track[{offset + t}]'s: the states must be in time order")
+        x = stack(body, "state_vector", (d, 1), offset).reshape(1, n, d)
+        covar = stack(body, "covar", (d, d), offset).reshape(1, n, d, d)
+        check_finite(x[0], "track[{}].state_vector", offset)
+        check_finite(covar[0], "track[{}].covar", offset)
+        intervals = track_intervals(body, offset, strict=False)
         x_pred, covar_pred, recompute, models = _held_predictions(body, model, offset)
         if self.predictions == "stonesoup":
             for t in range(1, n):
@@ -584,20 +528,14 @@ def ffbs(particle_states, transition_model, n_paths, rng=None, method="rejection
     x = np.ascontiguousarray([state.state_vector for state in states], dtype=np.float64)
     log_weights = np.ascontiguousarray([state.log_weight for state in states],
                                        dtype=np.float64)
-    bad = ~np.isfinite(x).all(axis=(1, 2))
-    if bad.any():
-        raise ValueError(f"particle_states[{np.argmax(bad)}].state_vector contains NaN or "
-                         f"infinite values")
+    check_finite(x, "particle_states[{}].state_vector")
     bad = np.isnan(log_weights).any(axis=1) | (log_weights == np.inf).any(axis=1) \
         | (log_weights == -np.inf).all(axis=1)
     if bad.any():
         raise ValueError(f"particle_states[{np.argmax(bad)}].log_weight must hold no NaN or "
                          f"+inf and not be all -inf")
-    intervals = _track_intervals(states, 0) if n_times > 1 else np.empty(0)
-    if not (intervals > 0).all():
-        t = int(np.argmin(intervals > 0))
-        raise ValueError(f"particle_states[{t + 1}].timestamp must be after "
-                         f"particle_states[{t}]'s (got an interval of {intervals[t]} s)")
+    intervals = track_intervals(states, 0, "particle_states", strict=True) \
+        if n_times > 1 else np.empty(0)
     mean_next = np.empty((max(n_times - 1, 0), d, shape[1]))
     for t in range(n_times - 1):
         mean_next[t] = transition_model.spec(intervals[t]).mean(x[t])

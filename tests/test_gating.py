@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import fasttrack as ft
-from fasttrack.core.gating import clusters, gate
+from fasttrack.core.gating import Clusters, Gate, clusters, gate
 from fasttrack.core.assign import global_nearest_neighbour, nearest_neighbour
 from fasttrack._jit import gating as kernels
 from fasttrack.core import stack
@@ -194,8 +194,11 @@ def test_bad_gate_input_names_the_argument():
         gate(z_hats, covars[:2], detections, 9.0)
     with pytest.raises(ValueError, match=r"detections must have shape \(M, 2\)"):
         gate(z_hats, covars, detections[:, :1], 9.0)
-    with pytest.raises(ValueError, match="threshold must be > 0"):
-        gate(z_hats, covars, detections, 0.0)
+    for threshold in (0.0, np.inf, np.nan):
+        with pytest.raises(ValueError, match="threshold must be finite"):
+            gate(z_hats, covars, detections, threshold)
+    with pytest.raises(TypeError, match="threshold must be a real number, got str"):
+        gate(z_hats, covars, detections, "9")
     with pytest.raises(ValueError, match="z_hats contains NaN"):
         gate(np.full((3, 2), np.nan), covars, detections, 9.0)
     bad = covars.copy()
@@ -207,6 +210,82 @@ def test_bad_gate_input_names_the_argument():
     result = gate(z_hats, covars, detections, 9.0)
     with pytest.raises(ValueError, match="missed_distance must be > 0"):
         global_nearest_neighbour(result, -1.0)
+
+
+def _hand_built(**changes):
+    """A gate of 2 tracks and 3 detections built by hand, with ``changes`` to its fields."""
+    fields = dict(starts=[0, 2, 3], detections=[0, 2, 1], distances2=[1.0, 2.0, 3.0],
+                  log_likelihoods=[-1.0, -2.0, -3.0], n_detections=3)
+    fields.update(changes)
+    return Gate(**fields)
+
+
+@pytest.mark.parametrize("changes, error, match", [
+    (dict(detections=[0, 5, 1]), ValueError, r"detections must be starts\[-1\] = 3 indices "
+                                             r"in \[0, n_detections = 3\)"),
+    (dict(detections=[0, -1, 1]), ValueError, "detections must be"),
+    (dict(starts=[0, 2, 9]), ValueError, "detections must be starts"),
+    (dict(starts=[1, 2, 3]), ValueError, "starts must be .* non-decreasing from 0"),
+    (dict(starts=[0, 3, 2]), ValueError, "starts must be .* non-decreasing from 0"),
+    (dict(starts=[0.0, 2.0, 3.0]), TypeError, "starts must be a 1-D array of integers"),
+    (dict(detections=[2, 0, 1]), ValueError, "ascending .* within each track"),
+    (dict(distances2=[1.0, np.nan, 3.0]), ValueError, "distances2 must be .* not NaN"),
+    (dict(distances2=[1.0, -2.0, 3.0]), ValueError, "distances2 must be >= 0"),
+    (dict(log_likelihoods=[1.0]), ValueError, "log_likelihoods must be starts"),
+    (dict(n_detections=-1), ValueError, "n_detections must be >= 0"),
+    (dict(n_detections=3.0), TypeError, "n_detections must be an int"),
+])
+def test_a_gate_built_by_hand_is_checked(changes, error, match):
+    with pytest.raises(error, match=match):
+        _hand_built(**changes)
+
+
+def test_gates_and_clusters_written_after_they_are_built_are_refused_on_use():
+    """The association functions check the indices they follow on every call, so a gate or
+    clusters whose arrays were written after they were built raise instead of crashing."""
+    good = _hand_built()
+    np.testing.assert_array_equal(global_nearest_neighbour(good, 3.0), [0, 1])
+    for write in (lambda g: g.detections.__setitem__(1, 10**9),
+                  lambda g: g.detections.__setitem__(0, -5),
+                  lambda g: g.starts.__setitem__(2, 10**6),
+                  lambda g: g.starts.__setitem__(1, 5)):
+        bad = _hand_built()
+        write(bad)
+        for call in (clusters, lambda g: global_nearest_neighbour(g, 3.0),
+                     lambda g: nearest_neighbour(g, 3.0)):
+            with pytest.raises(ValueError, match=r"gate\.(detections|starts) must be"):
+                call(bad)
+    found = clusters(good)
+    with pytest.raises(ValueError, match="track_labels must lie in"):
+        Clusters(np.array([0, 5]), found.detection_labels, found.n_clusters)
+    with pytest.raises(TypeError, match="detection_labels must be a 1-D array of integers"):
+        Clusters(found.track_labels, np.array([0.0, 1.0, 0.0]), found.n_clusters)
+    short = Clusters(found.track_labels, found.detection_labels[:2], found.n_clusters)
+    with pytest.raises(ValueError, match="must label the gate's 2 tracks and 3 detections"):
+        global_nearest_neighbour(good, 3.0, clusters=short)
+    split = Clusters(np.array([0, 1]), np.array([1, 1, 0]), 2)  # detection 0 away from track 0
+    with pytest.raises(ValueError, match="each gated .* pair in one cluster"):
+        global_nearest_neighbour(good, 3.0, clusters=split)
+    written = clusters(good)
+    written.track_labels[0] = 99
+    with pytest.raises(ValueError, match="track_labels must lie in"):
+        global_nearest_neighbour(good, 3.0, clusters=written)
+    with pytest.raises(TypeError, match="clusters must be Clusters, got tuple"):
+        global_nearest_neighbour(good, 3.0, clusters=(0, 1))
+    with pytest.raises(TypeError, match="gate must be a Gate, got dict"):
+        nearest_neighbour({}, 3.0)
+    with pytest.raises(ValueError, match="costs must be .* not NaN or -inf"):
+        global_nearest_neighbour(good, 3.0, costs=[1.0, -np.inf, 2.0])
+
+
+def test_detections_spanning_the_float_range_gate_as_the_dense_mirror():
+    """An extent of 2e308 overflows the grid: every track tests every detection instead."""
+    z_hats = np.array([[0.0, 0.0], [1e308, -1e308]])
+    covars = np.broadcast_to(np.eye(2), (2, 2, 2)).copy()
+    detections = np.array([[0.5, 0.0], [-1e308, 1e308], [1e308, -1e308], [0.0, 1.0]])
+    result = gate(z_hats, covars, detections, 9.0)
+    np.testing.assert_array_equal(np.isfinite(result.dense()),
+                                  [[True, False, False, True], [False, False, True, False]])
 
 
 def test_no_tracks_or_no_detections():

@@ -14,6 +14,7 @@ from conftest import from_python
 
 import fasttrack as ft
 from fasttrack import _jit
+from fasttrack.core.gating import gate_arrays
 from fasttrack.association import (clusters, gate, global_nearest_neighbour, jpda_marginals,
                                    nearest_neighbour)
 from fasttrack.core import akkf_numpy, kalman, particle, particle_numpy
@@ -58,9 +59,10 @@ def test_gate_and_clusters_are_the_kernels(seed, k, m, angles, threshold):
         detections[:, 0] = np.remainder(detections[:, 0], 2 * np.pi) - np.pi
     flags = np.array([angles, False])
     with pytest.MonkeyPatch.context() as monkeypatch:
-        found = _both(monkeypatch, lambda: gate(z_hats, covars, detections, threshold, flags,
-                                                grid_axes=None if np.isfinite(threshold)
-                                                else ()))
+        found = _both(monkeypatch, lambda: gate_arrays(
+            z_hats, covars, detections, threshold, flags,
+            np.array([1] if angles else [0, 1]) if np.isfinite(threshold)
+            else np.empty(0, dtype=np.int64)))
         kernel, numpy = found
         np.testing.assert_array_equal(numpy.starts, kernel.starts)
         np.testing.assert_array_equal(numpy.detections, kernel.detections)

@@ -583,7 +583,8 @@ def test_bad_input_names_the_argument():
         smoother.smooth(written)
     backwards = ft.Track(track.states[:2])  # a Track sorts its states; its list need not be
     backwards.states.append(track[0])
-    with pytest.raises(ValueError, match=r"track\[2\]\.timestamp is before track\[1\]'s"):
+    with pytest.raises(ValueError, match=r"track\[2\]\.timestamp must be at or after "
+                                         r"track\[1\]'s \(got an interval of -1.0 s\)"):
         smoother.smooth(backwards)
     with pytest.raises(ValueError, match="predicted_covars"):
         smoother.smooth_arrays(x, p, 1.0, predicted_means=x, predicted_covars=p[:, :2])

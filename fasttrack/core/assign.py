@@ -33,6 +33,7 @@ from .. import _jit
 from .. import _validate
 from .._validate import _describe, float_array
 from . import gating_numpy as _numpy
+from .gating import Clusters, checked
 from .gating import clusters as _clusters
 
 __all__ = ["assign2d", "assign2d_batch", "global_nearest_neighbour", "gnn_assign",
@@ -216,6 +217,7 @@ def gnn_assign(cost, missed_cost):
 def _gate_costs(gate, missed_distance, costs):
     """The candidates' costs (default: Stone Soup's distance-hypothesis cost, the
     Mahalanobis distance) and the missed-detection cost of each track."""
+    checked(gate)
     missed = _validate.float_array(missed_distance, "missed_distance")
     if missed.ndim == 0:
         missed = np.full(gate.n_tracks, float(missed))
@@ -225,9 +227,10 @@ def _gate_costs(gate, missed_distance, costs):
     if costs is None:
         return np.sqrt(gate.distances2), np.ascontiguousarray(missed)
     costs = _validate.float_array(costs, "costs", 1)
-    if costs.shape != gate.detections.shape or np.isnan(costs).any():
+    if costs.shape != gate.detections.shape or np.isnan(costs).any() \
+            or (costs == -np.inf).any():
         raise ValueError(f"costs must be one number per candidate {gate.detections.shape}, "
-                         f"not NaN, got shape {costs.shape}")
+                         f"not NaN or -inf, got shape {costs.shape}")
     return costs, np.ascontiguousarray(missed)
 
 
@@ -290,7 +293,12 @@ def global_nearest_neighbour(gate, missed_distance, clusters=None, costs=None):
     """
     costs, missed = _gate_costs(gate, missed_distance, costs)
     missed[np.diff(gate.starts) == 0] = 0.0  # alone: missed, at no cost
-    clusters = _clusters(gate) if clusters is None else clusters
+    if clusters is None:
+        clusters = _clusters(gate)
+    elif isinstance(clusters, Clusters):
+        clusters.check(gate)
+    else:
+        raise TypeError(f"clusters must be Clusters, got {type(clusters).__name__}")
     labels = np.concatenate((clusters.track_labels, clusters.detection_labels))
     c, k, m = clusters.n_clusters, gate.n_tracks, gate.n_detections
     if _jit.numpy_first(k + m):

@@ -36,6 +36,40 @@ class Gate:
     log_likelihoods: np.ndarray
     n_detections: int
 
+    def __post_init__(self):
+        """Check a gate built by hand."""
+        object.__setattr__(self, "n_detections",
+                           _validate.count(self.n_detections, "n_detections", minimum=0))
+        for name in ("starts", "detections"):
+            object.__setattr__(self, name, _indices(getattr(self, name), name))
+        for name in ("distances2", "log_likelihoods"):
+            object.__setattr__(self, name, _validate.float_array(getattr(self, name), name, 1))
+        self.check()
+        n = self.detections.size
+        rising = np.diff(self.detections) > 0
+        inner = self.starts[1:-1]
+        rising[inner[(inner > 0) & (inner < n)] - 1] = True
+        if not rising.all():
+            raise ValueError("detections must be ascending (no repeats) within each track")
+        for name in ("distances2", "log_likelihoods"):
+            if getattr(self, name).shape != (n,) or np.isnan(getattr(self, name)).any():
+                raise ValueError(f"{name} must be starts[-1] = {n} numbers, not NaN, got "
+                                 f"shape {getattr(self, name).shape}")
+        if (self.distances2 < 0).any():
+            raise ValueError("distances2 must be >= 0")
+
+    def check(self):
+        """Raise a ValueError unless the indices the kernels follow are in range: ``starts``
+        non-decreasing from 0 to n, ``detections`` (n,) in ``[0, n_detections)`` (run on
+        each use: the arrays can be written after the gate is built)."""
+        starts, detections, m = self.starts, self.detections, self.n_detections
+        if starts.ndim != 1 or starts.size < 1 or starts[0] != 0 or (np.diff(starts) < 0).any():
+            raise ValueError(f"gate.starts must be (K + 1,) non-decreasing from 0, got {starts}")
+        n = int(starts[-1])
+        if detections.shape != (n,) or (n and (detections.min() < 0 or detections.max() >= m)):
+            raise ValueError(f"gate.detections must be starts[-1] = {n} indices in "
+                             f"[0, n_detections = {m}), got {detections}")
+
     @property
     def n_tracks(self):
         """K, the number of tracks."""
@@ -51,6 +85,24 @@ class Gate:
         out = np.full((self.n_tracks, self.n_detections), fill)
         out[self.tracks(), self.detections] = getattr(self, value)
         return out
+
+
+def _built(cls, *fields):
+    """An instance of the frozen dataclass ``cls`` holding ``fields`` that this module made
+    (not checked again)."""
+    out = object.__new__(cls)
+    for field, value in zip(dataclasses.fields(cls), fields):
+        object.__setattr__(out, field.name, value)
+    return out
+
+
+def _indices(value, name):
+    """``value`` as a 1-D int64 array (a TypeError unless it holds integers)."""
+    a = np.asarray(value)
+    if a.ndim != 1 or a.dtype.kind not in "iu":
+        raise TypeError(f"{name} must be a 1-D array of integers, got "
+                        f"{a.ndim}-D {a.dtype}")
+    return np.ascontiguousarray(a, dtype=np.int64)
 
 
 def squared_distance(difference, covar):
@@ -82,19 +134,24 @@ def _grid_axes(m, angles, grid_axes):
 
 
 def _grid(detections, covars, axes, threshold):
-    """Origin, cell size and shape of the detection grid: cells as large as the median gate
-    half-width, so that a typical gate meets a few cells."""
-    if axes.size == 0 or detections.shape[0] == 0:
-        return np.zeros(2), 1.0, np.ones(2, dtype=np.int64)
-    spread = covars[:, axes, axes].max(axis=1) if covars.shape[0] else np.ones(1)
-    cell = max(float(np.sqrt(threshold * np.median(spread))), 1e-300)
+    """Axes, origin, cell size and shape of the detection grid: cells as large as the median
+    gate half-width, so that a typical gate meets a few cells; no axes (every track tests
+    every detection) when there are none or the detections' extent overflows."""
     origin = np.zeros(2)
+    none = np.empty(0, dtype=np.int64), origin, 1.0, np.ones(2, dtype=np.int64)
+    if axes.size == 0 or detections.shape[0] == 0:
+        return none
+    with np.errstate(over="ignore", invalid="ignore"):
+        extent = detections[:, axes].max(axis=0) - detections[:, axes].min(axis=0)
+        spread = covars[:, axes, axes].max(axis=1) if covars.shape[0] else np.ones(1)
+        cell = max(float(np.sqrt(threshold * np.median(spread))), 1e-300)
+    if not (np.isfinite(extent).all() and np.isfinite(cell)):
+        return none
     origin[:axes.size] = detections[:, axes].min(axis=0)
-    extent = detections[:, axes].max(axis=0) - origin[:axes.size]
     cell = max(cell, float(extent.max()) / 2**30)  # at most 2^30 cells a side
     shape = np.ones(2, dtype=np.int64)
     shape[:axes.size] = np.floor(extent / cell).astype(np.int64) + 1
-    return origin, cell, shape
+    return axes, origin, cell, shape
 
 
 def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axes=None):
@@ -109,7 +166,7 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
     detections : (M, m) array_like
         Measurements.
     threshold : float
-        Squared Mahalanobis distance of the gate, > 0 (Stone Soup's ``missed_distance`` d
+        Squared Mahalanobis distance of the gate, finite, > 0 (Stone Soup's ``missed_distance`` d
         gives ``d**2``; a gate of probability P_G in m dimensions ``chi2.ppf(P_G, m)``).
     angles : (m,) array_like of bool, optional
         Angle rows, wrapped to [-pi, pi) in the innovations (default none).
@@ -124,8 +181,9 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
     Raises
     ------
     ValueError
-        For shapes that do not match, non-finite values, a threshold <= 0, or an innovation
-        covariance that is not positive definite (naming the track).
+        For shapes that do not match, non-finite values, a threshold that is not finite
+        and > 0, or an innovation covariance that is not positive definite (naming the
+        track).
     """
     z_hats = _validate.finite_array(z_hats, "z_hats", 2)
     k, m = z_hats.shape
@@ -137,20 +195,25 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
     if detections.shape[1:] != (m,) and detections.size:
         raise ValueError(f"detections must have shape (M, {m}), got {detections.shape}")
     detections = detections.reshape(-1, m)
-    threshold = float(threshold)
-    if not threshold > 0:
-        raise ValueError(f"threshold must be > 0, got {threshold}")
+    threshold = _validate.positive(threshold, "threshold")
     angles = (np.zeros(m, dtype=np.bool_) if angles is None
               else np.asarray(angles, dtype=np.bool_).reshape(-1))
     if angles.shape != (m,):
         raise ValueError(f"angles must have shape ({m},), got {angles.shape}")
-    axes = _grid_axes(m, angles, grid_axes)
+    return gate_arrays(z_hats, covars, detections, threshold, angles,
+                       _grid_axes(m, angles, grid_axes))
+
+
+def gate_arrays(z_hats, covars, detections, threshold, angles, axes):
+    """:func:`gate` of checked float64 arrays, ``threshold`` > 0 or ``inf`` (every pair),
+    ``axes`` the grid rows (int64, none for no grid)."""
+    k = z_hats.shape[0]
     if _jit.numpy_first(k + detections.shape[0]):
         found = _numpy.gate(z_hats, covars, detections, threshold, angles)
         if isinstance(found, int):
             _not_positive_definite(found)
-        return Gate(*found, detections.shape[0])
-    origin, cell, shape = _grid(detections, covars, axes, threshold)
+        return _built(Gate, *found, detections.shape[0])
+    axes, origin, cell, shape = _grid(detections, covars, axes, threshold)
     keys = np.empty(detections.shape[0], dtype=np.int64)
     _kernels.cell_keys(detections, axes, origin, cell, shape, keys)
     order = np.argsort(keys, kind="stable")
@@ -166,7 +229,16 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
     n = int(starts[-1])
     found = np.empty(n, dtype=np.int64), np.empty(n), np.empty(n)
     _kernels.gate(*grid, True, starts, *found, status)
-    return Gate(starts, *found, detections.shape[0])
+    return _built(Gate, starts, *found, detections.shape[0])
+
+
+def checked(gate):
+    """``gate``, a TypeError unless it is a :class:`Gate`, a ValueError unless its indices
+    are in range (see :meth:`Gate.check`)."""
+    if not isinstance(gate, Gate):
+        raise TypeError(f"gate must be a Gate, got {type(gate).__name__}")
+    gate.check()
+    return gate
 
 
 def _not_positive_definite(track):
@@ -191,6 +263,37 @@ class Clusters:
     detection_labels: np.ndarray
     n_clusters: int
 
+    def __post_init__(self):
+        """Check clusters built by hand."""
+        object.__setattr__(self, "n_clusters",
+                           _validate.count(self.n_clusters, "n_clusters", minimum=0))
+        for name in ("track_labels", "detection_labels"):
+            object.__setattr__(self, name, _indices(getattr(self, name), name))
+        self._check_labels()
+
+    def _check_labels(self):
+        c = self.n_clusters
+        for name in ("track_labels", "detection_labels"):
+            labels = getattr(self, name)
+            if labels.ndim != 1 or (labels.size and (labels.min() < 0 or labels.max() >= c)):
+                raise ValueError(f"clusters.{name} must lie in [0, n_clusters = {c}), "
+                                 f"got {labels}")
+
+    def check(self, gate):
+        """Raise a ValueError unless these are clusters of ``gate``: a label in range per
+        track and detection, and each candidate's track and detection in one cluster (run
+        on each use: the arrays can be written after they are built)."""
+        self._check_labels()
+        if self.track_labels.size != gate.n_tracks or \
+                self.detection_labels.size != gate.n_detections:
+            raise ValueError(f"clusters must label the gate's {gate.n_tracks} tracks and "
+                             f"{gate.n_detections} detections, got {self.track_labels.size} "
+                             f"and {self.detection_labels.size}")
+        split = self.track_labels[gate.tracks()] != self.detection_labels[gate.detections]
+        if split.any():
+            raise ValueError("clusters must hold each gated (track, detection) pair in one "
+                             "cluster: they are not the gate's")
+
     def members(self, c):
         """The tracks and detections of cluster ``c``, two ascending int64 arrays."""
         return (np.flatnonzero(self.track_labels == c),
@@ -200,10 +303,11 @@ class Clusters:
 def clusters(gate):
     """The clusters of a :class:`Gate`, numbered in order of their first track (then of
     the detections in no gate)."""
+    checked(gate)
     k = gate.n_tracks
     if _jit.numpy_first(k + gate.n_detections):
         labels, n = _numpy.clusters(gate.starts, gate.detections, gate.n_detections)
     else:
         labels = np.empty(k + gate.n_detections, dtype=np.int64)
         n = _kernels.clusters(gate.starts, gate.detections, gate.n_detections, labels)
-    return Clusters(labels[:k], labels[k:], int(n))
+    return _built(Clusters, labels[:k], labels[k:], int(n))

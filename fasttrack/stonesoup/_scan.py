@@ -33,6 +33,7 @@ from stonesoup.types.update import GaussianStateUpdate
 from ..association import (Gate, clusters, gate, global_nearest_neighbour, jpda_marginals,
                            nearest_neighbour)
 from ..core import kalman as ft_kalman
+from ..core.gating import gate_arrays
 from ..core.mixture import segment_logsumexp
 from ..models import LinearGaussian
 from . import predictor as _predictor
@@ -265,7 +266,8 @@ class _Scan:
                         np.zeros(0), np.zeros(0), self._measurements.shape[0])
         if np.isfinite(threshold):
             return gate(self.z_hats, covars, self._measurements, threshold, angles)
-        return gate(self.z_hats, covars, self._measurements, np.inf, angles, grid_axes=())
+        return gate_arrays(self.z_hats, covars, self._measurements, np.inf, angles,
+                           np.empty(0, dtype=np.int64))
 
     def _candidates(self):
         """The hypothesiser's candidates and their distances or log weights."""
