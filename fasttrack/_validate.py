@@ -178,6 +178,23 @@ def indices(value, name, size, minimum=0):
     return entries
 
 
+def flag(value, name):
+    """A bool (Python or NumPy), as a bool: a TypeError for anything else."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {type(value).__name__}")
+    return bool(value)
+
+
+def bool_array(value, name, shape):
+    """A C-contiguous boolean array of ``shape``: a TypeError for another dtype."""
+    a = np.asarray(value)
+    if a.dtype != np.bool_:
+        raise TypeError(f"{name} must be a boolean array, got {_describe(a)}")
+    if a.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {a.shape}")
+    return np.ascontiguousarray(a)
+
+
 def real(value, name):
     """A finite real number (not a bool), as a float."""
     if not _is_real(value):

@@ -38,7 +38,8 @@ class MultiTargetTracker:
         Its covariance there (the measured block comes from the sensor noise), symmetric
         positive semi-definite.
     missed_distance : float
-        Mahalanobis distance of the gate and of the missed-detection option, finite, > 0.
+        Mahalanobis distance of the gate and of the missed-detection option, > 0 and
+        below 1e154 (its square is the gate's threshold).
     min_points : int
         Detections that confirm a tentative track (the first included), >= 1: M.
     confirm_within : int, optional
@@ -50,8 +51,8 @@ class MultiTargetTracker:
     tentative_misses : int
         The same for a tentative track.
     max_covar_trace : float, optional
-        Delete a confirmed track whose covariance trace exceeds it (finite, > 0); None for
-        no limit.
+        Delete a confirmed track whose covariance trace exceeds it (> 0); None (or inf)
+        for no limit.
     association : {'gnn', 'nn'}
         Global or greedy nearest neighbour.
     """
@@ -72,14 +73,20 @@ class MultiTargetTracker:
         covar = _validate.psd_covariance(prior_covar, "prior_covar", d)
         self._start = self._initiation(measurement_model, mean, covar)
         self.missed_distance = _validate.positive(missed_distance, "missed_distance")
+        if self.missed_distance >= 1e154:
+            raise ValueError(f"missed_distance must be below 1e154 (its square is the gate "
+                             f"threshold), got {missed_distance}")
         self.min_points = _validate.count(min_points, "min_points")
         self.delete_after_misses = _validate.count(delete_after_misses, "delete_after_misses")
         self.tentative_misses = _validate.count(tentative_misses, "tentative_misses")
         self.confirm_within = (None if confirm_within is None else _validate.count(
             confirm_within, "confirm_within", minimum=self.min_points))
-        self.max_covar_trace = (None if max_covar_trace is None else _validate.positive(
-            max_covar_trace, "max_covar_trace"))
-        if association not in _ASSOCIATORS:
+        if max_covar_trace is not None:
+            max_covar_trace = _validate.float_array(max_covar_trace, "max_covar_trace", 0)
+            if not max_covar_trace > 0:
+                raise ValueError(f"max_covar_trace must be > 0, got {max_covar_trace}")
+        self.max_covar_trace = None if max_covar_trace is None else float(max_covar_trace)
+        if not isinstance(association, str) or association not in _ASSOCIATORS:
             raise ValueError(f"association must be one of {sorted(_ASSOCIATORS)}, "
                              f"got {association!r}")
         self._associate = _ASSOCIATORS[association]
@@ -143,7 +150,8 @@ class MultiTargetTracker:
         Returns
         -------
         TrackSet
-            The confirmed tracks after the scan.
+            The confirmed tracks after the scan (a copy: the tracker's own is
+            ``confirmed``).
         """
         detections = self._scan(detections)
         time = _validate.real(time, "time")
@@ -170,7 +178,7 @@ class MultiTargetTracker:
         self.tentative = self.tentative.take(keep)
         self.tentative = TrackSet.concatenate(self.tentative,
                                               self._start_tracks(detections[free]))
-        return self.confirmed
+        return self.confirmed.copy()
 
     def _scan(self, detections):
         """``detections`` as a finite (M, m) array."""

@@ -297,6 +297,14 @@ def test_bad_cost_matrices_are_rejected_naming_cost(bad, error, match):
         gnn_assign(bad, 1.0)
 
 
+@pytest.mark.parametrize("maximize", ["no", 1, None, np.array([True])])
+def test_maximize_must_be_a_bool(maximize):
+    with pytest.raises(TypeError, match="maximize must be a bool"):
+        assign2d(np.ones((2, 2)), maximize=maximize)
+    with pytest.raises(TypeError, match="maximize must be a bool"):
+        assign2d_batch([np.ones((2, 2))], maximize=maximize)
+
+
 def test_maximising_rejects_plus_inf_and_the_input_is_not_modified():
     with pytest.raises(ValueError, match=r"cost contains \+inf"):
         assign2d([[1.0, np.inf]], maximize=True)

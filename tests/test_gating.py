@@ -199,6 +199,19 @@ def test_bad_gate_input_names_the_argument():
             gate(z_hats, covars, detections, threshold)
     with pytest.raises(TypeError, match="threshold must be a real number, got str"):
         gate(z_hats, covars, detections, "9")
+    skew = covars.copy()
+    skew[2, 0, 1] += 0.1
+    with pytest.raises(ValueError, match=r"innovation_covars\[2\] is not symmetric"):
+        gate(z_hats, skew, detections, 9.0)
+    for angles in ([0, 5], ["no", "no"]):
+        with pytest.raises(TypeError, match="angles must be a boolean array"):
+            gate(z_hats, covars, detections, 9.0, angles=angles)
+    for axes, error in (([0.7], TypeError), ([True], TypeError), ([0, 2], ValueError)):
+        with pytest.raises(error, match="grid_axes"):
+            gate(z_hats, covars, detections, 9.0, grid_axes=axes)
+    with pytest.raises(ValueError, match=r"z_hats must have shape \(K, m\) with m >= 1"):
+        gate(np.zeros((1, 0)), np.zeros((1, 0, 0)), np.zeros((2, 0)), 9.0)
+    assert gate(z_hats, covars, [], 9.0).n_detections == 0
     with pytest.raises(ValueError, match="z_hats contains NaN"):
         gate(np.full((3, 2), np.nan), covars, detections, 9.0)
     bad = covars.copy()

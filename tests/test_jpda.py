@@ -246,6 +246,21 @@ def test_bad_weights(weights, error, match):
         jpda_marginals(weights)
 
 
+def test_weights_near_the_float_limit_give_the_marginals_of_scaled_weights():
+    """Every joint event takes one weight a row: rows of 1e308 give the marginals of rows
+    of 1 (the products would overflow), one cluster or several."""
+    rng = np.random.default_rng(3)
+    w = rng.uniform(0.1, 1.0, (3, 4))
+    for clusters in ([w], [w, w[:2]]):
+        want = jpda_marginals([c.copy() for c in clusters])
+        got = jpda_marginals([c * 1e308 for c in clusters])
+        for a, b in zip(got, want):
+            np.testing.assert_allclose(a, b, rtol=1e-12)
+    np.testing.assert_allclose(jpda_marginals(w * 1e308), jpda_marginals(w), rtol=1e-12)
+    np.testing.assert_allclose(jpda_marginals(np.full((3, 4), 1e308)),
+                               jpda_marginals(np.ones((3, 4))), rtol=1e-12)
+
+
 @pytest.mark.parametrize("max_nodes, error", [(1.5, TypeError), (0, ValueError),
                                               (True, TypeError)])
 def test_bad_max_nodes(max_nodes, error):
@@ -349,6 +364,10 @@ def test_pda_weights_wrap_angles():
     ({"normalise": None}, TypeError, "normalise must be a bool"),
     ({"prob_detect": 1.0, "prob_gate": 1.0, "detections": np.full((6, 2), 1e9)}, ValueError,
      "track 0 has no possible hypothesis"),
+    ({"prob_gate": 1.0, "clutter_spatial_density": None}, ValueError,
+     "prob_gate=1 makes the gate infinite"),
+    ({"clutter_spatial_density": 1e-320}, ValueError,
+     "track 0's detection weights .* overflow: clutter_spatial_density=1e-320 is too small"),
 ])
 def test_bad_pda_inputs(change, error, match):
     rng = np.random.default_rng(0)

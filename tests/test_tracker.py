@@ -156,8 +156,11 @@ def test_tracker_rejects_bad_input():
     (dict(missed_distance=np.inf), ValueError, "missed_distance must be finite, got inf"),
     (dict(missed_distance=np.nan), ValueError, "missed_distance must be finite"),
     (dict(missed_distance="3"), TypeError, "missed_distance must be a real number"),
-    (dict(max_covar_trace=np.nan), ValueError, "max_covar_trace must be finite"),
-    (dict(max_covar_trace=-1.0), ValueError, "max_covar_trace must be finite and > 0"),
+    (dict(max_covar_trace=np.nan), ValueError, "max_covar_trace must be > 0, got nan"),
+    (dict(max_covar_trace=-1.0), ValueError, "max_covar_trace must be > 0"),
+    (dict(max_covar_trace="1"), TypeError, "max_covar_trace must be a numeric array"),
+    (dict(missed_distance=1e200), ValueError, "missed_distance must be below 1e154"),
+    (dict(association=["gnn"]), ValueError, "association must be one of"),
     (dict(prior_covar=np.diag([1.0, -1.0, 1.0, 1.0])), ValueError,
      "prior_covar is not positive semi-definite"),
 ])
@@ -185,6 +188,16 @@ def test_tracker_step_names_a_bad_scan(detections, time, error, match):
         tracker.step(detections, time)
     assert tracker.time == 0.0  # nothing changed
     assert len(tracker.tentative) == 1
+
+
+def test_an_infinite_covariance_trace_limit_deletes_nothing_and_long_gaps_are_named():
+    scenario = _scenario(n=10, steps=8, clutter=5.0)
+    unlimited, none = _tracker(max_covar_trace=np.inf), _tracker()
+    for t, detections in enumerate(scenario.detections):
+        a, b = unlimited.step(detections, float(t)), none.step(detections, float(t))
+        np.testing.assert_array_equal(a.ids, b.ids)
+    with pytest.raises(ValueError, match="time_interval of 1e\\+300 s overflows Q"):
+        unlimited.step(scenario.detections[0], 1e300)
 
 
 def test_tracker_takes_an_empty_scan_in_any_empty_shape():

@@ -90,6 +90,7 @@ def assign2d(cost, maximize=False):
     TypeError
         If ``cost`` does not hold real numbers.
     """
+    maximize = _validate.flag(maximize, "maximize")
     matrix = _costs(cost, "cost", maximize)
     if maximize:
         matrix = -matrix
@@ -121,6 +122,7 @@ def assign2d_batch(costs, maximize=False):
     ValueError, TypeError
         As :func:`assign2d`, naming the problem (``costs[q]``).
     """
+    maximize = _validate.flag(maximize, "maximize")
     if isinstance(costs, np.ndarray) and costs.ndim == 3:  # k problems of one shape
         k, nr, nc = costs.shape
         flat = float_array(costs, "costs").reshape(-1)

@@ -123,8 +123,8 @@ def squared_distance(difference, covar):
 def _grid_axes(m, angles, grid_axes):
     if grid_axes is None:
         return np.flatnonzero(~angles)[:2].astype(np.int64)
-    axes = np.asarray(grid_axes, dtype=np.int64).reshape(-1)
-    if axes.size > 2 or np.any((axes < 0) | (axes >= m)) or np.unique(axes).size != axes.size:
+    axes = np.array(_validate.indices(grid_axes, "grid_axes", m), dtype=np.int64)
+    if axes.size > 2 or np.unique(axes).size != axes.size:
         raise ValueError(f"grid_axes must be up to 2 distinct measurement rows in [0, {m}), "
                          f"got {list(axes)}")
     if angles[axes].any():
@@ -162,12 +162,13 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
     z_hats : (K, m) array_like
         Predicted measurement of each track.
     innovation_covars : (K, m, m) array_like
-        Innovation covariance S of each track, positive definite.
+        Innovation covariance S of each track, symmetric positive definite.
     detections : (M, m) array_like
-        Measurements.
+        Measurements (an empty list for none).
     threshold : float
-        Squared Mahalanobis distance of the gate, finite, > 0 (Stone Soup's ``missed_distance`` d
-        gives ``d**2``; a gate of probability P_G in m dimensions ``chi2.ppf(P_G, m)``).
+        Squared Mahalanobis distance of the gate, finite, > 0 (Stone Soup's
+        ``missed_distance`` d gives ``d**2``; a gate of probability P_G in m dimensions
+        ``chi2.ppf(P_G, m)``).
     angles : (m,) array_like of bool, optional
         Angle rows, wrapped to [-pi, pi) in the innovations (default none).
     grid_axes : sequence of int, optional
@@ -187,19 +188,25 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
     """
     z_hats = _validate.finite_array(z_hats, "z_hats", 2)
     k, m = z_hats.shape
+    if m < 1:
+        raise ValueError(f"z_hats must have shape (K, m) with m >= 1, got {z_hats.shape}")
     covars = _validate.finite_array(innovation_covars, "innovation_covars", 3)
     if covars.shape != (k, m, m):
         raise ValueError(f"innovation_covars must have shape ({k}, {m}, {m}), "
                          f"got {covars.shape}")
-    detections = _validate.finite_array(detections, "detections", 2)
-    if detections.shape[1:] != (m,) and detections.size:
+    scale = np.abs(covars).max(axis=(1, 2), initial=0.0)
+    asymmetric = np.abs(covars - covars.transpose(0, 2, 1)).max(axis=(1, 2), initial=0.0) \
+        > 1e-9 * scale
+    if asymmetric.any():
+        raise ValueError(f"innovation_covars[{np.argmax(asymmetric)}] is not symmetric")
+    detections = _validate.finite_array(detections, "detections")
+    if detections.size == 0:
+        detections = detections.reshape(0, m)
+    if detections.ndim != 2 or detections.shape[1] != m:
         raise ValueError(f"detections must have shape (M, {m}), got {detections.shape}")
-    detections = detections.reshape(-1, m)
     threshold = _validate.positive(threshold, "threshold")
     angles = (np.zeros(m, dtype=np.bool_) if angles is None
-              else np.asarray(angles, dtype=np.bool_).reshape(-1))
-    if angles.shape != (m,):
-        raise ValueError(f"angles must have shape ({m},), got {angles.shape}")
+              else _validate.bool_array(angles, "angles", (m,)))
     return gate_arrays(z_hats, covars, detections, threshold, angles,
                        _grid_axes(m, angles, grid_axes))
 

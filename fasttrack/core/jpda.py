@@ -42,21 +42,6 @@ def _probability(value, name):
     return value
 
 
-def _flag(value, name):
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be a bool, got {type(value).__name__}")
-    return bool(value)
-
-
-def _bool_array(value, name, shape):
-    a = np.asarray(value)
-    if a.dtype != np.bool_:
-        raise TypeError(f"{name} must be a boolean array, got {_validate._describe(a)}")
-    if a.shape != shape:
-        raise ValueError(f"{name} must have shape {shape}, got {a.shape}")
-    return np.ascontiguousarray(a)
-
-
 @functools.lru_cache(maxsize=256)
 def _gate(prob_gate, m):
     """Stone Soup's gate threshold ``chi2.ppf(prob_gate, m)`` and the factor of the gate
@@ -135,8 +120,8 @@ def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
     n_dets = detections.shape[0]
     prob_detect = _probability(prob_detect, "prob_detect")
     prob_gate = _probability(prob_gate, "prob_gate")
-    include_all = _flag(include_all, "include_all")
-    normalise = _flag(normalise, "normalise")
+    include_all = _validate.flag(include_all, "include_all")
+    normalise = _validate.flag(normalise, "normalise")
     if clutter_spatial_density is None:
         if include_all:
             raise ValueError("include_all=True needs a clutter_spatial_density (got None)")
@@ -144,15 +129,19 @@ def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
     else:
         density = _validate.positive(clutter_spatial_density, "clutter_spatial_density")
     gate = (np.ones((n_tracks, n_dets), dtype=np.bool_) if gate is None
-            else _bool_array(gate, "gate", (n_tracks, n_dets)))
+            else _validate.bool_array(gate, "gate", (n_tracks, n_dets)))
     angles = (np.zeros(m, dtype=np.bool_) if angles is None
-              else _bool_array(angles, "angles", (m,)))
+              else _validate.bool_array(angles, "angles", (m,)))
     if n_tracks:
         scale = np.maximum(np.abs(covars).max(axis=(1, 2)), np.finfo(float).tiny)
         asym = np.abs(covars - covars.transpose(0, 2, 1)).max(axis=(1, 2)) > 1e-9 * scale
         if asym.any():
             raise ValueError(f"covars[{int(np.argmax(asym))}] must be symmetric")
 
+    if prob_gate == 1.0 and density == 0.0 and n_tracks:
+        raise ValueError("prob_gate=1 makes the gate infinite, so the clutter density "
+                         "estimated from it would be 0: give clutter_spatial_density, or "
+                         "prob_gate < 1")
     threshold, volume_factor = _gate(prob_gate, m)
     out = np.empty((n_tracks, n_dets + 1))
     status = np.empty(n_tracks, dtype=np.int64)
@@ -162,6 +151,11 @@ def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
     if n_tracks and status.any():
         t = int(np.flatnonzero(status)[0])
         raise ValueError(f"covars[{t}] is not positive definite")
+    if not np.isfinite(out).all():
+        t = int(np.flatnonzero(~np.isfinite(out).all(axis=1))[0])
+        raise ValueError(f"track {t}'s detection weights prob_detect N(z; z_hat, S) / "
+                         f"clutter density overflow: clutter_spatial_density="
+                         f"{clutter_spatial_density!r} is too small for its likelihoods")
     if normalise and n_tracks:
         sums = out.sum(axis=1)
         if not (sums > 0).all():
@@ -195,6 +189,13 @@ def _check(w, name):
         raise ValueError(f"{name} contains {bad}")
     if (w < 0).any():
         raise ValueError(f"{name} contains negative weights")
+
+
+def _row_scaled(w):
+    """``w`` with each row divided by its largest entry: the same marginals (each joint
+    event takes one entry a row), with no product of a row's entries overflowing."""
+    top = w.max(axis=1, keepdims=True, initial=0.0)
+    return w / np.where(top > 0, top, 1.0)
 
 
 def _raise(code, detail, name, shape, max_nodes):
@@ -290,6 +291,7 @@ def jpda_marginals(weights, max_nodes=MAX_NODES):
     if not _is_cluster_list(weights):
         w = _cluster(weights, "weights")
         _check(w, "weights")
+        w = _row_scaled(w)
         if _enumerable([w], max_nodes):
             out, row = _enumerated(w)
             if out is None:
@@ -303,13 +305,13 @@ def jpda_marginals(weights, max_nodes=MAX_NODES):
     clusters = [_cluster(w, f"weights[{k}]") for k, w in enumerate(weights)]
     if not clusters:
         return []
+    for k, w in enumerate(clusters):
+        _check(w, f"weights[{k}]")
+    clusters = [_row_scaled(w) for w in clusters]
     shapes = np.array([(w.shape[0], w.shape[1] - 1) for w in clusters], dtype=np.int64)
     offsets = np.zeros(len(clusters) + 1, dtype=np.int64)
     np.cumsum([w.size for w in clusters], out=offsets[1:])
     flat = np.concatenate([w.reshape(-1) for w in clusters])
-    if not (np.isfinite(flat).all() and flat.min(initial=0.0) >= 0.0):
-        for k, w in enumerate(clusters):
-            _check(w, f"weights[{k}]")
     if _enumerable(clusters, max_nodes):
         found = [_enumerated(w) for w in clusters]
         for k, (w, (out, row)) in enumerate(zip(clusters, found)):

@@ -347,8 +347,13 @@ class ConstantVelocity(_LinearGaussian):
         time_interval : datetime.timedelta or float seconds
             dt (may be negative).
         """
-        t = abs(self._seconds(time_interval))
-        return self.noise_diff_coeff * np.array([[t**3 / 3, t**2 / 2], [t**2 / 2, t]])
+        t = np.float64(abs(self._seconds(time_interval)))
+        with np.errstate(over="ignore"):
+            q = self.noise_diff_coeff * np.array([[t**3 / 3, t**2 / 2], [t**2 / 2, t]])
+        if not np.isfinite(q).all():
+            raise ValueError(f"time_interval of {t:g} s overflows Q(dt) (q t^3 / 3 with "
+                             f"q = {self.noise_diff_coeff:g})")
+        return q
 
     def _cv_rates(self):
         return (self._q,)

@@ -96,6 +96,10 @@ class TrackSet:
     def __len__(self):
         return self.ids.size
 
+    def copy(self):
+        """A copy holding copies of the arrays."""
+        return TrackSet(*[field.copy() for field in self._fields()])
+
     def take(self, keep):
         """The tracks selected by a boolean mask or index array."""
         return TrackSet(*[field[keep] for field in self._fields()])
