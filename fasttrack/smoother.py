@@ -333,8 +333,10 @@ class KalmanSmoother:
             where = f"[{t}]" if single else f"[{k}, {t}]"
             if what == "filtered":
                 raise ValueError(f"covars{where} is not symmetric positive semi-definite")
-            raise ValueError(f"the predicted covariance at {where} is not positive definite: "
-                             f"cannot form the smoothing gain")
+            predicted = ("predicted_covars" if predicted_covars is not None
+                         else "the predicted covariance F P F^T + Q at ")
+            raise ValueError(f"{predicted}{where} is not positive definite: cannot form the "
+                             f"smoothing gain")
         if single:
             return x_out[0], covar_out[0]
         return x_out, covar_out
@@ -343,6 +345,8 @@ class KalmanSmoother:
     def _intervals(time_intervals, n):
         """(n - 1,) float seconds from a scalar, a timedelta or a sequence of either."""
         if np.ndim(time_intervals) == 0:
+            if isinstance(time_intervals, np.ndarray):
+                time_intervals = time_intervals.item()
             value = seconds(time_intervals, "time_intervals")
             if value < 0:
                 raise ValueError(f"time_intervals must be >= 0 seconds, got {value}")

@@ -378,6 +378,52 @@ def test_bad_input_is_a_clear_error():
             bearing_range_from_50_0, 4, NOISE))
 
 
+@pytest.mark.parametrize("jacobian", ["analytic", "forward", "central"])
+def test_an_update_at_the_sensor_is_refused_by_every_jacobian(jacobian):
+    """At the sensor a bearing has no derivative: every linearisation refuses, the single
+    filter (in NumPy and in the kernels) and the batch."""
+    transition, sensor = _models()
+    prediction = ft.GaussianStatePrediction([50, 0, 0, 0], PRIOR_COVAR, timestamp=1.0)
+    updater = ft.ExtendedKalmanUpdater(sensor, jacobian=jacobian)
+    with pytest.raises(ValueError, match="Jacobian is undefined"):
+        updater.update(ft.SingleHypothesis(prediction, ft.Detection([0.0, 1.0], timestamp=1.0)))
+    with pytest.raises(ValueError, match="filter 0: the measurement Jacobian is undefined"):
+        ft.BatchExtendedKalmanFilter(transition, sensor, jacobian=jacobian).update(
+            np.array([[50.0, 0, 0, 0]]), PRIOR_COVAR[None], np.array([[0.0, 1.0]]))
+    from fasttrack.core import kalman, kalman_numpy
+    assert np.isnan(kalman_numpy.jacobian(sensor.spec, kalman.JACOBIANS[jacobian],
+                                          prediction.state_vector)).all()
+    args = (sensor.kind, prediction.state_vector[:, 0].copy(), sensor.spec.mapping,
+            sensor.spec.offset, sensor.spec.rotation, sensor.spec.angles,
+            kalman.JACOBIANS[jacobian])
+    for function in (jac_kernels.measurement_jacobian, reference.jacobian.measurement_jacobian):
+        out = np.zeros((2, 4))
+        function(*args, out)
+        assert np.isnan(out).all()
+
+
+def test_values_written_into_states_and_overflowing_updates_are_refused():
+    transition, sensor = _models()
+    linear = ft.LinearGaussian(4, (0, 2), np.eye(2))
+    for predictor in (ft.KalmanPredictor(transition), ft.ExtendedKalmanPredictor(transition),
+                      ft.UnscentedKalmanPredictor(transition)):
+        prior = ft.GaussianState([0, 1, 0, 1], PRIOR_COVAR, timestamp=0.0)
+        prior.state_vector[1, 0] = np.nan
+        with pytest.raises(ValueError, match="prior.state_vector contains NaN"):
+            predictor.predict(prior, 1.0)
+    for updater in (ft.KalmanUpdater(linear), ft.ExtendedKalmanUpdater(sensor),
+                    ft.UnscentedKalmanUpdater(sensor)):
+        prediction = ft.GaussianStatePrediction([10, 1, 10, 1], PRIOR_COVAR, timestamp=1.0)
+        prediction.state_vector[0, 0] = np.inf
+        with pytest.raises(ValueError, match="the prediction's state_vector contains NaN"):
+            updater.update(ft.SingleHypothesis(prediction, ft.Detection([0.5, 14.0],
+                                                                        timestamp=1.0)))
+    huge = ft.GaussianStatePrediction([1e308, 0, -1e308, 0], PRIOR_COVAR, timestamp=1.0)
+    with pytest.raises(ValueError, match="the update overflowed"):
+        ft.KalmanUpdater(linear).update(ft.SingleHypothesis(huge, ft.Detection(
+            [-1e308, 1e308], timestamp=1.0)))
+
+
 # --- covariance checks where they belong, and an update that stays PSD ---------------------------
 
 def test_singular_priors_are_accepted_and_indefinite_ones_rejected():

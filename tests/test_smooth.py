@@ -556,6 +556,11 @@ def test_bad_input_names_the_argument():
         smoother.smooth_arrays(x, p, "1s")
     with pytest.raises(ValueError, match="together"):
         smoother.smooth_arrays(x, p, 1.0, predicted_means=x)
+    np.testing.assert_array_equal(smoother.smooth_arrays(x, p, np.array(1.0))[0],
+                                  smoother.smooth_arrays(x, p, 1.0)[0])
+    indefinite = np.broadcast_to(-np.eye(4), p.shape)
+    with pytest.raises(ValueError, match=r"predicted_covars\[4\] is not positive definite"):
+        smoother.smooth_arrays(x, p, 1.0, predicted_means=x, predicted_covars=indefinite)
     with pytest.raises(ValueError, match=r"time_intervals must be >= 0 seconds, got -1.0"):
         smoother.smooth_arrays(x, p, -1.0)
     with pytest.raises(ValueError, match=r"time_intervals\[2\] must be >= 0 seconds"):

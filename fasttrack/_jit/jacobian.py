@@ -73,7 +73,8 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
     """Jacobian (m, d) of a built-in measurement at the state x (d,).
 
     SELECT is exact whatever ``method``; the polar sensors are analytic for ANALYTIC, finite
-    differences otherwise. A bearing's derivative is undefined at the sensor: NaN there.
+    differences otherwise. A bearing's derivative is undefined at the sensor: NaN there,
+    whatever ``method``.
     """
     d = x.size
     fill(out, 0.0)
@@ -81,10 +82,12 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
         for r in range(mapping.size):
             out[r, mapping[r]] = 1.0
         return
+    px, py = _sensor_frame(x[mapping[0]], x[mapping[1]], offset, rotation)
+    if px == 0.0 and py == 0.0:
+        fill(out, np.nan)
+        return
     if method == ANALYTIC:
-        px, py = _sensor_frame(x[mapping[0]], x[mapping[1]], offset, rotation)
-        if not _polar_jacobian(kind, px, py, rotation, mapping, out):
-            fill(out, np.nan)
+        _polar_jacobian(kind, px, py, rotation, mapping, out)
         return
     central = method == CENTRAL
     columns = 2 * d if central else d + 1

@@ -103,17 +103,18 @@ def measure(sensor, points):
 
 def jacobian(sensor, method, x):
     """The (m, d) measurement Jacobian at ``x`` (d, 1) by ``method`` (ANALYTIC, FORWARD,
-    CENTRAL: the kernels' rules and steps); NaN where a bearing is taken at the sensor."""
+    CENTRAL: the kernels' rules and steps); NaN where a bearing is taken at the sensor
+    (by any method)."""
     m, d = sensor.ndim_meas, x.shape[0]
     out = np.zeros((m, d))
     if sensor.kind == SELECT:
         out[np.arange(m), sensor.mapping] = 1.0
         return out
+    px, py = (float(v[0]) for v in _polar(sensor, x))
+    rho2 = px * px + py * py
+    if rho2 == 0.0:
+        return np.full((m, d), np.nan)
     if method == ANALYTIC:
-        px, py = (float(v[0]) for v in _polar(sensor, x))
-        rho2 = px * px + py * py
-        if rho2 == 0.0:
-            return np.full((m, d), np.nan)
         columns, rotation = sensor.mapping[:2], sensor.rotation
         out[0, columns] = (-py * rotation[0] + px * rotation[1]) / rho2
         if sensor.kind == BEARING_RANGE:

@@ -1,5 +1,7 @@
 """What the predictors share: the transition model, the prior's checks and the prediction
 interval."""
+import numpy as np
+
 from ..models.base import check_model
 from ..models.transition import TransitionModel
 from ..types import check_timestamp, time_interval
@@ -39,3 +41,10 @@ class Predictor:
         if prior.ndim != ndim:
             raise ValueError(f"prior has {prior.ndim} state dimensions, the transition model "
                              f"{ndim}")
+
+    @staticmethod
+    def _check_finite(state, name):
+        """A ValueError if NaN or inf was written into a Gaussian ``state``'s mean (its
+        covariance is checked by the kernels)."""
+        if not np.isfinite(state.state_vector).all():
+            raise ValueError(f"{name}.state_vector contains NaN or infinite values")

@@ -45,11 +45,12 @@ class KalmanPredictor(Predictor):
         Raises
         ------
         ValueError
-            If the prior's covariance is not positive semi-definite, or a user transition
-            function returns a wrong shape or non-finite values.
+            If the prior's mean is not finite, its covariance not positive semi-definite,
+            or a user transition function returns a wrong shape or non-finite values.
         """
         model = self.transition_model
         self._check_prior(prior, GaussianState, model.ndim_state)
+        self._check_finite(prior, "prior")
         dt = self._interval(prior, timestamp)
         x_out, covar_out = _kalman.predict(model, dt, prior.state_vector, prior.covar,
                                            self.jacobian)

@@ -53,11 +53,13 @@ class UnscentedKalmanPredictor(Predictor):
         Raises
         ------
         ValueError
-            If the prior's covariance is not symmetric positive semi-definite, or the
-            user's transition function returns a wrong shape or non-finite values.
+            If the prior's mean is not finite, its covariance not symmetric positive
+            semi-definite, or the user's transition function returns a wrong shape or
+            non-finite values.
         """
         model = self.transition_model
         self._check_prior(prior, GaussianState, self._ndim)
+        self._check_finite(prior, "prior")
         dt = self._interval(prior, timestamp)
         x_out, covar_out = _unscented.predict(model, float(dt), prior.state_vector,
                                               prior.covar, self.alpha, self.beta, self._kappa)

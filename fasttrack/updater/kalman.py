@@ -50,6 +50,8 @@ class KalmanUpdater(Updater):
                 raise ValueError("no measurement model: give the updater one")
         self._check_model(model)
         self._check_prediction(prediction, GaussianState)
+        if not np.isfinite(prediction.state_vector).all():
+            raise ValueError("the prediction's state_vector contains NaN or infinite values")
         self._check_dimensions(model, prediction)
         return model
 
@@ -110,6 +112,9 @@ class KalmanUpdater(Updater):
         model = self._model(hypothesis, prediction)
         z = model.measurement_column(hypothesis.measurement, "hypothesis.measurement")
         x_out, covar_out, z_hat, s, cross = self._update(model, prediction, z)
+        if not (np.isfinite(x_out).all() and np.isfinite(covar_out).all()):
+            raise ValueError("the update overflowed: the posterior of this prediction and "
+                             "hypothesis.measurement is beyond float64's range")
         timestamp = hypothesis.measurement.timestamp
         hypothesis.measurement_prediction = GaussianMeasurementPrediction._trusted(
             z_hat, s, timestamp, {"cross_covar": cross})

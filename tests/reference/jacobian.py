@@ -54,9 +54,12 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
     if kind == SELECT:
         out[np.arange(mapping.size), mapping] = 1.0
         return
+    p = rotation @ (x[list(mapping[:2])] - offset)
+    rho2 = p @ p
+    if rho2 == 0.0:
+        out[:] = np.nan
+        return
     if method == ANALYTIC:
-        p = rotation @ (x[list(mapping[:2])] - offset)
-        rho2 = p @ p
         rows = [np.array([-p[1], p[0]]) / rho2]
         if kind == BEARING_RANGE:
             rows.append(p / np.sqrt(rho2))
