@@ -293,7 +293,15 @@ def test_filter_errors():
         predictor.predict(ft.KernelParticleState(prior.state_vector), detection.timestamp)
     with pytest.raises(ValueError, match="proposal must have"):
         predictor.predict(prior, detection.timestamp, proposal=np.zeros((4, 9)))
+    written = ft.KernelParticleState(prior.state_vector.copy(), timestamp=prior.timestamp)
+    written.state_vector[0, 3] = np.nan
+    with pytest.raises(ValueError, match="prior.state_vector contains NaN"):
+        predictor.predict(written, detection.timestamp)
     prediction = predictor.predict(prior, detection.timestamp)
+    corrupted = predictor.predict(prior, detection.timestamp)
+    corrupted.state_vector[1, 0] = np.inf
+    with pytest.raises(ValueError, match="the prediction's state_vector contains NaN"):
+        updater.update(ft.SingleHypothesis(corrupted, detection))
     for bad, message in [([0.1, 0.2], "1 components"), ([np.nan], "NaN")]:
         with pytest.raises(ValueError, match=message):
             updater.update(ft.SingleHypothesis(

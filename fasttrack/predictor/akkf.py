@@ -46,6 +46,7 @@ class AdaptiveKernelKalmanPredictor(Predictor):
         """
         model = self.transition_model
         self._check_prior(prior, KernelParticleState, model.ndim_state)
+        self._check_finite(prior, "prior")
         dt = self._interval(prior, timestamp)
         x = prior.state_vector
         if proposal is None:

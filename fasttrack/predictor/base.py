@@ -44,7 +44,8 @@ class Predictor:
 
     @staticmethod
     def _check_finite(state, name):
-        """A ValueError if NaN or inf was written into a Gaussian ``state``'s mean (its
-        covariance is checked by the kernels)."""
+        """A ValueError if NaN or inf was written into ``state.state_vector`` after it was
+        built (a Gaussian mean, or a kernel filter's few particles; a Gaussian covariance is
+        checked by the kernels)."""
         if not np.isfinite(state.state_vector).all():
             raise ValueError(f"{name}.state_vector contains NaN or infinite values")

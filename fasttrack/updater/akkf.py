@@ -1,4 +1,6 @@
 """The adaptive kernel Kalman filter's updater."""
+import numpy as np
+
 from .. import _validate
 from .. import random as _random
 from ..core import akkf as _akkf
@@ -56,6 +58,8 @@ class AdaptiveKernelKalmanUpdater(Updater):
     def _measurement_prediction(self, model, prediction):
         self._check_prediction(prediction, KernelParticleState)
         self._check_dimensions(model, prediction)
+        if not np.isfinite(prediction.state_vector).all():
+            raise ValueError("the prediction's state_vector contains NaN or infinite values")
         y = model.wrap(_particle.measure(model.spec, prediction.state_vector))
         return KernelParticleStateMeasurementPrediction._trusted(
             y, prediction.weight, prediction._factors, prediction.timestamp)
