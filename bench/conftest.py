@@ -7,13 +7,12 @@ Smoke (no timing, as in CI):  python -m pytest bench --benchmark-disable
 
 The process runs as a user's would: glibc's default allocator (set
 FASTTRACK_BENCH_TUNED_ALLOCATOR=1 for ``fasttrack.tune_allocator()``), fasttrack's default
-threads. Timed rounds start once NumPy's BLAS threads, woken by a set-up or the previous
-benchmark, have gone back to sleep.
+threads, NumPy's BLAS threads as fasttrack leaves them (timed rounds follow set-ups and other
+benchmarks without a pause).
 """
 import os
 import pathlib
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -35,24 +34,6 @@ def rounds_for(n, slow=False):
     return 21 if n >= 10**5 else 50
 
 
-#: Seconds NumPy's OpenBLAS threads keep spinning after a threaded product (about 0.1 s
-#: here), during which they take a core from the parallel kernels.
-BLAS_SPIN = 0.3
-
-
-@pytest.fixture
-def benchmark(benchmark):
-    """pytest-benchmark's fixture, whose timed rounds start once the BLAS threads that a
-    test's set-up (or the previous test) woke have gone back to sleep."""
-    pedantic = benchmark.pedantic
-
-    def settled(*args, **kwargs):
-        if not benchmark.disabled:
-            time.sleep(BLAS_SPIN)
-        return pedantic(*args, **kwargs)
-
-    benchmark.pedantic = settled
-    return benchmark
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -270,6 +270,54 @@ def test_new_entries_are_per_user_and_never_in_the_package(tmp_path):
     assert _package_cache_files() == before
 
 
+_CALM_BLAS = """
+import os, sys, threading
+import numpy as np
+import fasttrack as ft
+import fasttrack._jit
+from fasttrack import threads
+fasttrack._jit.kernels_from_now()
+blas = threads._numpy_openblas()
+a = np.random.default_rng(0).random((300, 300))
+a @ a  # wakes NumPy's BLAS workers
+release = threading.Event()
+if sys.argv[1] == "other-thread":
+    other = threading.Thread(target=release.wait)
+    other.start()
+ft.systematic(np.zeros(10**6), rng=0)  # a parallel kernel call
+first = threads._calmed
+if sys.argv[1] == "other-thread":
+    release.set()
+    other.join()
+    ft.systematic(np.zeros(10**6), rng=0)
+print(blas is not None, first, threads._calmed, "OPENBLAS_THREAD_TIMEOUT" in os.environ,
+      np.allclose(a @ a, a.dot(a)))
+"""
+
+
+@pytest.mark.parametrize("case, env, want", [
+    ("default", {}, "True True True False True"),
+    ("user-timeout", {"OPENBLAS_THREAD_TIMEOUT": "8"}, "True False False True True"),
+    ("opted-out", {"FASTTRACK_CALM_BLAS": "0"}, "True False False False True"),
+    ("other-thread", {}, "True None True False True"),
+])
+def test_numpys_blas_workers_are_calmed_once_unless_told_not_to(case, env, want):
+    """Before the first parallel kernel, a pthreads OpenBLAS that NumPy loaded is told to
+    busy-wait less, once: not against the user's own timeout or FASTTRACK_CALM_BLAS=0, not
+    while another thread might be inside a product (then at a later call), and without
+    leaving the variable to child processes."""
+    clean = {k: v for k, v in os.environ.items()
+             if k not in ("OPENBLAS_THREAD_TIMEOUT", "FASTTRACK_CALM_BLAS")}
+    done = subprocess.run([sys.executable, "-c", _CALM_BLAS, case], capture_output=True,
+                          text=True, env={**clean, **env}, timeout=600)
+    assert done.returncode == 0, done.stderr
+    found = done.stdout.split()
+    if found[0] == "False":  # not a pthreads OpenBLAS: nothing is done
+        assert "True" not in found[1:3]
+        pytest.skip("NumPy's BLAS is not a pthreads OpenBLAS")
+    assert found == want.split()
+
+
 _USER_MODEL_STEP = """
 import numpy as np
 from numba import njit
