@@ -30,7 +30,7 @@ from .kinds import CV, FIXED
 from .jacobian import (ANALYTIC, measurement_jacobian, measurement_jacobian_function,
                        transition_jacobian_function)
 from .sensor import SELECT, _polar_jacobian, _predict_block, _sensor_frame
-from .linalg import _check_covariance, _cholesky, _sandwich, _solve
+from .linalg import _check_covariance, _cholesky, _covariance_code, _sandwich, _solve
 from .numeric import copy_into, fill, wrap_angle
 from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
                      PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
@@ -392,10 +392,10 @@ def linear_update(mapping, noise, angles, joseph, means, covariances, measuremen
     gain = np.empty((d, m))
     square = np.empty((d, d))
     work = np.empty((d, d))
+    scratch = np.empty((d, d))
     for t in range(k_tracks):
-        status[t] = OK
-        _check_covariance(1, covariances[t].reshape((d, d, 1)), status[t:t + 1],
-                          PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+        status[t] = _covariance_code(covariances[t], scratch, PREDICTION_NOT_SYMMETRIC,
+                                     PREDICTION_NOT_PSD)
         for j in range(m):
             if not np.isfinite(measurements[t, j]):
                 status[t] = MEASUREMENT_NOT_FINITE
@@ -453,9 +453,9 @@ def linear_update(mapping, noise, angles, joseph, means, covariances, measuremen
                     s = work[r, c]
                 covariances_out[t, r, c] = s
                 covariances_out[t, c, r] = s
-        if not joseph:
-            _check_covariance(1, covariances_out[t].reshape((d, d, 1)), status[t:t + 1],
-                              UPDATE_NOT_PSD, UPDATE_NOT_PSD)
+        if not joseph and status[t] == OK:
+            status[t] = _covariance_code(covariances_out[t], scratch, UPDATE_NOT_PSD,
+                                         UPDATE_NOT_PSD)
 
 
 # --- one filter: a state's (d, 1) column, its (d, d) covariance (a block of one) -----------

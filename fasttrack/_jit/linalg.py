@@ -81,10 +81,10 @@ def _check_covariance(nb, a, status, asymmetric, indefinite):
 
 
 @jit()
-def _semi_definite(a, lower):
-    """Whether one (n, n) ``a`` is symmetric positive semi-definite by the rule of
-    :func:`_check_covariance` (False for NaN); ``lower`` (n, n) is scratch, so that a loop
-    over many matrices allocates nothing."""
+def _covariance_code(a, lower, asymmetric, indefinite):
+    """OK, ``asymmetric`` or ``indefinite`` for one (n, n) ``a`` by the rule of
+    :func:`_check_covariance` (NaN fails it); ``lower`` (n, n) is scratch, so that a
+    loop over many matrices allocates nothing."""
     n = a.shape[0]
     top = 0.0
     largest = 0.0
@@ -95,14 +95,14 @@ def _semi_definite(a, lower):
     for i in range(n):
         for j in range(i):
             if not abs(a[i, j] - a[j, i]) <= 1e-9 * largest:
-                return False
+                return asymmetric
     tol = PSD_TOLERANCE * top
     for j in range(n):
         s = a[j, j]
         for k in range(j):
             s -= lower[j, k] * lower[j, k]
         if not s >= -tol:
-            return False
+            return indefinite
         lower[j, j] = np.sqrt(s) if s > tol else 0.0
         for i in range(j + 1, n):
             t = a[i, j]
@@ -113,8 +113,8 @@ def _semi_definite(a, lower):
             elif abs(t) <= np.sqrt(PSD_TOLERANCE) * top:
                 lower[i, j] = 0.0
             else:
-                return False
-    return True
+                return indefinite
+    return OK
 
 
 @jit()
