@@ -204,6 +204,14 @@ def real(value, name):
     return float(value)
 
 
+def probability(value, name):
+    """A real number in [0, 1], as a float."""
+    value = real(value, name)
+    if not 0.0 <= value <= 1.0:
+        raise ValueError(f"{name} must lie in [0, 1], got {value}")
+    return value
+
+
 def positive(value, name):
     """A finite real number > 0, as a float."""
     value = real(value, name)

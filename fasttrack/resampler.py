@@ -152,8 +152,8 @@ class ESSResampler(Resampler):
     Parameters
     ----------
     threshold : float, optional
-        Resample when ESS < threshold. Default: half the number of particles of each call
-        (computed per call, so it follows N).
+        Resample when ESS < threshold (> 0). Default: half the number of particles of each
+        call (computed per call, so it follows N).
     resampler : Resampler, optional
         The resampler used when it resamples (default: a :class:`SystematicResampler`).
     """
@@ -163,8 +163,9 @@ class ESSResampler(Resampler):
             if not isinstance(threshold, numbers.Real) or isinstance(threshold, bool):
                 raise TypeError(f"threshold must be a number or None, "
                                 f"got {type(threshold).__name__}")
-            if not np.isfinite(threshold):
-                raise ValueError(f"threshold must be finite, got {threshold}")
+            if not (np.isfinite(threshold) and threshold > 0):
+                raise ValueError(f"threshold must be finite and > 0 (an ESS is >= 1), "
+                                 f"got {threshold}")
         if resampler is None:
             resampler = SystematicResampler()
         if not callable(getattr(resampler, "resample", None)):

@@ -5,6 +5,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _validate
+from . import random as _random
 from .models import (Cartesian2DToBearing, CartesianToBearingRange,
                      CombinedLinearGaussianTransitionModel, ConstantVelocity, LinearGaussian)
 from .simulate import detections, ground_truth, multi_target
@@ -101,11 +103,11 @@ def grid_targets(n_targets=20, steps=50, spacing=20.0, clutter_rate=20.0, prob_d
     steps : int
         Scans, >= 1.
     spacing : float
-        Grid spacing, metres.
+        Grid spacing, metres, >= 0.
     clutter_rate : float
-        Expected clutter measurements per scan.
+        Expected clutter measurements per scan, in [0, 1e7].
     prob_detect : float
-        Probability of detection.
+        Probability of detection, in [0, 1].
     seed : None, int or numpy.random.SeedSequence
         Fixes the targets, detections and clutter.
 
@@ -113,6 +115,10 @@ def grid_targets(n_targets=20, steps=50, spacing=20.0, clutter_rate=20.0, prob_d
     -------
     fasttrack.simulate.MultiTargetScenario
     """
+    n_targets = _validate.count(n_targets, "n_targets")
+    spacing = _validate.non_negative(spacing, "spacing")
+    if not (isinstance(seed, np.random.SeedSequence) or seed is None):
+        _random.check_rng(seed, "seed")  # a TypeError or ValueError naming it
     rng = np.random.default_rng(seed)
     side = int(np.ceil(np.sqrt(n_targets)))
     grid = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2)

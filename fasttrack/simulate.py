@@ -19,22 +19,28 @@ def ground_truth(transition_model, initial_state, steps, time_interval=1.0, star
     Parameters
     ----------
     transition_model : TransitionModel
-    initial_state : (d,) array_like
+    initial_state : (d,) array_like or State
         The first state, at ``start_time``.
     steps : int
         Number of states, >= 1 (the first included).
     time_interval : datetime.timedelta or float seconds
+        > 0.
     start_time : datetime.datetime or float seconds
         Timestamps are ``start_time + k * time_interval``, datetimes if it is one.
     rng : None, int or numpy.random.Generator
     """
     steps = _validate.count(steps, "steps")
-    dt = seconds(time_interval)
+    dt = _interval(time_interval)
     check_timestamp(start_time, "start_time")
     if start_time is None:
         raise ValueError("start_time is required")
+    first = _validate.finite_array(getattr(initial_state, "state_vector", initial_state),
+                                   "initial_state").reshape(-1)
+    if first.size != transition_model.ndim_state:
+        raise ValueError(f"initial_state must have {transition_model.ndim_state} components "
+                         f"(the transition model's ndim_state), got {first.size}")
     rng = _random.generator(_random.check_rng(rng))
-    path = GroundTruthPath([GroundTruthState(initial_state, timestamp=start_time)])
+    path = GroundTruthPath([GroundTruthState(first, timestamp=start_time)])
     for k in range(1, steps):
         state = transition_model.function(path[-1], noise=True, time_interval=dt, rng=rng)
         path.append(GroundTruthState(state, timestamp=_advance(start_time, k * dt)))
@@ -58,9 +64,34 @@ def detections(truth, measurement_model, rng=None):
     list of Detection
     """
     rng = _random.generator(_random.check_rng(rng))
+    truth = list(truth) if hasattr(truth, "__iter__") else truth
+    if not isinstance(truth, list) or not all(hasattr(state, "state_vector")
+                                               and hasattr(state, "timestamp")
+                                               for state in truth):
+        raise TypeError(f"truth must be an iterable of states (with state_vector and "
+                        f"timestamp), such as a GroundTruthPath, got {type(truth).__name__}")
     return [Detection(measurement_model.function(state, noise=True, rng=rng),
                       timestamp=state.timestamp, measurement_model=measurement_model)
             for state in truth]
+
+
+def _interval(time_interval):
+    """``time_interval`` (a timedelta or seconds) in seconds, > 0."""
+    dt = seconds(time_interval)
+    if not dt > 0:
+        raise ValueError(f"time_interval must be > 0 seconds, got {dt}")
+    return dt
+
+
+#: The most clutter or births a scan may expect (more would not fit in memory).
+MAX_RATE = 1e7
+
+
+def _rate(value, name):
+    value = _validate.non_negative(value, name)
+    if value > MAX_RATE:
+        raise ValueError(f"{name} must be at most {MAX_RATE:g} a scan, got {value:g}")
+    return value
 
 
 def _advance(start, offset):
@@ -127,18 +158,18 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
         Number of scans, >= 1.
     region : (2, m) array_like
         Lower and upper corner of the clutter region, in measurement space.
-    time_interval : float
+    time_interval : datetime.timedelta or float
         Seconds between scans, > 0.
     prob_detect : float
         Probability of detection P_D, in [0, 1].
     clutter_rate : float
-        Expected clutter measurements per scan, >= 0.
+        Expected clutter measurements per scan, in [0, 1e7].
     birth_rate : float
-        Expected births per scan, >= 0.
+        Expected births per scan, in [0, 1e7].
     birth_mean : (d,) array_like, optional
         Mean of a new target's state (required if ``birth_rate > 0``).
     birth_covar : (d, d) array_like, optional
-        Its covariance.
+        Its covariance, symmetric positive semi-definite.
     prob_survive : float
         Probability that a target lives on to the next scan, in [0, 1].
     rng : None, int or numpy.random.Generator
@@ -156,17 +187,23 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
     if region.shape != (2, m) or np.any(region[1] <= region[0]):
         raise ValueError(f"region must be (2, {m}): a lower and a larger upper corner, "
                          f"got {region.tolist()}")
-    for name, p in (("prob_detect", prob_detect), ("prob_survive", prob_survive)):
-        if not 0 <= p <= 1:
-            raise ValueError(f"{name} must be in [0, 1], got {p}")
-    for name, rate in (("clutter_rate", clutter_rate), ("birth_rate", birth_rate)):
-        if not rate >= 0:
-            raise ValueError(f"{name} must be >= 0, got {rate}")
+    with np.errstate(over="ignore"):
+        volume = float(np.prod(region[1] - region[0]))
+    if not np.isfinite(volume):
+        raise ValueError(f"region's volume overflows float64, got {region.tolist()}")
+    prob_detect = _validate.probability(prob_detect, "prob_detect")
+    prob_survive = _validate.probability(prob_survive, "prob_survive")
+    clutter_rate = _rate(clutter_rate, "clutter_rate")
+    birth_rate = _rate(birth_rate, "birth_rate")
     if birth_rate > 0 and (birth_mean is None or birth_covar is None):
         raise ValueError("birth_rate > 0 needs birth_mean and birth_covar")
-    dt = float(time_interval)
-    if not dt > 0:
-        raise ValueError(f"time_interval must be > 0 seconds, got {time_interval}")
+    if birth_mean is not None:
+        birth_mean = _validate.finite_array(birth_mean, "birth_mean").reshape(-1)
+        if birth_mean.size != d:
+            raise ValueError(f"birth_mean must have {d} components, got {birth_mean.size}")
+    if birth_covar is not None:
+        birth_covar = _validate.psd_covariance(birth_covar, "birth_covar", d)
+    dt = _interval(time_interval)
     rng = _random.generator(_random.check_rng(rng))
     ids = np.arange(states.shape[0])
     next_id = states.shape[0]
@@ -180,7 +217,7 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
                     states.T, noise=True, time_interval=dt, rng=rng).T)
             born = rng.poisson(birth_rate) if birth_rate > 0 else 0
             if born:
-                new = rng.multivariate_normal(np.ravel(birth_mean), birth_covar, born)
+                new = rng.multivariate_normal(birth_mean, birth_covar, born)
                 states = np.concatenate((states, new))
                 ids = np.concatenate((ids, np.arange(next_id, next_id + born)))
                 next_id += born
@@ -194,7 +231,6 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
         out["truth_ids"].append(ids.copy())
         out["detections"].append(np.ascontiguousarray(np.concatenate((measured, clutter))[shuffle]))
         out["origins"].append(np.concatenate((ids[seen], np.full(clutter.shape[0], -1)))[shuffle])
-    volume = float(np.prod(region[1] - region[0]))
     return MultiTargetScenario(transition_model, measurement_model, time_interval=dt,
                                region=region,
                                clutter_density=clutter_rate / volume, **out)

@@ -367,7 +367,7 @@ def test_bad_input_is_a_clear_error():
     batch = ft.BatchExtendedKalmanFilter(transition, sensor)
     means, covars, measurements, intervals = _batch_inputs(5)
     covars[3] = np.diag([1, -1, 1, 1.0])
-    with pytest.raises(ValueError, match="1 of 5 filters failed; filter 3: prior.covar is not positive"):
+    with pytest.raises(ValueError, match=r"1 of 5 filters failed; filter 3: covars\[3\] is not positive"):
         batch.step(means, covars, measurements, intervals)
     with pytest.raises(ValueError, match=r"covars must have shape \(5, 4, 4\)"):
         batch.step(means, covars[:, :3], measurements, intervals)

@@ -193,7 +193,7 @@ def test_strict_inputs_of_calls():
     with pytest.raises(TypeError, match="time_intervals must be a numeric"):
         batch.step(means, covars, np.zeros((2, 2)), "1.0")
     covars[1, 0, 1] = 0.5
-    with pytest.raises(ValueError, match=r"1 of 2 filters failed; filter 1: prior.covar is not "
+    with pytest.raises(ValueError, match=r"1 of 2 filters failed; filter 1: covars\[1\] is not "
                                          r"symmetric"):
         batch.step(means, covars, np.zeros((2, 2)), 1.0)
 

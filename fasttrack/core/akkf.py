@@ -4,11 +4,11 @@ A set is its (d, M) particles, (M,) weights and the factors ``(L, sigma, V1, V2)
 kernel covariance ``L L^T + sigma (I - V1 V2^T)(I - V1 V2^T)^T`` (see
 :mod:`fasttrack.types`).
 """
-import numbers
 
 import numpy as np
 
 from .. import _jit
+from .. import _validate
 from .. import random as _random
 from . import akkf_numpy as _numpy
 from .kinds import MATRIX
@@ -18,13 +18,11 @@ _gram = _jit.lazy("gram")
 
 
 def angle_mask(ndim, angle_components=()):
-    """A (ndim,) bool array flagging ``angle_components`` (rows in [0, ndim))."""
+    """A (ndim,) bool array flagging ``angle_components`` (integer rows in [0, ndim); None
+    for none): a TypeError for anything but a sequence of integers."""
     mask = np.zeros(ndim, dtype=np.bool_)
-    for row in angle_components:
-        if not (isinstance(row, numbers.Integral) and 0 <= row < ndim):
-            raise ValueError(f"angle_components must be rows in [0, {ndim}), "
-                             f"got {tuple(angle_components)}")
-        mask[row] = True
+    if angle_components is not None:
+        mask[list(_validate.indices(angle_components, "angle_components", ndim))] = True
     return mask
 
 

@@ -35,13 +35,6 @@ from .._jit.tunables import ENUMERATED_EVENTS, MAX_FRONTIER, MAX_NODES
 _kernels = _jit.lazy("jpda")
 
 
-def _probability(value, name):
-    value = _validate.real(value, name)
-    if not 0.0 <= value <= 1.0:
-        raise ValueError(f"{name} must lie in [0, 1], got {value}")
-    return value
-
-
 @functools.lru_cache(maxsize=256)
 def _gate(prob_gate, m):
     """Stone Soup's gate threshold ``chi2.ppf(prob_gate, m)`` and the factor of the gate
@@ -118,8 +111,8 @@ def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
         raise ValueError(f"detections must have shape (M, {m}) (means has {m} components), "
                          f"got {detections.shape}")
     n_dets = detections.shape[0]
-    prob_detect = _probability(prob_detect, "prob_detect")
-    prob_gate = _probability(prob_gate, "prob_gate")
+    prob_detect = _validate.probability(prob_detect, "prob_detect")
+    prob_gate = _validate.probability(prob_gate, "prob_gate")
     include_all = _validate.flag(include_all, "include_all")
     normalise = _validate.flag(normalise, "normalise")
     if clutter_spatial_density is None:

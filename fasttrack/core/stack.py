@@ -57,7 +57,16 @@ def check(status):
     failed = np.flatnonzero(status)
     if failed.size:
         raise ValueError(f"{failed.size} of {status.size} filters failed; filter "
-                         f"{failed[0]}: {_errors.MESSAGES[status[failed[0]]]}")
+                         f"{failed[0]}: {_message(status[failed[0]], failed[0])}")
+
+
+def _message(code, k):
+    """The message of filter ``k``'s status ``code``, naming its input covariance
+    ``covars[k]`` where the code is about it."""
+    message = _errors.MESSAGES[code]
+    for name in ("prior.covar", "the prediction's covariance"):
+        message = message.replace(name, f"covars[{k}]")
+    return message
 
 
 def run(step, transition_args, intervals, means, covars, measurements):
@@ -80,6 +89,8 @@ def run(step, transition_args, intervals, means, covars, measurements):
     failed = np.flatnonzero(codes)
     if failed.size:
         first = failed[0]
+        message = (_message(codes[first], first) if failed_at[first] == 0
+                   else _errors.MESSAGES[codes[first]])
         raise ValueError(f"{failed.size} of {k} filters failed; filter {first} at step "
-                         f"{failed_at[first]}: {_errors.MESSAGES[codes[first]]}")
+                         f"{failed_at[first]}: {message}")
     return means_out, covars_out

@@ -1,0 +1,121 @@
+"""Bad input to the simulation, scenario, allocator, kernel and resampler faces: each error
+names the argument (TypeError for a type, ValueError for a value), and legal edge cases
+work."""
+import datetime
+
+import numpy as np
+import pytest
+
+import fasttrack as ft
+from fasttrack.scenarios import grid_targets
+from fasttrack.simulate import detections, ground_truth, multi_target
+
+TRANSITION = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+SENSOR = ft.LinearGaussian(4, (0, 2), np.eye(2))
+REGION = [[0.0, 0.0], [100.0, 100.0]]
+
+
+@pytest.mark.parametrize("arguments, error, match", [
+    (dict(n_targets=0), ValueError, "n_targets must be >= 1"),
+    (dict(n_targets=2.5), TypeError, "n_targets must be an int"),
+    (dict(n_targets=True), TypeError, "n_targets must be an int"),
+    (dict(clutter_rate=np.inf), ValueError, "clutter_rate must be finite"),
+    (dict(clutter_rate=1e30), ValueError, "clutter_rate must be at most 1e\\+07"),
+    (dict(clutter_rate="20"), TypeError, "clutter_rate must be a real number"),
+    (dict(spacing=-1.0), ValueError, "spacing must be finite and >= 0"),
+    (dict(spacing=np.nan), ValueError, "spacing must be finite"),
+    (dict(prob_detect="0.9"), TypeError, "prob_detect must be a real number"),
+    (dict(prob_detect=1.5), ValueError, r"prob_detect must lie in \[0, 1\]"),
+    (dict(seed=-1), ValueError, "seed must be a non-negative seed"),
+    (dict(seed=1.5), TypeError, "seed must be None, an int seed"),
+])
+def test_grid_targets_names_a_bad_argument(arguments, error, match):
+    with pytest.raises(error, match=match):
+        grid_targets(**{"n_targets": 4, "steps": 3, **arguments})
+
+
+@pytest.mark.parametrize("arguments, error, match", [
+    (dict(birth_rate=1.0, birth_mean=np.zeros(4), birth_covar=np.diag([1.0, -1, 1, 1])),
+     ValueError, "birth_covar is not positive semi-definite"),
+    (dict(birth_rate=1.0, birth_mean=np.zeros(4), birth_covar=np.eye(4) + np.eye(4, k=1)),
+     ValueError, "birth_covar must be symmetric"),
+    (dict(birth_rate=1.0, birth_mean=np.zeros(4), birth_covar=np.eye(3)), ValueError,
+     r"birth_covar must have shape \(4, 4\)"),
+    (dict(birth_rate=1.0, birth_mean=np.zeros(4), birth_covar=np.full((4, 4), np.nan)),
+     ValueError, "birth_covar contains NaN"),
+    (dict(birth_rate=1.0, birth_mean=np.full(4, np.nan), birth_covar=np.eye(4)), ValueError,
+     "birth_mean contains NaN"),
+    (dict(birth_rate=1.0, birth_mean=np.zeros(3), birth_covar=np.eye(4)), ValueError,
+     "birth_mean must have 4 components"),
+    (dict(birth_rate=np.inf), ValueError, "birth_rate must be finite"),
+    (dict(clutter_rate=1e12), ValueError, "clutter_rate must be at most"),
+    (dict(prob_detect=True), TypeError, "prob_detect must be a real number, got bool"),
+    (dict(time_interval="1"), TypeError, "time_interval must be a datetime.timedelta"),
+    (dict(time_interval=0.0), ValueError, "time_interval must be > 0 seconds"),
+    (dict(region=[[-1e308, -1e308], [1e308, 1e308]]), ValueError, "region's volume overflows"),
+])
+def test_multi_target_names_a_bad_argument(arguments, error, match):
+    with pytest.raises(error, match=match):
+        multi_target(TRANSITION, SENSOR, np.zeros((2, 4)), 3, **{"region": REGION,
+                                                                 **arguments})
+
+
+def test_multi_target_takes_a_timedelta_interval():
+    seconds = multi_target(TRANSITION, SENSOR, np.zeros((2, 4)), 3, REGION, rng=1)
+    delta = multi_target(TRANSITION, SENSOR, np.zeros((2, 4)), 3, REGION, rng=1,
+                         time_interval=datetime.timedelta(seconds=1))
+    assert delta.time_interval == 1.0
+    for a, b in zip(seconds.detections, delta.detections):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_ground_truth_and_detections_name_a_bad_argument():
+    for interval in (-1.0, 0.0):
+        with pytest.raises(ValueError, match="time_interval must be > 0 seconds"):
+            ground_truth(TRANSITION, [0, 1, 0, 1], 3, time_interval=interval)
+    with pytest.raises(ValueError, match="time_interval of 1e\\+308 s overflows Q"):
+        ground_truth(TRANSITION, [0, 1, 0, 1], 3, time_interval=1e308)
+    with pytest.raises(ValueError, match="initial_state must have 4 components"):
+        ground_truth(TRANSITION, [0, 1, 0], 3)
+    with pytest.raises(TypeError, match="initial_state must be a numeric array"):
+        ground_truth(TRANSITION, "start", 3)
+    state = ft.GroundTruthState([0.0, 1.0, 0.0, 1.0], timestamp=0.0)  # a State is taken
+    assert len(ground_truth(TRANSITION, state, 3, rng=0)) == 3
+    with pytest.raises(TypeError, match="truth must be an iterable of states"):
+        detections(np.zeros((3, 4)), SENSOR)
+    with pytest.raises(TypeError, match="truth must be an iterable of states"):
+        detections(5, SENSOR)
+
+
+@pytest.mark.parametrize("arguments, error, match", [
+    (dict(mmap_threshold_mb=-1), ValueError, "mmap_threshold_mb must be finite and >= 0"),
+    (dict(mmap_threshold_mb=1e9), ValueError, "mmap_threshold_mb must be below 2048 MiB"),
+    (dict(mmap_threshold_mb=np.nan), ValueError, "mmap_threshold_mb must be finite"),
+    (dict(mmap_threshold_mb="64"), TypeError, "mmap_threshold_mb must be a real number"),
+    (dict(trim_threshold_mb=-5), ValueError, "trim_threshold_mb must be finite and >= 0"),
+    (dict(trim_threshold_mb=1e7), ValueError, "trim_threshold_mb must be below 2048 MiB"),
+])
+def test_tune_allocator_names_a_bad_size(arguments, error, match):
+    with pytest.raises(error, match=match):
+        ft.tune_allocator(**arguments)
+
+
+@pytest.mark.parametrize("angles, error, match", [
+    (0, TypeError, "angle_components must be a sequence of integer indices, got int"),
+    ("0", TypeError, "angle_components must be a sequence of integer indices, got str"),
+    ([True], TypeError, "angle_components must hold integer indices, got True"),
+    ([1.0], TypeError, "angle_components must hold integer indices, got 1.0"),
+    ([5], ValueError, r"angle_components indices must lie in \[0, 2\)"),
+])
+def test_kernel_angle_components_are_integer_rows(angles, error, match):
+    x = np.random.default_rng(0).random((2, 5))
+    with pytest.raises(error, match=match):
+        ft.GaussianKernel()(x, x, angle_components=angles)
+    np.testing.assert_array_equal(ft.GaussianKernel()(x, x, angle_components=None),
+                                  ft.GaussianKernel()(x, x))
+
+
+@pytest.mark.parametrize("threshold", [-5.0, 0.0, np.nan])
+def test_ess_threshold_must_be_positive(threshold):
+    with pytest.raises(ValueError, match="threshold must be finite and > 0"):
+        ft.ESSResampler(threshold=threshold)
