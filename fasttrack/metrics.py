@@ -30,6 +30,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .core import metric as _metric
+from . import _validate
 from ._validate import _describe, non_negative, positive, real
 
 __all__ = ["GOSPAResult", "gospa", "gospa_over_time", "ospa", "ospa_over_time",
@@ -44,7 +45,7 @@ def position_rmse(track, truth, mapping=(0, 2), pair="order"):
     ----------
     track, truth : sequences of states (with ``mean`` or ``state_vector``)
     mapping : sequence of int
-        The position components.
+        The position components (at least one, distinct rows of the states).
     pair : {'order', 'timestamp'}
         Pair the states in order (the sequences of the same length), or each track state
         with the truth state of its timestamp (a truth with states at other times too, e.g.
@@ -63,10 +64,38 @@ def position_rmse(track, truth, mapping=(0, 2), pair="order"):
         raise ValueError(f"track and truth must be non-empty and of the same length, "
                          f"got {len(track)} and {len(truth)} (pair='timestamp' matches "
                          f"them by time)")
-    index = list(mapping)
-    errors = [np.ravel(getattr(s, "mean", s.state_vector))[index]
-              - np.ravel(t.state_vector)[index] for s, t in zip(track, truth)]
-    return float(np.sqrt(np.mean(np.sum(np.square(errors), axis=1))))
+    estimated = _positions(track, "track", lambda s: getattr(s, "mean", s.state_vector))
+    true = _positions(truth, "truth", lambda s: s.state_vector)
+    if estimated.shape[1] != true.shape[1]:
+        raise ValueError(f"track and truth states must have the same dimension, got "
+                         f"{estimated.shape[1]} and {true.shape[1]}")
+    index = list(_validate.indices(mapping, "mapping", estimated.shape[1], minimum=1))
+    if len(set(index)) != len(index):
+        raise ValueError(f"mapping must name distinct rows, got {tuple(index)}")
+    errors = estimated[:, index] - true[:, index]
+    scale = np.abs(errors).max()  # |errors| / scale <= 1: the squares cannot overflow
+    if not np.isfinite(scale):
+        raise ValueError("the position errors overflow float64")
+    if scale == 0:
+        return 0.0
+    return float(scale * np.sqrt(np.mean(np.sum(np.square(errors / scale), axis=1))))
+
+
+def _positions(states, name, vector):
+    """(n, d) float64 of the ``vector`` of each of ``states``, naming a bad one."""
+    rows = []
+    for k, state in enumerate(states):
+        if not hasattr(state, "state_vector"):
+            raise TypeError(f"{name}[{k}] must be a state (with a state_vector), got "
+                            f"{type(state).__name__}")
+        rows.append(np.ravel(vector(state)))
+    if len({row.size for row in rows}) > 1:
+        raise ValueError(f"{name}'s states must all have one dimension")
+    out = np.array(rows, dtype=np.float64)
+    bad = ~np.isfinite(out).all(axis=1)
+    if bad.any():
+        raise ValueError(f"{name}[{np.argmax(bad)}] contains NaN or infinite values")
+    return out
 
 
 class GOSPAResult(NamedTuple):
@@ -129,6 +158,8 @@ def _points(value, name):
 
 def _counts(value, name, steps, largest, points_name):
     counts = np.asarray(value)
+    if counts.size and counts.dtype.kind not in "iu":
+        raise TypeError(f"{name} must hold integers, got {_describe(counts)}")
     if counts.dtype.kind not in "iu" or counts.shape != (steps,):
         raise ValueError(f"{name} must be {steps} integers (one per step of {points_name}), "
                          f"got {_describe(value)} of shape {counts.shape}")
@@ -218,6 +249,12 @@ def _parameters(c, p, alpha=None, infinite_p=False):
         p = real(p, "p")
         if not p >= 1:
             raise ValueError(f"p must be >= 1{' (or inf)' if infinite_p else ''}, got {p}")
+        with np.errstate(over="ignore", under="ignore"):
+            cut = np.float64(c) ** p
+        if not 1e-300 <= cut <= 1e300:
+            raise ValueError(f"c ** p must lie in [1e-300, 1e300] (the distances are summed "
+                             f"to the power p), got c = {c:g}, p = {p:g}: rescale the points "
+                             f"so that c is nearer 1, or lower p")
     if alpha is not None:
         alpha = real(alpha, "alpha")
         if not 0 < alpha <= 2:

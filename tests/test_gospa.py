@@ -10,6 +10,7 @@ import sys
 import numpy as np
 import pytest
 
+import fasttrack as ft
 from fasttrack import metrics
 from fasttrack._jit import assign as kernels
 from fasttrack.metrics import gospa, gospa_over_time, ospa, ospa_over_time, position_rmse
@@ -378,8 +379,16 @@ def test_kernels_run_with_the_jit_disabled():
                              truth_counts=[1, 4]), ValueError,
      r"truth_counts must lie in \[0, 3\]"),
     (lambda: gospa_over_time(np.zeros((2, 3, 2)), np.zeros((2, 3, 2)), 1.0,
-                             estimate_counts=[1.0, 2.0]), ValueError,
+                             estimate_counts=[1.0, 2.0]), TypeError,
+     "estimate_counts must hold integers"),
+    (lambda: gospa_over_time(np.zeros((2, 3, 2)), np.zeros((2, 3, 2)), 1.0,
+                             estimate_counts=[1]), ValueError,
      "estimate_counts must be 2 integers"),
+    (lambda: gospa([[0.0]], [[0.0]], 10.0, p=400), ValueError,
+     r"c \*\* p must lie in \[1e-300, 1e300\].*c = 10, p = 400"),
+    (lambda: gospa([[0.0]], [[0.0]], 1e200, p=2), ValueError, r"c \*\* p must lie in"),
+    (lambda: gospa([[0.0]], [[0.0]], 1e-200, p=2), ValueError, r"c \*\* p must lie in"),
+    (lambda: ospa([[0.0]], [[0.0]], 10.0, p=1e6), ValueError, r"c \*\* p must lie in"),
     (lambda: gospa_over_time([[[0.0]]], [[[0.0]]], 1.0, truth_counts=[1]), ValueError,
      "truth_counts is only for a padded"),
     (lambda: gospa_over_time(np.zeros((4, 2)), np.zeros((4, 2)), 1.0), TypeError,
@@ -402,6 +411,45 @@ def test_kernels_run_with_the_jit_disabled():
 def test_bad_input_is_rejected_naming_the_argument(call, error, match):
     with pytest.raises(error, match=match):
         call()
+
+
+def test_points_far_apart_are_at_the_cut_off():
+    """A pair 2e200 apart (its squared distance overflows) costs c ** p, not inf."""
+    far = gospa([[1e200, 0.0]], [[-1e200, 0.0]], 3.0, 2)
+    assert far.distance == pytest.approx(np.sqrt(9.0))  # one missed and one false: 2 c^2 / 2
+    assert far.assignment.tolist() == [-1]
+    assert ospa([[1e200, 0.0]], [[-1e200, 0.0]], 3.0, 2) == pytest.approx(3.0)
+
+
+def _states(vectors):
+    return [ft.State(v, timestamp=float(k)) for k, v in enumerate(vectors)]
+
+
+@pytest.mark.parametrize("change, error, match", [
+    (dict(track_nan=True), ValueError, r"track\[1\] contains NaN or infinite values"),
+    (dict(truth_nan=True), ValueError, r"truth\[1\] contains NaN or infinite values"),
+    (dict(mapping=(0, 9)), ValueError, r"mapping indices must lie in \[0, 4\)"),
+    (dict(mapping=(-1,)), ValueError, r"mapping indices must lie in \[0, 4\)"),
+    (dict(mapping=()), ValueError, "mapping needs at least 1 indices"),
+    (dict(mapping=(0, 0)), ValueError, "mapping must name distinct rows"),
+    (dict(mapping=(0.0, 2.0)), TypeError, "mapping must hold integer indices"),
+    (dict(truth=np.zeros((3, 2))), TypeError, r"truth\[0\] must be a state"),
+    (dict(truth=_states(np.zeros((3, 2)))), ValueError, "the same dimension, got 4 and 2"),
+])
+def test_position_rmse_names_bad_input(change, error, match):
+    track, truth = _states(np.zeros((3, 4))), _states(np.ones((3, 4)))
+    if change.pop("track_nan", False):
+        track[1].state_vector[0, 0] = np.nan
+    if change.pop("truth_nan", False):
+        truth[1].state_vector[2, 0] = np.inf
+    with pytest.raises(error, match=match):
+        position_rmse(track, change.pop("truth", truth), **change)
+
+
+def test_position_rmse_of_huge_errors_does_not_overflow():
+    track, truth = _states(np.full((3, 4), 1e200)), _states(np.zeros((3, 4)))
+    assert position_rmse(track, truth) == pytest.approx(np.sqrt(2) * 1e200)
+    assert position_rmse(truth, truth) == 0.0
 
 
 def test_position_rmse_is_still_exported_and_the_module_lists_its_names():
