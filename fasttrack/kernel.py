@@ -36,9 +36,9 @@ class Kernel:
         ----------
         state1, state2 : state object or (d,) / (d, N) array_like
             Points as columns (``state2`` defaults to ``state1``).
-        angle_components : sequence of int
+        angle_components : sequence of int, optional
             Rows that are angles (rad), for the Gaussian kernel (see there); polynomial
-            kernels, which see only inner products, ignore them.
+            kernels, which see only inner products, ignore them. None for none.
 
         Returns
         -------
@@ -53,7 +53,11 @@ class Kernel:
                              f"got {x1.shape[0]} and {x2.shape[0]}")
         angles = self.angle_mask(x1.shape[0], angle_components)
         others = np.empty((x1.shape[0], 0)) if state2 is None else x2
-        return _akkf.gram(self._kind, self._parameters(), angles, x1, x2, others)
+        gram = _akkf.gram(self._kind, self._parameters(), angles, x1, x2, others)
+        if not np.isfinite(gram).all():
+            raise ValueError("the kernel values are not finite (the points' distances or "
+                             "inner products overflow): rescale state1 and state2")
+        return gram
 
     @staticmethod
     def angle_mask(ndim, angle_components=()):

@@ -115,6 +115,13 @@ def test_kernel_angle_components_are_integer_rows(angles, error, match):
                                   ft.GaussianKernel()(x, x))
 
 
+def test_kernel_values_that_overflow_are_refused():
+    x = np.random.default_rng(0).normal(size=(2, 5)) * 1e300
+    for kernel in (ft.GaussianKernel(), ft.QuadraticKernel()):
+        with pytest.raises(ValueError, match="kernel values are not finite .* rescale state1"):
+            kernel(x)
+
+
 @pytest.mark.parametrize("threshold", [-5.0, 0.0, np.nan])
 def test_ess_threshold_must_be_positive(threshold):
     with pytest.raises(ValueError, match="threshold must be finite and > 0"):
