@@ -18,6 +18,9 @@ MESSAGES = {
                             "use_joseph_cov=True keeps it)",
 }
 
+#: Codes that the array layer treats apart.
+JACOBIAN_UNDEFINED, UPDATE_NOT_PSD = _status.JACOBIAN_UNDEFINED, _status.UPDATE_NOT_PSD
+
 #: Codes about the output of a user's model function.
 FUNCTION_CODES = (_status.FUNCTION_SHAPE, _status.FUNCTION_NOT_FINITE)
 

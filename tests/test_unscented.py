@@ -302,8 +302,9 @@ def test_close_passes_complete_with_every_default_gaussian_filter(kind):
 
 def test_the_standard_form_raises_at_the_update_where_stone_soup_loses_psd():
     """Pass 88 of the close passes: Stone Soup's UKF (standard form) leaves a covariance
-    with a negative eigenvalue there and goes on silently; fasttrack's standard form
-    equals it until then and raises at that update, the single filter and the batch."""
+    with a negative eigenvalue there and goes on silently, as its drop-in does; fasttrack's
+    standard form equals it until then and raises at that update, the single filter and the
+    batch."""
     pytest.importorskip("stonesoup")
     from stonesoup.predictor.kalman import UnscentedKalmanPredictor
     from stonesoup.types.hypothesis import SingleHypothesis
@@ -315,14 +316,22 @@ def test_the_standard_form_raises_at_the_update_where_stone_soup_loses_psd():
     their_sensor.translation_offset = np.zeros((2, 1))
     predictor, updater = UnscentedKalmanPredictor(_stonesoup(1.0)[0].transition_model), \
         UnscentedKalmanUpdater(their_sensor)
-    state = GaussianState(prior.state_vector, prior.covar, timestamp=START)
-    theirs = []
-    for t, measurement in enumerate(z, start=1):
-        detection = _stonesoup_detection(measurement, START + t * SECOND, their_sensor)
-        state = updater.update(SingleHypothesis(
-            predictor.predict(state, timestamp=detection.timestamp), detection))
-        theirs.append(np.asarray(state.covar, float))
+    from fasttrack.stonesoup import UnscentedKalmanUpdater as DropIn
+
+    def covariances(updater):
+        state, out = GaussianState(prior.state_vector, prior.covar, timestamp=START), []
+        for t, measurement in enumerate(z, start=1):
+            detection = _stonesoup_detection(measurement, START + t * SECOND, their_sensor)
+            state = updater.update(SingleHypothesis(
+                predictor.predict(state, timestamp=detection.timestamp), detection))
+            out.append(np.asarray(state.covar, float))
+        return out
+
+    theirs = covariances(updater)
     lost = next(t for t, covar in enumerate(theirs) if not _positive_semi_definite(covar))
+    dropin = covariances(DropIn(their_sensor))  # Stone Soup's numbers, the indefinite one too
+    for mine, their in zip(dropin[:lost + 1], theirs):
+        assert _relative(mine, their) < 1e-9
     standard = (ft.UnscentedKalmanPredictor(transition),
                 ft.UnscentedKalmanUpdater(sensor, use_joseph_cov=False))
     ours = _filter(*standard, prior, z[:lost])

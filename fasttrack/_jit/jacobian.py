@@ -73,8 +73,8 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
     """Jacobian (m, d) of a built-in measurement at the state x (d,).
 
     SELECT is exact whatever ``method``; the polar sensors are analytic for ANALYTIC, finite
-    differences otherwise. A bearing's derivative is undefined at the sensor: NaN there,
-    whatever ``method``.
+    differences otherwise. A bearing's derivative is undefined at the sensor: NaN there, but
+    for FORWARD (Stone Soup's rule, which gives numbers there too).
     """
     d = x.size
     fill(out, 0.0)
@@ -83,7 +83,7 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
             out[r, mapping[r]] = 1.0
         return
     px, py = _sensor_frame(x[mapping[0]], x[mapping[1]], offset, rotation)
-    if px == 0.0 and py == 0.0:
+    if px == 0.0 and py == 0.0 and method != FORWARD:
         fill(out, np.nan)
         return
     if method == ANALYTIC:

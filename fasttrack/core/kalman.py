@@ -70,7 +70,7 @@ def transition_jacobian(model, dt, x, jacobian="forward"):
     return out
 
 
-def update(model, x, covar, z, jacobian="analytic", joseph=True):
+def update(model, x, covar, z, jacobian="analytic", joseph=True, strict=True):
     """``(x, P, z_hat, S, cross)`` of one update with measurement ``z`` (m, 1): the
     posterior (d, 1) and (d, d), the predicted measurement (m, 1), its innovation covariance
     (m, m) and the cross covariance ``P H^T`` (d, m).
@@ -78,13 +78,17 @@ def update(model, x, covar, z, jacobian="analytic", joseph=True):
     ``jacobian`` names the linearisation of a nonlinear ``model`` (see :data:`JACOBIANS`;
     function-built models use finite differences, 'analytic' meaning 'forward'); ``joseph``
     selects the Joseph-form covariance. Raises ValueError when the step is undefined (see
-    :mod:`fasttrack._errors`).
+    :mod:`fasttrack._errors`); unless ``strict``, as Stone Soup, not for a standard-form
+    posterior that is not positive semi-definite or Stone Soup's forward differences at a
+    polar sensor (for the drop-ins, and where only the measurement prediction is kept).
     """
     spec = model.spec
+    if strict and jacobian == "forward" and spec.kind not in (SELECT, FUNCTION) \
+            and _numpy.at_sensor(spec, x):
+        _errors.check(_errors.JACOBIAN_UNDEFINED)
     if in_numpy(spec.kind):
         status, *out = _numpy.update(spec, JACOBIANS[jacobian], joseph, x, covar, z)
-        if status:
-            _errors.check(status, spec.function, x)
+        _check_update(status, strict, spec, x)
         return tuple(out)
     m, d = spec.ndim_meas, spec.ndim_state
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
@@ -96,9 +100,15 @@ def update(model, x, covar, z, jacobian="analytic", joseph=True):
                                          *arguments)
     else:
         status = _kalman.update_one(*spec.sensor, JACOBIANS[jacobian], joseph, *arguments)
-    if status:
-        _errors.check(status, spec.function, x)
+    _check_update(status, strict, spec, x)
     return x_out, covar_out, z_hat, s, cross
+
+
+def _check_update(status, strict, spec, x):
+    """Raise the error of an update's ``status``; unless ``strict``, not for a posterior
+    that is not positive semi-definite."""
+    if status and (strict or status != _errors.UPDATE_NOT_PSD):
+        _errors.check(status, spec.function, x)
 
 
 # -- stacks of K filters: (K, d) means, (K, d, d) covariances ----------------------------

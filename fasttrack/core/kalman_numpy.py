@@ -18,7 +18,7 @@ from .._jit.status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NO
                            PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
                            PRIOR_NOT_SYMMETRIC, UPDATE_NOT_PSD)
 from .._jit.tunables import PSD_TOLERANCE
-from .kinds import ANALYTIC, BEARING_RANGE, CENTRAL, SELECT
+from .kinds import ANALYTIC, BEARING_RANGE, CENTRAL, FORWARD, SELECT
 
 
 def covariance_status(a, asymmetric, indefinite):
@@ -101,10 +101,16 @@ def measure(sensor, points):
     return bearing[None]
 
 
+def at_sensor(sensor, x):
+    """Whether the state ``x`` (d, 1) is at the polar ``sensor``'s position."""
+    px, py = _polar(sensor, x)
+    return float(px[0]) == 0.0 and float(py[0]) == 0.0
+
+
 def jacobian(sensor, method, x):
     """The (m, d) measurement Jacobian at ``x`` (d, 1) by ``method`` (ANALYTIC, FORWARD,
     CENTRAL: the kernels' rules and steps); NaN where a bearing is taken at the sensor
-    (by any method)."""
+    (but for FORWARD, Stone Soup's rule)."""
     m, d = sensor.ndim_meas, x.shape[0]
     out = np.zeros((m, d))
     if sensor.kind == SELECT:
@@ -112,7 +118,7 @@ def jacobian(sensor, method, x):
         return out
     px, py = (float(v[0]) for v in _polar(sensor, x))
     rho2 = px * px + py * py
-    if rho2 == 0.0:
+    if rho2 == 0.0 and method != FORWARD:
         return np.full((m, d), np.nan)
     if method == ANALYTIC:
         columns, rotation = sensor.mapping[:2], sensor.rotation

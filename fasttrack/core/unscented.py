@@ -117,15 +117,16 @@ def _through_function(spec, x, covar, alpha, beta, kappa, cross):
     return x_out, covar_out
 
 
-def update(model, x, covar, z, alpha, beta, kappa, joseph=False):
+def update(model, x, covar, z, alpha, beta, kappa, joseph=False, strict=True):
     """``(x, P, z_hat, S, cross)`` of one unscented update with measurement ``z`` (m, 1) by
     ``model`` (see :func:`check_measurement`); ``kappa`` is resolved (a float, see
     :func:`scaling`). Raises ValueError when the step is undefined (see
-    :mod:`fasttrack._errors`)."""
+    :mod:`fasttrack._errors`); unless ``strict``, not for a standard-form posterior that
+    is not positive semi-definite (as Stone Soup)."""
     spec = model.spec
     if in_numpy(spec.kind):
         status, *out = _numpy.unscented_update(spec, alpha, beta, kappa, joseph, x, covar, z)
-        if status:
+        if status and (strict or status != _errors.UPDATE_NOT_PSD):
             _errors.check(status)
         return tuple(out)
     m, d = spec.ndim_meas, spec.ndim_state
@@ -139,7 +140,7 @@ def update(model, x, covar, z, alpha, beta, kappa, joseph=False):
     else:
         status = _unscented.unscented_update(*spec.sensor, alpha, beta, kappa, joseph,
                                              *outputs)
-    if status:
+    if status and (strict or status != _errors.UPDATE_NOT_PSD):
         _function_error(status, spec.function, x, covar, alpha, beta, kappa)
     return x_out, covar_out, z_hat, s, cross
 

@@ -376,7 +376,7 @@ class _Scan:
                 x = self.means[k].reshape(-1, 1).copy()
                 z_hat, covar, cross = ft_kalman.update(
                     fast, x, self.covars[k].copy(), np.zeros((fast.ndim_meas, 1)), "forward",
-                    self.recipe.updater.use_joseph_cov)[2:]
+                    self.recipe.updater.use_joseph_cov, strict=False)[2:]
             measurement_prediction = GaussianMeasurementPrediction(
                 typed_measurement(z_hat, fast), covar, self.timestamp, cross)
             self._measurement_predictions[k] = measurement_prediction

@@ -149,7 +149,7 @@ class _Kalman:
         """``(x, P, z_hat, S, cross)`` of the kernel's update, or the reason Stone Soup's
         code must run."""
         return ft_kalman.update(fast, floats(prediction.state_vector), floats(prediction.covar),
-                                z, "forward", self.use_joseph_cov)
+                                z, "forward", self.use_joseph_cov, strict=False)
 
     @lru_cache()
     def predict_measurement(self, predicted_state, measurement_model=None,
@@ -272,7 +272,7 @@ class UnscentedKalmanUpdater(_Kalman, ss_kalman.UnscentedKalmanUpdater):
             return "sigma-point parameters outside fasttrack's range"
         try:
             return ft_unscented.update(fast, floats(prediction.state_vector),
-                                       floats(prediction.covar), z, *parameters)
+                                       floats(prediction.covar), z, *parameters, strict=False)
         except ValueError as error:  # no Cholesky factor, which Stone Soup regularises
             return f"refused by fasttrack ({error})"
 

@@ -72,14 +72,14 @@ class KalmanUpdater(Updater):
         """
         model = self._model(measurement_model, predicted_state)
         z = np.zeros((model.ndim_meas, 1))  # any: only the measurement prediction is kept
-        z_hat, s, cross = self._update(model, predicted_state, z)[2:]
+        z_hat, s, cross = self._update(model, predicted_state, z, strict=False)[2:]
         return GaussianMeasurementPrediction._trusted(z_hat, s, predicted_state.timestamp,
                                                       {"cross_covar": cross})
 
-    def _update(self, model, prediction, z):
+    def _update(self, model, prediction, z, strict=True):
         """``(x, P, z_hat, S, cross)`` of one update (see :func:`fasttrack.core.kalman.update`)."""
         return _kalman.update(model, prediction.state_vector, prediction.covar, z,
-                              self.jacobian, self.use_joseph_cov)
+                              self.jacobian, self.use_joseph_cov, strict)
 
     def update(self, hypothesis):
         """The posterior of ``hypothesis.prediction`` given ``hypothesis.measurement``.

@@ -74,7 +74,7 @@ class UnscentedKalmanUpdater(KalmanUpdater):
         """
         return super().predict_measurement(predicted_state, measurement_model)
 
-    def _update(self, model, prediction, z):
+    def _update(self, model, prediction, z, strict=True):
         return _unscented.update(model, prediction.state_vector, prediction.covar, z,
                                  self.alpha, self.beta, self._kappas[model.ndim_state],
-                                 self.use_joseph_cov)
+                                 self.use_joseph_cov, strict)

@@ -56,7 +56,7 @@ def measurement_jacobian(kind, x, mapping, offset, rotation, angles, method, out
         return
     p = rotation @ (x[list(mapping[:2])] - offset)
     rho2 = p @ p
-    if rho2 == 0.0:
+    if rho2 == 0.0 and method != FORWARD:
         out[:] = np.nan
         return
     if method == ANALYTIC:
