@@ -37,14 +37,25 @@ class Kernel:
         state1, state2 : state object or (d,) / (d, N) array_like
             Points as columns (``state2`` defaults to ``state1``).
         angle_components : sequence of int, optional
-            Rows that are angles (rad), for the Gaussian kernel (see there); polynomial
-            kernels, which see only inner products, ignore them. None for none.
+            Rows that are angles (rad), integer indices in [0, d), for the Gaussian kernel
+            (see there); polynomial kernels, which see only inner products, ignore them.
+            None or empty for none.
 
         Returns
         -------
         (A, B) float64 ndarray
             A data-chosen length scale (``GaussianKernel()``) comes from the points of
             ``state1`` and ``state2`` together.
+
+        Raises
+        ------
+        TypeError
+            If ``angle_components`` is not a sequence of integers (a bool, a float, a string
+            or a boolean mask is not an index), or the points are not real numbers.
+        ValueError
+            For an angle row out of range, points that are not finite, or a Gram matrix
+            that is not finite (the points' distances or inner products overflow float64,
+            e.g. points around 1e154 or beyond): rescale ``state1`` and ``state2``.
         """
         x1 = state_columns(state1, "state1")
         x2 = x1 if state2 is None else state_columns(state2, "state2")
@@ -67,13 +78,21 @@ class Kernel:
         ----------
         ndim : int
             Number of rows of the points.
-        angle_components : sequence of int
-            Rows that are angles, each in [0, ndim).
+        angle_components : sequence of int or None
+            Rows that are angles, integer indices each in [0, ndim); None for none.
 
         Returns
         -------
         bool ndarray
             Of length ``ndim``.
+
+        Raises
+        ------
+        TypeError
+            For anything but a sequence of integers (a bool, float or string entry, or a
+            boolean mask, is refused rather than read as an index).
+        ValueError
+            For an index outside [0, ndim).
         """
         return _akkf.angle_mask(ndim, angle_components)
 

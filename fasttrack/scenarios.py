@@ -9,7 +9,7 @@ from . import _validate
 from . import random as _random
 from .models import (Cartesian2DToBearing, CartesianToBearingRange,
                      CombinedLinearGaussianTransitionModel, ConstantVelocity, LinearGaussian)
-from .simulate import detections, ground_truth, multi_target
+from .simulate import MAX_RATE, detections, ground_truth, multi_target
 from .types import GaussianState, KernelParticleState, ParticleState
 
 START = datetime.datetime(2026, 1, 1)
@@ -25,6 +25,19 @@ class Scenario:
     truth: object
     detections: list
     prior: object
+
+
+#: The most targets :func:`grid_targets` places (as many as the clutter a scan may expect).
+MAX_TARGETS = int(MAX_RATE)
+
+
+def _generator(seed):
+    """The generator a scenario's ``seed`` stands for: None, an int >= 0, a
+    ``numpy.random.SeedSequence``, a ``numpy.random.Generator`` (used as it is) or a
+    ``RandomState``; a TypeError or ValueError naming ``seed`` for anything else."""
+    if not isinstance(seed, np.random.SeedSequence):
+        _random.check_rng(seed, "seed")
+    return np.random.default_rng(seed)
 
 
 def _diagonal_gaussian(rng, mean, std, n):
@@ -49,9 +62,22 @@ def particle_filter_tutorial(n_particles=1000, seed=1991, steps=21):
     diag(0.2 deg in rad, 1 m^2) once a second; the prior is ``n_particles`` samples of
     N((0, 1, 0, 1), diag(1.5, 0.5, 1.5, 0.5)) at the first detection's time.
 
-    ``seed`` fixes the truth, the detections and the prior samples.
+    Parameters
+    ----------
+    n_particles : int
+        Particles of the prior, >= 1.
+    seed : None, int, numpy.random.SeedSequence or numpy.random.Generator
+        Fixes the truth, the detections and the prior samples (an int seed is >= 0).
+    steps : int
+        States of the truth and detections, >= 1.
+
+    Returns
+    -------
+    Scenario
     """
-    rng = np.random.default_rng(seed)
+    n_particles = _validate.count(n_particles, "n_particles")
+    steps = _validate.count(steps, "steps")
+    rng = _generator(seed)
     transition, sensor, truth, measured = _bearing_range_scenario(rng, steps)
     samples = _diagonal_gaussian(rng, [0.0, 1.0, 0.0, 1.0], np.sqrt([1.5, 0.5, 1.5, 0.5]),
                                  n_particles)
@@ -62,8 +88,21 @@ def particle_filter_tutorial(n_particles=1000, seed=1991, steps=21):
 def extended_kalman_tutorial(seed=1991, steps=21):
     """The extended-Kalman-filter tutorial: the target and sensor of
     :func:`particle_filter_tutorial`, and the prior N((0, 1, 0, 1), diag(1.5, 0.5, 1.5, 0.5))
-    as a :class:`~fasttrack.GaussianState`."""
-    rng = np.random.default_rng(seed)
+    as a :class:`~fasttrack.GaussianState`.
+
+    Parameters
+    ----------
+    seed : None, int, numpy.random.SeedSequence or numpy.random.Generator
+        Fixes the truth and the detections (an int seed is >= 0).
+    steps : int
+        States of the truth and detections, >= 1.
+
+    Returns
+    -------
+    Scenario
+    """
+    steps = _validate.count(steps, "steps")
+    rng = _generator(seed)
     transition, sensor, truth, measured = _bearing_range_scenario(rng, steps)
     prior = GaussianState([0.0, 1.0, 0.0, 1.0], np.diag([1.5, 0.5, 1.5, 0.5]), timestamp=START)
     return Scenario(transition, sensor, truth, measured, prior)
@@ -76,9 +115,22 @@ def adaptive_kernel_tutorial(n_particles=30, seed=50, steps=30):
     ``n_particles`` samples of N(truth[0], diag(0.1, 0.005, 0.1, 0.01)^2) with weights 1/M
     and kernel covariance I/M.
 
-    ``seed`` fixes the truth, the detections and the prior samples.
+    Parameters
+    ----------
+    n_particles : int
+        Particles of the prior, >= 1.
+    seed : None, int, numpy.random.SeedSequence or numpy.random.Generator
+        Fixes the truth, the detections and the prior samples (an int seed is >= 0).
+    steps : int
+        States of the truth and detections, >= 1.
+
+    Returns
+    -------
+    Scenario
     """
-    rng = np.random.default_rng(seed)
+    n_particles = _validate.count(n_particles, "n_particles")
+    steps = _validate.count(steps, "steps")
+    rng = _generator(seed)
     transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(1e-4)] * 2)
     sensor = Cartesian2DToBearing(4, (0, 2), np.array([[0.005 ** 2]]))
     start = [-0.3, 0.001, 0.7, -0.055]
@@ -99,28 +151,31 @@ def grid_targets(n_targets=20, steps=50, spacing=20.0, clutter_rate=20.0, prob_d
     Parameters
     ----------
     n_targets : int
-        Targets, >= 1.
+        Targets, in [1, 1e7] (the grid, and with it the clutter region, needs a target).
     steps : int
         Scans, >= 1.
     spacing : float
-        Grid spacing, metres, >= 0.
+        Grid spacing, metres, >= 0 and finite; the grid's area must be a finite float64.
     clutter_rate : float
         Expected clutter measurements per scan, in [0, 1e7].
     prob_detect : float
         Probability of detection, in [0, 1].
-    seed : None, int or numpy.random.SeedSequence
-        Fixes the targets, detections and clutter.
+    seed : None, int, numpy.random.SeedSequence or numpy.random.Generator
+        Fixes the targets, detections and clutter (an int seed is >= 0).
 
     Returns
     -------
     fasttrack.simulate.MultiTargetScenario
     """
-    n_targets = _validate.count(n_targets, "n_targets")
+    n_targets = _validate.count(n_targets, "n_targets", maximum=MAX_TARGETS)
     spacing = _validate.non_negative(spacing, "spacing")
-    if not (isinstance(seed, np.random.SeedSequence) or seed is None):
-        _random.check_rng(seed, "seed")  # a TypeError or ValueError naming it
-    rng = np.random.default_rng(seed)
+    rng = _generator(seed)
     side = int(np.ceil(np.sqrt(n_targets)))
+    width = (side - 1) * spacing + 100.0
+    if not np.isfinite(width * width):  # Python floats: overflow gives inf
+        raise ValueError(f"spacing {spacing:g} is too large for {n_targets} targets: the "
+                         f"clutter region over the grid ({side - 1} spacings plus a 100 m "
+                         f"margin a side) has an area beyond float64")
     grid = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2)
     positions = grid[:n_targets] * spacing + rng.normal(0, 1, (n_targets, 2))
     velocities = rng.normal(0, 1, (n_targets, 2))

@@ -8,6 +8,9 @@ import numpy as np
 
 from . import _validate
 from . import random as _random
+from .models.base import check_model
+from .models.measurement import MeasurementModel
+from .models.transition import TransitionModel
 from .types import Detection, GroundTruthPath, GroundTruthState, check_timestamp, seconds
 
 
@@ -19,31 +22,43 @@ def ground_truth(transition_model, initial_state, steps, time_interval=1.0, star
     Parameters
     ----------
     transition_model : TransitionModel
-    initial_state : (d,) array_like or State
-        The first state, at ``start_time``.
+        A transition model of :mod:`fasttrack.models`.
+    initial_state : (d,) or (d, 1) array_like, or State
+        The first state, at ``start_time`` (a State gives its ``state_vector``); finite.
     steps : int
         Number of states, >= 1 (the first included).
     time_interval : datetime.timedelta or float seconds
         > 0.
     start_time : datetime.datetime or float seconds
-        Timestamps are ``start_time + k * time_interval``, datetimes if it is one.
+        Timestamps are ``start_time + k * time_interval``, datetimes if it is one; the last
+        must be representable (a datetime before year 10000, a finite number of seconds).
     rng : None, int or numpy.random.Generator
+
+    Raises
+    ------
+    TypeError
+        For a model that is not a fasttrack TransitionModel, or arguments of the wrong type.
+    ValueError
+        For a bad value, and if a state overflows float64 (the path is then not finite).
     """
+    check_model(transition_model, TransitionModel, "transition_model")
     steps = _validate.count(steps, "steps")
     dt = _interval(time_interval)
     check_timestamp(start_time, "start_time")
     if start_time is None:
         raise ValueError("start_time is required")
-    first = _validate.finite_array(getattr(initial_state, "state_vector", initial_state),
-                                   "initial_state").reshape(-1)
-    if first.size != transition_model.ndim_state:
-        raise ValueError(f"initial_state must have {transition_model.ndim_state} components "
-                         f"(the transition model's ndim_state), got {first.size}")
+    first = _vector(initial_state, "initial_state", transition_model.ndim_state,
+                    "the transition model's ndim_state")
     rng = _random.generator(_random.check_rng(rng))
     path = GroundTruthPath([GroundTruthState(first, timestamp=start_time)])
     for k in range(1, steps):
-        state = transition_model.function(path[-1], noise=True, time_interval=dt, rng=rng)
-        path.append(GroundTruthState(state, timestamp=_advance(start_time, k * dt)))
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is raised below
+            state = transition_model.function(path[-1], noise=True, time_interval=dt, rng=rng)
+        if not np.isfinite(state).all():
+            raise ValueError(f"the truth overflows float64 at step {k}: the transition model "
+                             f"over time_interval={dt:g} s from initial_state "
+                             f"{first.tolist()} gives a state that is not finite")
+        path.append(GroundTruthState(state, timestamp=_timestamp(start_time, k, dt)))
     return path
 
 
@@ -56,23 +71,42 @@ def detections(truth, measurement_model, rng=None):
     truth : iterable of states
         E.g. a :class:`GroundTruthPath`; each state's ``state_vector`` is measured.
     measurement_model : MeasurementModel
+        A measurement model of :mod:`fasttrack.models`.
     rng : None, int or numpy.random.Generator
         Source of the measurement noise (None: the package default generator).
 
     Returns
     -------
     list of Detection
+
+    Raises
+    ------
+    TypeError
+        If ``truth`` is not an iterable of states or the model is not a fasttrack
+        MeasurementModel.
+    ValueError
+        If a measurement is not finite (the model overflows on a state of ``truth``).
     """
+    check_model(measurement_model, MeasurementModel, "measurement_model")
     rng = _random.generator(_random.check_rng(rng))
-    truth = list(truth) if hasattr(truth, "__iter__") else truth
+    given = type(truth).__name__
+    truth = list(truth) if hasattr(truth, "__iter__") and not isinstance(truth, (str, bytes)) \
+        else truth
     if not isinstance(truth, list) or not all(hasattr(state, "state_vector")
                                                and hasattr(state, "timestamp")
                                                for state in truth):
         raise TypeError(f"truth must be an iterable of states (with state_vector and "
-                        f"timestamp), such as a GroundTruthPath, got {type(truth).__name__}")
-    return [Detection(measurement_model.function(state, noise=True, rng=rng),
-                      timestamp=state.timestamp, measurement_model=measurement_model)
-            for state in truth]
+                        f"timestamp), such as a GroundTruthPath, got {given}")
+    out = []
+    for k, state in enumerate(truth):
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is raised below
+            measured = measurement_model.function(state, noise=True, rng=rng)
+        if not np.isfinite(measured).all():
+            raise ValueError(f"the measurement of truth[{k}] is not finite: measurement_model "
+                             f"overflows float64 on its state")
+        out.append(Detection(measured, timestamp=state.timestamp,
+                             measurement_model=measurement_model))
+    return out
 
 
 def _interval(time_interval):
@@ -92,6 +126,30 @@ def _rate(value, name):
     if value > MAX_RATE:
         raise ValueError(f"{name} must be at most {MAX_RATE:g} a scan, got {value:g}")
     return value
+
+
+def _vector(value, name, size, what):
+    """A finite state ``value`` (or a State's ``state_vector``) as a (size,) float64 vector:
+    a (size,) or (size, 1) array."""
+    vector = _validate.finite_array(getattr(value, "state_vector", value), name)
+    if not (vector.ndim == 1 or (vector.ndim == 2 and vector.shape[1] == 1)) \
+            or vector.shape[0] != size:
+        raise ValueError(f"{name} must have {size} components ({what}), as a ({size},) or "
+                         f"({size}, 1) array, got shape {vector.shape}")
+    return vector.reshape(-1)
+
+
+def _timestamp(start, k, dt):
+    """``start + k * dt``: a ValueError naming start_time and time_interval if it cannot be
+    represented (a datetime past year 9999, seconds beyond float64)."""
+    try:
+        stamp = _advance(start, k * dt)
+    except OverflowError:
+        stamp = None
+    if stamp is None or not (isinstance(stamp, datetime.datetime) or np.isfinite(stamp)):
+        raise ValueError(f"the timestamps run out of range: start_time {start!r} plus "
+                         f"{k} steps of time_interval={dt:g} s cannot be represented")
+    return stamp
 
 
 def _advance(start, offset):
@@ -151,13 +209,16 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
     Parameters
     ----------
     transition_model : TransitionModel
+        A transition model of :mod:`fasttrack.models`.
     measurement_model : MeasurementModel
+        A measurement model of :mod:`fasttrack.models`.
     initial_states : (n, d) array_like
-        The targets alive at the first scan.
+        The targets alive at the first scan (n may be 0).
     steps : int
         Number of scans, >= 1.
     region : (2, m) array_like
-        Lower and upper corner of the clutter region, in measurement space.
+        Lower and upper corner of the clutter region, in measurement space; its volume must
+        be a positive finite float64.
     time_interval : datetime.timedelta or float
         Seconds between scans, > 0.
     prob_detect : float
@@ -166,8 +227,8 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
         Expected clutter measurements per scan, in [0, 1e7].
     birth_rate : float
         Expected births per scan, in [0, 1e7].
-    birth_mean : (d,) array_like, optional
-        Mean of a new target's state (required if ``birth_rate > 0``).
+    birth_mean : (d,) or (d, 1) array_like, optional
+        Mean of a new target's state (required if ``birth_rate > 0``), finite.
     birth_covar : (d, d) array_like, optional
         Its covariance, symmetric positive semi-definite.
     prob_survive : float
@@ -177,7 +238,17 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
     Returns
     -------
     MultiTargetScenario
+
+    Raises
+    ------
+    TypeError
+        For a model that is not a fasttrack model, or arguments of the wrong type.
+    ValueError
+        For a bad value, and if the targets' states or their measurements overflow float64
+        during the simulation.
     """
+    check_model(transition_model, TransitionModel, "transition_model")
+    check_model(measurement_model, MeasurementModel, "measurement_model")
     steps = _validate.count(steps, "steps")
     d, m = transition_model.ndim_state, measurement_model.ndim_meas
     states = _validate.finite_array(initial_states, "initial_states", 2)
@@ -187,20 +258,25 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
     if region.shape != (2, m) or np.any(region[1] <= region[0]):
         raise ValueError(f"region must be (2, {m}): a lower and a larger upper corner, "
                          f"got {region.tolist()}")
-    with np.errstate(over="ignore"):
+    with np.errstate(over="ignore", under="ignore"):
         volume = float(np.prod(region[1] - region[0]))
     if not np.isfinite(volume):
         raise ValueError(f"region's volume overflows float64, got {region.tolist()}")
+    if not volume > 0:
+        raise ValueError(f"region's volume underflows to 0 in float64, got {region.tolist()}")
     prob_detect = _validate.probability(prob_detect, "prob_detect")
     prob_survive = _validate.probability(prob_survive, "prob_survive")
     clutter_rate = _rate(clutter_rate, "clutter_rate")
     birth_rate = _rate(birth_rate, "birth_rate")
+    with np.errstate(over="ignore"):
+        clutter_density = clutter_rate / volume
+    if not np.isfinite(clutter_density):
+        raise ValueError(f"the clutter density (clutter_rate {clutter_rate:g} over region's "
+                         f"volume {volume:.3g}) overflows float64")
     if birth_rate > 0 and (birth_mean is None or birth_covar is None):
         raise ValueError("birth_rate > 0 needs birth_mean and birth_covar")
     if birth_mean is not None:
-        birth_mean = _validate.finite_array(birth_mean, "birth_mean").reshape(-1)
-        if birth_mean.size != d:
-            raise ValueError(f"birth_mean must have {d} components, got {birth_mean.size}")
+        birth_mean = _vector(birth_mean, "birth_mean", d, "the transition model's ndim_state")
     if birth_covar is not None:
         birth_covar = _validate.psd_covariance(birth_covar, "birth_covar", d)
     dt = _interval(time_interval)
@@ -213,18 +289,28 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
             alive = rng.random(ids.size) < prob_survive
             states, ids = states[alive], ids[alive]
             if states.shape[0]:
-                states = np.ascontiguousarray(transition_model.function(
-                    states.T, noise=True, time_interval=dt, rng=rng).T)
+                with np.errstate(over="ignore", invalid="ignore"):  # raised below
+                    states = np.ascontiguousarray(transition_model.function(
+                        states.T, noise=True, time_interval=dt, rng=rng).T)
             born = rng.poisson(birth_rate) if birth_rate > 0 else 0
             if born:
                 new = rng.multivariate_normal(birth_mean, birth_covar, born)
                 states = np.concatenate((states, new))
                 ids = np.concatenate((ids, np.arange(next_id, next_id + born)))
                 next_id += born
+            if not np.isfinite(states).all():
+                raise ValueError(f"the targets' states overflow float64 at scan {t}: the "
+                                 f"transition model over time_interval={dt:g} s (or a birth "
+                                 f"from birth_covar) gives states that are not finite; "
+                                 f"check initial_states, time_interval and birth_covar")
         seen = rng.random(ids.size) < prob_detect
-        measured = (np.asarray(measurement_model.function(states[seen].T, noise=True,
-                                                          rng=rng)).T.reshape(-1, m)
-                    if seen.any() else np.empty((0, m)))
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is raised below
+            measured = (np.asarray(measurement_model.function(states[seen].T, noise=True,
+                                                              rng=rng)).T.reshape(-1, m)
+                        if seen.any() else np.empty((0, m)))
+        if not np.isfinite(measured).all():
+            raise ValueError(f"the measurements at scan {t} are not finite: measurement_model "
+                             f"overflows float64 on the targets' states")
         clutter = rng.uniform(region[0], region[1], (rng.poisson(clutter_rate), m))
         shuffle = rng.permutation(measured.shape[0] + clutter.shape[0])
         out["truths"].append(states.copy())
@@ -233,4 +319,4 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
         out["origins"].append(np.concatenate((ids[seen], np.full(clutter.shape[0], -1)))[shuffle])
     return MultiTargetScenario(transition_model, measurement_model, time_interval=dt,
                                region=region,
-                               clutter_density=clutter_rate / volume, **out)
+                               clutter_density=clutter_density, **out)

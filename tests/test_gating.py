@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import fasttrack as ft
-from fasttrack.core.gating import Clusters, Gate, clusters, gate
+from fasttrack.core.gating import Clusters, Gate, clusters, gate, gate_arrays
 from fasttrack.core.assign import global_nearest_neighbour, nearest_neighbour
 from fasttrack._jit import gating as kernels
 from fasttrack.core import stack
@@ -289,6 +289,41 @@ def test_gates_and_clusters_written_after_they_are_built_are_refused_on_use():
         nearest_neighbour({}, 3.0)
     with pytest.raises(ValueError, match="costs must be .* not NaN or -inf"):
         global_nearest_neighbour(good, 3.0, costs=[1.0, -np.inf, 2.0])
+
+
+def test_every_pair_is_gated_without_angles():
+    """The drop-in scan's "every pair" gate (an infinite threshold, no grid, no angle rows)."""
+    z_hats, covars, detections = _scenario(3, 4, 10.0, 0)
+    every = gate_arrays(z_hats, covars, detections, np.inf, None, np.empty(0, np.int64))
+    np.testing.assert_array_equal(every.starts, [0, 4, 8, 12])
+
+
+_REWRITTEN_GATE = """
+import numpy as np
+import fasttrack._jit
+from fasttrack.association import Gate, clusters, global_nearest_neighbour, nearest_neighbour
+fasttrack._jit.kernels_from_now()
+for field, index, value in [("detections", 1, 10**9), ("detections", 0, -5),
+                            ("starts", 2, 10**6), ("starts", 1, 5)]:
+    gate = Gate([0, 2, 3], [0, 2, 1], [1.0, 2.0, 3.0], [-1.0, -2.0, -3.0], 3)
+    getattr(gate, field)[index] = value
+    for call in (clusters, lambda g: global_nearest_neighbour(g, 3.0),
+                 lambda g: nearest_neighbour(g, 3.0)):
+        try:
+            call(gate)
+        except ValueError as error:
+            print("refused:", str(error).split(" must")[0])
+"""
+
+
+def test_rewritten_gates_are_refused_in_a_process_of_their_own():
+    """The compiled association kernels never see a rewritten gate: the process lives."""
+    import subprocess
+    import sys
+    done = subprocess.run([sys.executable, "-c", _REWRITTEN_GATE], capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.count("refused:") == 12
 
 
 def test_detections_spanning_the_float_range_gate_as_the_dense_mirror():

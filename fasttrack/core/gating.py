@@ -213,8 +213,10 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
 
 def gate_arrays(z_hats, covars, detections, threshold, angles, axes):
     """:func:`gate` of checked float64 arrays, ``threshold`` > 0 or ``inf`` (every pair),
-    ``axes`` the grid rows (int64, none for no grid)."""
+    ``angles`` a bool mask (None: none), ``axes`` the grid rows (int64, none for no grid)."""
     k = z_hats.shape[0]
+    if angles is None:
+        angles = np.zeros(z_hats.shape[1], dtype=np.bool_)
     if _jit.numpy_first(k + detections.shape[0]):
         found = _numpy.gate(z_hats, covars, detections, threshold, angles)
         if isinstance(found, int):
