@@ -16,13 +16,6 @@ n != m). Distances are Euclidean over the columns given (pick the position compo
 beforehand); the assignment is exact (the compiled solver of
 :mod:`fasttrack.core.assign`).
 
-The costs are computed in units of a power of two near ``c`` (``(min(d, c) / u) ** p``,
-each coordinate difference scaled before it is squared), so neither ``c ** p`` nor the
-distance of points far apart overflows, and a tiny ``c`` does not underflow: the distances
-are exact to rounding for any finite positive ``c`` and any finite points, and for p = 1
-and 2 bit for bit those of the unscaled formulas. The order p is at most
-:data:`MAX_ORDER` (20), or inf for OSPA.
-
 These match Stone Soup 1.9.1's ``GOSPAMetric`` and ``OSPAMetric`` (``compute_over_time``,
 default ``Euclidean`` measure, i.e. over whatever components the arrays hold) step for step,
 with these differences: the steps are given explicitly, so a step with neither truths nor
@@ -32,7 +25,6 @@ and its ``c^p`` counts as localisation; OSPA minimises ``sum min(d, c)^p`` (its 
 whereas Stone Soup minimises ``sum min(d, c)`` and then sums powers, so the two differ for
 p != 1 unless ``stonesoup_pairs=True``.
 """
-import warnings
 from typing import NamedTuple
 
 import numpy as np
@@ -110,10 +102,7 @@ class GOSPAResult(NamedTuple):
     """The GOSPA distance and its parts: floats for one step, ``(T,)`` arrays over T steps.
 
     The parts are in the units of the points to the power p, and (without a switching
-    penalty) add up to ``distance ** p``. The distance is computed in units of the cut-off
-    and is exact to rounding for any finite positive ``c``; a part that exceeds float64
-    (``c ** p`` above about 1.8e308, e.g. ``c = 1e200, p = 2``) is ``inf``, with a
-    ``RuntimeWarning``, and parts below about 2.2e-308 lose precision or are 0.
+    penalty) add up to ``distance ** p``.
 
     Parameters
     ----------
@@ -252,54 +241,25 @@ def _same_components(truths, estimates):
     return truths, estimates
 
 
-#: Largest finite order p: the costs ``(min(d, c) / u) ** p`` (``1 <= c / u < 2``) keep
-#: every distance above ``c * 2 ** (-1022 / p)`` (about ``4.4e-16 c`` at p = 20) out of
-#: float64's subnormal range; at larger p, distances that differ by a visible fraction of c
-#: would cost the same 0 and the assignment could pair the wrong points.
-MAX_ORDER = 20.0
-
-
 def _parameters(c, p, alpha=None, infinite_p=False):
     c = positive(c, "c")
     if infinite_p and _is_inf(p):
         p = np.inf
     else:
         p = real(p, "p")
-        if not 1 <= p <= MAX_ORDER:
-            raise ValueError(
-                f"p must lie in [1, {MAX_ORDER:g}]{' (or be inf)' if infinite_p else ''}, "
-                f"got {p:g}: above {MAX_ORDER:g}, distances below c * 2 ** (-1022 / p) "
-                f"cost 0 in float64 and the assignment would be arbitrary among them"
-                + ("; use p = inf for the largest pair distance" if infinite_p else ""))
+        if not p >= 1:
+            raise ValueError(f"p must be >= 1{' (or inf)' if infinite_p else ''}, got {p}")
+        with np.errstate(over="ignore", under="ignore"):
+            cut = np.float64(c) ** p
+        if not 1e-300 <= cut <= 1e300:
+            raise ValueError(f"c ** p must lie in [1e-300, 1e300] (the distances are summed "
+                             f"to the power p), got c = {c:g}, p = {p:g}: rescale the points "
+                             f"so that c is nearer 1, or lower p")
     if alpha is not None:
         alpha = real(alpha, "alpha")
         if not 0 < alpha <= 2:
             raise ValueError(f"alpha must lie in (0, 2], got {alpha}")
     return c, p, alpha
-
-
-def _warn_overflow(parts, c, p):
-    """Warn when a GOSPA part exceeds float64 (the distance does not)."""
-    if np.isinf(parts[:, 1:]).any():
-        warnings.warn(f"GOSPA's localisation, missed and false parts are in units ** p and "
-                      f"exceed float64 (c = {c:g}, p = {p:g}): they are inf, the distance is "
-                      f"exact; express the points in units nearer c for finite parts",
-                      RuntimeWarning, stacklevel=3)
-
-
-def _power_mean(a, b, alpha):
-    """``(a ** alpha + b ** alpha) ** (1 / alpha)`` of non-negative arrays, in units of a
-    power of two near the larger of the two where a power could overflow or underflow
-    (exact scaling: for alpha = 1 or 2 the same bits as at ordinary magnitudes)."""
-    with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
-        out = (a ** alpha + b ** alpha) ** (1.0 / alpha)
-        big = np.maximum(a, b)
-        rescale = (big > 1e100) | ((big < 1e-100) & (big > 0))
-        if rescale.any():
-            m = np.ldexp(1.0, np.frexp(big[rescale])[1])
-            out[rescale] = m * ((a[rescale] / m) ** alpha
-                                + (b[rescale] / m) ** alpha) ** (1.0 / alpha)
-    return out
 
 
 def _is_inf(value):
@@ -350,7 +310,7 @@ def gospa(truths, estimates, c, p=1, alpha=2):
     c : float
         Cut-off distance, > 0 (same units).
     p : float
-        Order, ``1 <= p <= 20`` (:data:`MAX_ORDER`).
+        Order, ``1 <= p < inf``.
     alpha : float
         ``0 < alpha <= 2``; 2 (Stone Soup's value) makes the parts missed and false sum to
         the cardinality errors.
@@ -374,7 +334,6 @@ def gospa(truths, estimates, c, p=1, alpha=2):
                                                                            "estimates")
     t, e = _same_components(t, e)
     out, assignment = _metric.gospa(t, t_offsets, e, e_offsets, c, p, alpha)
-    _warn_overflow(out, c, p)
     distance, localisation, missed, false = (float(v) for v in out[0])
     return GOSPAResult(distance, localisation, missed, false, 0.0, assignment)
 
@@ -396,7 +355,7 @@ def gospa_over_time(truths, estimates, c, p=1, alpha=2, switching_penalty=0.0, *
     c : float
         Cut-off distance, > 0.
     p : float
-        Order, ``1 <= p <= 20`` (:data:`MAX_ORDER`).
+        Order, ``1 <= p < inf``.
     alpha : float
         ``0 < alpha <= 2``.
     switching_penalty : float
@@ -437,7 +396,6 @@ def gospa_over_time(truths, estimates, c, p=1, alpha=2, switching_penalty=0.0, *
                          f"{e_offsets.size - 1}: they must be the same")
     t, e = _same_components(t, e)
     out, assignment = _metric.gospa(t, t_offsets, e, e_offsets, c, p, alpha)
-    _warn_overflow(out, c, p)
     distance = out[:, 0].copy()
     switching = np.zeros(t_offsets.size - 1)
     if truth_ids is not None or estimate_ids is not None or switching_penalty > 0:
@@ -450,7 +408,7 @@ def gospa_over_time(truths, estimates, c, p=1, alpha=2, switching_penalty=0.0, *
             assigned[found] = e_ids[first[found] + assignment[found]]
             switching = _metric.switching(t_ids, t_offsets, e_offsets, assigned, n_ids)
             switching = switching_penalty * switching ** (1.0 / p)
-            distance = _power_mean(distance, switching, alpha)
+            distance = (distance ** alpha + switching ** alpha) ** (1.0 / alpha)
     if t_mask is not None:
         padded = np.full(t_mask.shape, -1, dtype=np.int64)
         padded[t_mask] = assignment
@@ -475,7 +433,7 @@ def ospa(truths, estimates, c, p=1, stonesoup_pairs=False):
     c : float
         Cut-off distance, > 0 (same units).
     p : float
-        Order, ``1 <= p <= 20`` (:data:`MAX_ORDER`) or ``inf``.
+        Order, ``p >= 1`` or ``inf``.
     stonesoup_pairs : bool
         Choose the pairs as Stone Soup 1.9.1 does, minimising ``sum min(d, c)`` (and for
         ``p = inf`` taking the largest distance of those pairs) instead of
@@ -526,7 +484,7 @@ def ospa_over_time(truths, estimates, c, p=1, stonesoup_pairs=False, *, truth_co
     c : float
         Cut-off distance, > 0.
     p : float
-        Order, ``1 <= p <= 20`` (:data:`MAX_ORDER`) or ``inf``.
+        Order, ``p >= 1`` or ``inf``.
     stonesoup_pairs : bool
         Choose the pairs as Stone Soup 1.9.1 does (see :func:`ospa`).
     truth_counts, estimate_counts : (T,) array_like of int, optional

@@ -2,10 +2,7 @@
 public functions against Stone Soup 1.9.1's GOSPAMetric and OSPAMetric on the same states
 (switching included), closed forms at the edges, input layouts, threads and bad input."""
 import datetime
-import fractions
-import itertools
 import json
-import math
 import os
 import subprocess
 import sys
@@ -15,13 +12,10 @@ import pytest
 
 import fasttrack as ft
 from fasttrack import metrics
-from fasttrack._jit import assign as assign_kernels
-from fasttrack._jit import metric as kernels
-from fasttrack.core.metric import unit
+from fasttrack._jit import assign as kernels
 from fasttrack.metrics import gospa, gospa_over_time, ospa, ospa_over_time, position_rmse
 
 import reference.assign
-import reference.metric
 
 T0 = datetime.datetime(2025, 1, 1)
 DT = datetime.timedelta(seconds=1)
@@ -189,20 +183,12 @@ def test_gospa_kernel_equals_its_mirror(seed, c, p, alpha):
     e, e_offsets = _flat(estimates)
     got, want = np.empty((30, 4)), np.empty((30, 4))
     got_pairs, want_pairs = np.empty(len(t), np.int64), np.empty(len(t), np.int64)
-    u = unit(c)
-    kernels.gospa_steps(t, t_offsets, e, e_offsets, c, u, p, alpha, got_pairs, got)
-    reference.metric.gospa_steps(t, t_offsets, e, e_offsets, c, u, p, alpha, want_pairs, want)
+    kernels.gospa_steps(t, t_offsets, e, e_offsets, c, p, alpha, got_pairs, got)
+    reference.assign.gospa_steps(t, t_offsets, e, e_offsets, c, p, alpha, want_pairs, want)
     assert np.allclose(got, want, rtol=1e-12, atol=1e-12)
     assert np.array_equal(got_pairs, want_pairs)
-    # the parts (in units of u ** p) add up to (distance / u) ^ p
-    assert np.allclose(got[:, 1:].sum(axis=1), (got[:, 0] / u) ** p, rtol=1e-12)
-    # and equal the unscaled definition's: the same pairs, parts times u ** p
-    unscaled, unscaled_pairs = np.empty((30, 4)), np.empty(len(t), np.int64)
-    reference.assign.gospa_steps(t, t_offsets, e, e_offsets, c, p, alpha, unscaled_pairs,
-                                 unscaled)
-    assert np.array_equal(got_pairs, unscaled_pairs)
-    assert np.allclose(got[:, 0], unscaled[:, 0], rtol=1e-12, atol=1e-12)
-    assert np.allclose(got[:, 1:] * u ** p, unscaled[:, 1:], rtol=1e-12, atol=1e-12)
+    # the parts add up to distance^p
+    assert np.allclose(got[:, 1:].sum(axis=1), got[:, 0] ** p, rtol=1e-12)
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -217,12 +203,9 @@ def test_ospa_kernel_equals_its_mirror(seed, p, stonesoup):
     t, t_offsets = _flat(truths)
     e, e_offsets = _flat(estimates)
     got, want = np.empty(30), np.empty(30)
-    kernels.ospa_steps(t, t_offsets, e, e_offsets, 4.0, unit(4.0), p, stonesoup, got)
-    reference.metric.ospa_steps(t, t_offsets, e, e_offsets, 4.0, unit(4.0), p, stonesoup, want)
+    kernels.ospa_steps(t, t_offsets, e, e_offsets, 4.0, p, stonesoup, got)
+    reference.assign.ospa_steps(t, t_offsets, e, e_offsets, 4.0, p, stonesoup, want)
     assert np.allclose(got, want, rtol=1e-12, atol=1e-12)
-    unscaled = np.empty(30)  # the unscaled definition
-    reference.assign.ospa_steps(t, t_offsets, e, e_offsets, 4.0, p, stonesoup, unscaled)
-    assert np.allclose(got, unscaled, rtol=1e-12, atol=1e-12)
 
 
 def test_switching_kernel_equals_its_mirror():
@@ -234,7 +217,7 @@ def test_switching_kernel_equals_its_mirror():
     truth_ids = np.concatenate([rng.permutation(6)[:n] for n in counts]).astype(np.int64)
     assigned = rng.integers(-1, 4, offsets[-1]).astype(np.int64)
     got, want = np.empty(steps), np.empty(steps)
-    assign_kernels.switching_loss(truth_ids, offsets, estimate_offsets, assigned, 6, got)
+    kernels.switching_loss(truth_ids, offsets, estimate_offsets, assigned, 6, got)
     reference.assign.switching_loss(truth_ids, offsets, estimate_offsets, assigned, 6, want)
     assert np.array_equal(got, want) and got.max() >= 1.0
 
@@ -379,12 +362,11 @@ def test_kernels_run_with_the_jit_disabled():
     (lambda: gospa([[0.0]], [[0.0]], 0.0), ValueError, "c must be finite and > 0"),
     (lambda: gospa([[0.0]], [[0.0]], np.inf), ValueError, "c must be finite"),
     (lambda: gospa([[0.0]], [[0.0]], "1"), TypeError, "c must be a real number"),
-    (lambda: gospa([[0.0]], [[0.0]], 1.0, p=0.5), ValueError, r"p must lie in \[1, 20\], got 0.5"),
+    (lambda: gospa([[0.0]], [[0.0]], 1.0, p=0.5), ValueError, "p must be >= 1"),
     (lambda: gospa([[0.0]], [[0.0]], 1.0, p=np.inf), ValueError, "p must be finite"),
     (lambda: gospa([[0.0]], [[0.0]], 1.0, alpha=3), ValueError, r"alpha must lie in \(0, 2\]"),
     (lambda: gospa([[0.0]], [[0.0]], 1.0, alpha=0), ValueError, r"alpha must lie in \(0, 2\]"),
-    (lambda: ospa([[0.0]], [[0.0]], 1.0, p=0.9), ValueError,
-     r"p must lie in \[1, 20\] \(or be inf\), got 0.9"),
+    (lambda: ospa([[0.0]], [[0.0]], 1.0, p=0.9), ValueError, r"p must be >= 1 \(or inf\)"),
     (lambda: ospa([[0.0]], [[0.0]], 1.0, stonesoup_pairs=1), TypeError,
      "stonesoup_pairs must be a bool"),
     (lambda: gospa_over_time([[[0.0]]], [[[0.0]], [[0.0]]], 1.0), ValueError,
@@ -403,16 +385,10 @@ def test_kernels_run_with_the_jit_disabled():
                              estimate_counts=[1]), ValueError,
      "estimate_counts must be 2 integers"),
     (lambda: gospa([[0.0]], [[0.0]], 10.0, p=400), ValueError,
-     r"p must lie in \[1, 20\], got 400: above 20, distances below c \* 2 \*\* \(-1022 / p\)"),
-    (lambda: gospa([[0.0]], [[0.0]], 2.0, p=1e6), ValueError, r"p must lie in \[1, 20\], got 1e\+06"),
-    (lambda: gospa_over_time([[[0.0]]], [[[0.0]]], 1.0, p=20.5), ValueError,
-     r"p must lie in \[1, 20\], got 20.5"),
-    (lambda: ospa([[0.0]], [[0.0]], 10.0, p=1e6), ValueError,
-     r"p must lie in \[1, 20\] \(or be inf\), got 1e\+06.*use p = inf"),
-    (lambda: ospa_over_time([[[0.0]]], [[[0.0]]], 1.0, p=400), ValueError,
-     r"p must lie in \[1, 20\] \(or be inf\), got 400"),
-    (lambda: gospa_over_time(np.zeros((2, 3, 2)), np.zeros((2, 3, 2)), 1.0,
-                             truth_counts=[1.0, 2.0]), TypeError, "truth_counts must hold integers"),
+     r"c \*\* p must lie in \[1e-300, 1e300\].*c = 10, p = 400"),
+    (lambda: gospa([[0.0]], [[0.0]], 1e200, p=2), ValueError, r"c \*\* p must lie in"),
+    (lambda: gospa([[0.0]], [[0.0]], 1e-200, p=2), ValueError, r"c \*\* p must lie in"),
+    (lambda: ospa([[0.0]], [[0.0]], 10.0, p=1e6), ValueError, r"c \*\* p must lie in"),
     (lambda: gospa_over_time([[[0.0]]], [[[0.0]]], 1.0, truth_counts=[1]), ValueError,
      "truth_counts is only for a padded"),
     (lambda: gospa_over_time(np.zeros((4, 2)), np.zeros((4, 2)), 1.0), TypeError,
@@ -443,154 +419,6 @@ def test_points_far_apart_are_at_the_cut_off():
     assert far.distance == pytest.approx(np.sqrt(9.0))  # one missed and one false: 2 c^2 / 2
     assert far.assignment.tolist() == [-1]
     assert ospa([[1e200, 0.0]], [[-1e200, 0.0]], 3.0, 2) == pytest.approx(3.0)
-
-
-T2 = np.array([[0.0, 0.0], [10.0, 0.0]])
-E3 = np.array([[0.5, 0.0], [10.0, 1.0], [30.0, 0.0]])
-
-
-def _exact_cost(x, y, c, p):
-    """min(|x - y|, c) ** p of 1-D floats, as a Fraction."""
-    return min(abs(fractions.Fraction(x) - fractions.Fraction(y)), fractions.Fraction(c)) ** p
-
-
-def _exact_root(total, p):
-    """total ** (1 / p) of a positive Fraction, in float (through logs of Python ints)."""
-    return math.exp((math.log(total.numerator) - math.log(total.denominator)) / p)
-
-
-def _brute_force(x, y, c, p, alpha):
-    """The least GOSPA total over all injections and OSPA's total of 1-D points, exactly
-    (Fractions; p an integer), and the GOSPA total of a given assignment."""
-    n, m = len(x), len(y)
-    dummy = fractions.Fraction(c) ** p / fractions.Fraction(alpha)
-    if n <= m:
-        pairings = [list(zip(range(n), cols)) for cols in itertools.permutations(range(m), n)]
-    else:
-        pairings = [list(zip(rows, range(m))) for rows in itertools.permutations(range(n), m)]
-    costs = [sum((_exact_cost(x[i], y[j], c, p) for i, j in pairs), fractions.Fraction(0))
-             for pairs in pairings]
-    gospa_total = min(costs) + dummy * abs(m - n)
-    ospa_total = min(costs) + fractions.Fraction(c) ** p * abs(m - n)
-
-    def of(assignment):
-        total = dummy * (m - sum(j >= 0 for j in assignment))
-        for i, j in enumerate(assignment):
-            total += dummy if j < 0 else _exact_cost(x[i], y[j], c, p)
-        return total
-    return gospa_total, ospa_total, of
-
-
-@pytest.mark.parametrize("scale", [1.0, 1e-200, 1e200, 2.0 ** -1000, 3e300])
-@pytest.mark.parametrize("p, alpha", [(1, 2.0), (2, 2.0), (3, 1.0), (7, 2.0), (20, 2.0),
-                                      (20, 0.5)])
-def test_extreme_scales_and_orders_equal_an_exact_brute_force(scale, p, alpha):
-    """GOSPA and OSPA of 1-D points (0 to 4 of each) at scales where c ** p and d ** p leave
-    float64, against the least total over every assignment in exact arithmetic: the
-    distance to rounding, and the returned assignment's total is the least."""
-    rng = np.random.default_rng(p * 7 + int(alpha * 3))
-    c = 2.5 * scale
-    for _ in range(12):
-        n, m = rng.integers(0, 5, 2)
-        x = (rng.uniform(-4, 4, n) * scale).tolist()
-        y = (rng.uniform(-4, 4, m) * scale).tolist()
-        gospa_total, ospa_total, of = _brute_force(x, y, c, p, alpha)
-        (got, got_ospa), warned = _overflow_warnings([
-            lambda: gospa(np.reshape(x, (-1, 1)), np.reshape(y, (-1, 1)), c, p, alpha),
-            lambda: ospa(np.reshape(x, (-1, 1)), np.reshape(y, (-1, 1)), c, p)])
-        assert bool(warned) == bool(np.isinf(got[1:4]).any()), warned
-        assert not np.isnan(got[1:4]).any()
-        if n + m == 0:
-            assert got.distance == 0.0 and got_ospa == 0.0
-            continue
-        assert np.isfinite(got.distance) and got.distance > 0
-        assert got.distance == pytest.approx(_exact_root(gospa_total, p), rel=1e-12)
-        assert got_ospa == pytest.approx(_exact_root(ospa_total / max(n, m), p), rel=1e-12)
-        chosen = of(got.assignment.tolist())
-        assert abs(chosen - gospa_total) <= gospa_total * fractions.Fraction(1, 10 ** 12)
-
-
-def _overflow_warnings(calls):
-    """Run ``calls`` (no arguments each), returning their results and the messages of the
-    warnings about GOSPA parts that exceed float64 (other warnings, such as the first
-    compilation's, are let through)."""
-    import warnings
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        with np.errstate(all="raise"):
-            results = [call() for call in calls]
-    return results, [str(w.message) for w in caught if "GOSPA" in str(w.message)]
-
-
-@pytest.mark.parametrize("scale", [2.0 ** -600, 2.0 ** 600, 1e-250, 1e250])
-@pytest.mark.parametrize("p", [1, 2, 3.5, 20])
-def test_gospa_and_ospa_scale_with_the_points(scale, p):
-    """d(sX, sY; sc) = s d(X, Y; c), the same pairs: bit for bit for a power of two s (the
-    kernels' unit scales with c), to rounding otherwise; the kernels equal their mirror."""
-    truths, estimates, truth_ids, estimate_ids = _scenario(3, steps=20, present=0.7)
-    small = gospa_over_time(truths, estimates, 5.0, p, switching_penalty=2.0,
-                            truth_ids=truth_ids, estimate_ids=estimate_ids)
-    (big,), warned = _overflow_warnings([lambda: gospa_over_time(
-        [x * scale for x in truths], [y * scale for y in estimates], 5.0 * scale, p,
-        switching_penalty=2.0 * scale, truth_ids=truth_ids, estimate_ids=estimate_ids)])
-    assert bool(warned) == bool(np.isinf(big.false).any()), warned
-    exact = math.frexp(scale)[0] == 0.5
-    for k in range(20):
-        assert np.array_equal(big.assignment[k], small.assignment[k])
-    compare = np.testing.assert_array_equal if exact else (
-        lambda a, b: np.testing.assert_allclose(a, b, rtol=1e-12))
-    compare(big.distance, small.distance * scale)
-    compare(big.switching, small.switching * scale)
-    compare(ospa_over_time([x * scale for x in truths], [y * scale for y in estimates],
-                           5.0 * scale, p),
-            ospa_over_time(truths, estimates, 5.0, p) * scale)
-    t, t_offsets = _flat([x * scale for x in truths])
-    e, e_offsets = _flat([y * scale for y in estimates])
-    c, u = 5.0 * scale, unit(5.0 * scale)
-    got, want = np.empty((20, 4)), np.empty((20, 4))
-    got_pairs, want_pairs = np.empty(len(t), np.int64), np.empty(len(t), np.int64)
-    kernels.gospa_steps(t, t_offsets, e, e_offsets, c, u, p, 2.0, got_pairs, got)
-    reference.metric.gospa_steps(t, t_offsets, e, e_offsets, c, u, p, 2.0, want_pairs, want)
-    assert np.allclose(got, want, rtol=1e-12, atol=0) and np.array_equal(got_pairs, want_pairs)
-    got, want = np.empty(20), np.empty(20)
-    kernels.ospa_steps(t, t_offsets, e, e_offsets, c, u, p, True, got)
-    reference.metric.ospa_steps(t, t_offsets, e, e_offsets, c, u, p, True, want)
-    assert np.allclose(got, want, rtol=1e-12, atol=0)
-
-
-def test_the_reported_overflows_have_their_closed_forms():
-    """The adversarial cases: c ** p beyond float64 either way, points 1e200 apart."""
-    with pytest.warns(RuntimeWarning, match=r"exceed float64 \(c = 1e\+200, p = 2\)"):
-        huge = gospa(T2, E3, c=1e200, p=2)
-    # every pair is assigned (d << c), one estimate is false: d^2 = c^2 / 2 + (tiny)
-    assert huge.distance == pytest.approx(1e200 / np.sqrt(2), rel=1e-15)
-    assert huge.assignment.tolist() == [0, 1] and huge.false == np.inf
-    assert huge.missed == 0.0  # a zero part stays 0, never inf * 0
-    tiny = gospa(T2, E3, c=1e-200, p=2)  # every pair beyond the cut-off: 5 points unassigned
-    assert tiny.distance == pytest.approx(1e-200 * np.sqrt(5 / 2), rel=1e-15)
-    assert tiny.assignment.tolist() == [-1, -1]
-    with pytest.warns(RuntimeWarning, match="exceed float64"):
-        far = gospa([[0.0, 0.0]], [[1e200, 0.0]], c=1e201, p=2)
-    assert far.distance == pytest.approx(1e200, rel=1e-15) and far.assignment.tolist() == [0]
-    assert far.localisation == np.inf and far.missed == far.false == 0.0
-    assert ospa(T2, E3, c=1e200, p=2) == pytest.approx(1e200 / np.sqrt(3), rel=1e-15)
-    assert ospa([[0.0, 0.0]], [[1e200, 0.0]], c=1e201, p=2) == pytest.approx(1e200)
-    assert ospa([[-1e308]], [[1e308]], c=1.0, p=20) == 1.0  # the difference overflows
-    # p = 20, the largest order: exact values with points of O(c)
-    result = gospa(T2, E3, c=10.0, p=20)
-    want = 10.0 * (0.05 ** 20 + 0.1 ** 20 + 0.5) ** (1 / 20)
-    assert result.distance == pytest.approx(want, rel=1e-14)
-    assert result.false == pytest.approx(1e20 / 2, rel=1e-15)
-    assert ospa(T2, E3, c=10.0, p=20) == pytest.approx(
-        10.0 * ((0.05 ** 20 + 0.1 ** 20 + 1) / 3) ** (1 / 20), rel=1e-14)
-
-
-def test_ordinary_parts_need_no_warning():
-    import warnings
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        result = gospa(T2, E3, c=10.0, p=2)
-    assert result[:4] == (pytest.approx(np.sqrt(51.25)), 1.25, 0.0, 50.0)
 
 
 def _states(vectors):
