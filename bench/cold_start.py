@@ -9,8 +9,9 @@ new Python processes (import included; the median of ``--repeats``):
 
 - ``installed``: ``pip install .`` (the README's way: the kernels are compiled while the
   wheel is built), the installed size, then the first particle-filter, EKF, UKF and AKKF
-  update and the first multi-target tracker step, with the fasttrack kernels each compiled
-  (Numba's compile events: 0 is the target), and ``python -m fasttrack demo --quick``; then
+  update and the first multi-target tracker step, each as a user's script runs it and on
+  the kernels from the first call, with the fasttrack kernels each compiled (0 is the
+  target), and ``python -m fasttrack demo --quick``; then
   the same first steps with ``NUMBA_CPU_NAME=generic``, so that the shipped kernels cannot
   serve (another CPU): the fall-back compiles, and says why once;
 - ``pure``: ``pip install .`` with ``FASTTRACK_COMPILE_KERNELS=0``, the install as it was
@@ -32,24 +33,32 @@ import time
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
-#: A first step of each kernel family, timed from interpreter start (import included);
-#: prints, as JSON, the seconds, the fasttrack kernels compiled, the seconds spent in LLVM
-#: (Numba's llvm_lock events) and the five kernels whose own compilation took longest.
+#: A first step of each kernel family, timed from interpreter start (import included), run
+#: with argv[2] "user" as a user's script runs it (a process's first small calls may run in
+#: NumPy, see ``fasttrack._jit.numpy_first``) or "kernels" (the kernels from the first call:
+#: the compile path); prints, as JSON, the seconds, whether Numba was loaded, and for
+#: "kernels" the fasttrack kernels compiled (Numba's compile events), the seconds spent in
+#: LLVM (its llvm_lock events) and the five kernels whose own compilation took longest.
 FIRST_STEP = """
-import json, sys, time
+import contextlib, json, sys, time
 start = time.perf_counter()
 import numpy as np
-from numba.core import event
 import fasttrack as ft
-from fasttrack._jit import compiles
 from fasttrack.scenarios import (adaptive_kernel_tutorial, extended_kalman_tutorial,
                                  grid_targets, particle_filter_tutorial)
+family, path = sys.argv[1:3]
+found, llvm, recording = [], [], contextlib.ExitStack()
+if path == "kernels":
+    from numba.core import event
+    from fasttrack import _jit
+    from fasttrack._jit.dispatch import compiles
+    _jit.kernels_from_now()
+    found = recording.enter_context(compiles())
+    recording.enter_context(event.install_timer("numba:llvm_lock", llvm.append))
 def step(predictor, updater, scenario):
     d = scenario.detections[1]
     return updater.update(ft.SingleHypothesis(predictor.predict(scenario.prior, d.timestamp), d))
-family = sys.argv[1]
-llvm = []
-with compiles() as found, event.install_timer("numba:llvm_lock", llvm.append):
+with recording:
     if family == "particle filter":
         s = particle_filter_tutorial(1000)
         step(ft.ParticlePredictor(s.transition_model, rng=1),
@@ -71,11 +80,15 @@ with compiles() as found, event.install_timer("numba:llvm_lock", llvm.append):
         tracker = ft.MultiTargetTracker(s.transition_model, s.measurement_model, np.zeros(4),
                                         np.diag([100.0, 1.0, 100.0, 1.0]))
         tracker.step(s.detections[0], 0.0)
+seconds = time.perf_counter() - start
 top = sorted(found, key=lambda c: -c.own_seconds)[:5]
-print(json.dumps({"seconds": time.perf_counter() - start, "compiled": len(found),
-                  "llvm_seconds": sum(llvm),
+print(json.dumps({"seconds": seconds, "numba_loaded": "numba" in sys.modules,
+                  "compiled": len(found), "llvm_seconds": sum(llvm),
                   "top": [[c.name.split("._jit.")[1], round(c.own_seconds, 2)] for c in top]}))
 """
+
+#: The two ways :data:`FIRST_STEP` runs: as a user's script, and on the kernels.
+PATHS = ("user", "kernels")
 
 FAMILIES = ["particle filter", "extended Kalman filter", "unscented Kalman filter", "AKKF",
             "multi-target tracker"]
@@ -113,9 +126,10 @@ class Environment:
             raise RuntimeError(f"{args} failed:\n{done.stderr[-3000:]}")
         return seconds, done.stdout, done.stderr
 
-    def first_step(self, family, **extra):
-        """The JSON record of :data:`FIRST_STEP`, and the warnings printed."""
-        _, out, err = self.run("-c", FIRST_STEP, family, **extra)
+    def first_step(self, family, path, **extra):
+        """The JSON record of :data:`FIRST_STEP` on ``path`` (one of :data:`PATHS`), and the
+        warnings printed."""
+        _, out, err = self.run("-c", FIRST_STEP, family, path, **extra)
         return json.loads(out.splitlines()[-1]), err
 
     def site_packages(self):
@@ -128,26 +142,33 @@ def _megabytes(folder):
 
 
 def _first_steps(environment, repeats, empty_cache, **extra):
-    """Per family: seconds and kernels compiled of ``repeats`` new processes; each starts
-    from an empty per-user cache if ``empty_cache``."""
+    """Per family and path (:data:`PATHS`): seconds, kernels compiled and fallback warnings
+    of ``repeats`` new processes; each starts from an empty per-user cache if
+    ``empty_cache``. On the "user" path, ``compiled`` counts the kernel files the process
+    wrote to that cache (0 when Numba was never loaded)."""
     found = {}
     for family in FAMILIES:
-        records, warnings = [], 0
-        for attempt in range(repeats):
-            cache = environment.folder / f"cache-{family}-{attempt}"
-            settings = dict(extra, FASTTRACK_CACHE_DIR=str(cache)) if empty_cache else extra
-            record, err = environment.first_step(family, **settings)
-            records.append(record)
-            warnings += err.count("cannot be used")
-        found[family] = {key: [r[key] for r in records]
-                         for key in ("seconds", "compiled", "llvm_seconds")}
-        found[family].update(fallback_warnings=warnings, top=records[0]["top"])
-        line = f"  {family:<24} {_runs(found[family]['seconds'])}; kernels compiled " \
-               f"{found[family]['compiled']}"
-        if records[0]["compiled"]:
-            line += (f"; LLVM {statistics.median(found[family]['llvm_seconds']):.1f} s; "
-                     f"longest: {', '.join(f'{n} {t} s' for n, t in records[0]['top'])}")
-        print(line, flush=True)
+        found[family] = {}
+        for path in PATHS:
+            records, warnings = [], 0
+            for attempt in range(repeats):
+                cache = environment.folder / f"cache-{family}-{path}-{attempt}"
+                settings = dict(extra, FASTTRACK_CACHE_DIR=str(cache)) if empty_cache else extra
+                record, err = environment.first_step(family, path, **settings)
+                if path == "user":
+                    record["compiled"] = len(list(cache.rglob("*.nbc"))) if empty_cache else 0
+                records.append(record)
+                warnings += err.count("cannot be used")
+            done = {key: [r[key] for r in records]
+                    for key in ("seconds", "compiled", "llvm_seconds", "numba_loaded")}
+            done.update(fallback_warnings=warnings, top=records[0]["top"])
+            found[family][path] = done
+            line = f"  {family:<24} {path:<8} {_runs(done['seconds'])}; kernels compiled " \
+                   f"{done['compiled']}; Numba loaded {sum(done['numba_loaded'])} of {repeats}"
+            if records[0]["top"]:
+                line += (f"; LLVM {statistics.median(done['llvm_seconds']):.1f} s; "
+                         f"longest: {', '.join(f'{n} {t} s' for n, t in records[0]['top'])}")
+            print(line, flush=True)
     return found
 
 
@@ -226,20 +247,23 @@ def table(results):
             added = done["package_megabytes"] - results["pure"]["package_megabytes"]
             lines.append(f"| installed size added by the kernels | {added:.1f} MB | | "
                          f"<= {TARGETS['install']['installed megabytes added']:g} MB |")
-        for family, step in done["first_steps"].items():
-            row(f"installed: first {family} step", step["seconds"], max(step["compiled"]),
-                TARGETS["installed"].get(family))
+        for family, paths in done["first_steps"].items():
+            for path, step in paths.items():
+                row(f"installed: first {family} step ({path})", step["seconds"],
+                    max(step["compiled"]), TARGETS["installed"].get(family))
         row("installed: `python -m fasttrack demo --quick`", done["demo_quick"], "",
             TARGETS["installed"]["demo --quick"])
-        for family, step in done["mismatch"].items():
-            row(f"shipped kernels unusable (another CPU): first {family} step",
-                step["seconds"], f"{max(step['compiled'])} (said why in "
-                                 f"{step['fallback_warnings']} of {len(step['seconds'])} runs)")
+        for family, paths in done["mismatch"].items():
+            for path, step in paths.items():
+                warned = f"{step['fallback_warnings']} of {len(step['seconds'])}"
+                row(f"shipped kernels unusable (another CPU): first {family} step ({path})",
+                    step["seconds"], f"{max(step['compiled'])} (said why in {warned} runs)")
     if "editable" in results:
         done = results["editable"]
-        for family, step in done["first_steps"].items():
-            row(f"editable, empty cache: first {family} step", step["seconds"],
-                max(step["compiled"]), TARGETS["editable"].get(family))
+        for family, paths in done["first_steps"].items():
+            for path, step in paths.items():
+                row(f"editable, empty cache: first {family} step ({path})", step["seconds"],
+                    max(step["compiled"]), TARGETS["editable"].get(family))
         row("editable: `python -m fasttrack warmup`", done["warmup"], "",
             TARGETS["editable"]["warmup"])
     return "\n".join(lines)

@@ -65,8 +65,8 @@ def _programs():
     programs["README"] = ["-c", _readme_snippet()]
     programs["particle filter at 1e5"] = ["-c", _LARGE]
     bench = runpy.run_path(str(ROOT / "bench" / "cold_start.py"))
-    programs.update({f"first {family} step": ["-c", bench["FIRST_STEP"], family]
-                     for family in bench["FAMILIES"]})
+    programs.update({f"first {family} step ({path})": ["-c", bench["FIRST_STEP"], family, path]
+                     for family in bench["FAMILIES"] for path in bench["PATHS"]})
     return programs
 
 

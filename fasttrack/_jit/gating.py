@@ -137,10 +137,10 @@ def gate(z_hats, covariances, detections, order, sorted_keys, axes, angles, orig
     candidates). With ``write``: store the candidates so counted (one kernel for both
     passes, so that it compiles once)."""
     k_tracks = z_hats.shape[0]
-    for k in prange(k_tracks):
-        count = _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles,
-                      origin, cell, shape, threshold, write, starts[k] if write else 0,
-                      candidates, distances2, log_likelihoods)
+    for k in prange(k_tracks):  # int64(k): one _scan for both builds (prange's k is uint64)
+        count = _scan(np.int64(k), z_hats, covariances, detections, order, sorted_keys, axes,
+                      angles, origin, cell, shape, threshold, write,
+                      starts[k] if write else 0, candidates, distances2, log_likelihoods)
         if not write:
             status[k] = np.int64(count < 0)
             starts[k + 1] = max(count, 0)
