@@ -226,3 +226,12 @@ def non_negative(value, name):
     if not value >= 0:
         raise ValueError(f"{name} must be finite and >= 0, got {value}")
     return value
+
+
+def threshold(value, name):
+    """A real number >= 0 or +inf, as a float."""
+    if not _is_real(value):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+    if not value >= 0:
+        raise ValueError(f"{name} must be >= 0, got {value}")
+    return float(value)

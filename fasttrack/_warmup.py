@@ -22,6 +22,7 @@ from .core.resample import (ess, multinomial, normalise, resampling_points, resi
                             systematic)
 from .filtering import run_filter
 from .kernel import GaussianKernel, QuadraticKernel
+from .mixturereducer import GaussianMixtureReducer
 from .models.measurement import LinearGaussian
 from .models.transition import (CombinedLinearGaussianTransitionModel, ConstantVelocity,
                                 LinearGaussianTransitionModel)
@@ -177,6 +178,8 @@ def _mixture():
                               np.log([0.2, 0.3, 0.5]), [0, 1, 0])
     mixture.reduce()
     segment_logsumexp(mixture.log_weights, np.array([0, 2, 3]))
+    for mode in ("textbook", "stonesoup"):
+        GaussianMixtureReducer(mode=mode).reduce(mixture)
 
 
 def _jpda():

@@ -48,7 +48,7 @@ post.mean, post.covar, ft.ess(post.log_weight), ft.residual(post.log_weight, rng
 
 def _guide_snippets():
     guide = (ROOT / "docs" / "guide.md").read_text()
-    blocks = re.findall(r"\n## ([^\n]+)\n(?:(?!\n## ).)*?```python\n(.*?)```", guide, re.S)
+    blocks = re.findall(r"\n##+ ([^\n]+)\n(?:(?!\n##).)*?```python\n(.*?)```", guide, re.S)
     return {f"guide: {title}": code for title, code in blocks
             if "stonesoup" not in code and "run_trials" not in code}
 

@@ -68,6 +68,15 @@ def test_guide_monte_carlo_runs():
     assert {s.metric for s in results.summary()} == {"rmse", "anees", "anis", "step_seconds"}
 
 
+def test_guide_mixture_reduction_runs():
+    import re
+    guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()
+    code = re.search(r"### Gaussian mixtures\n.*?```python\n(.*?)```", guide, re.S).group(1)
+    namespace = {}
+    exec(compile(code, "guide mixtures", "exec"), namespace)
+    assert 0 < len(namespace["reduced"]) < 1000
+
+
 def test_guide_multi_target_runs():
     import re
     guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()

@@ -141,9 +141,9 @@ def test_every_kernel_has_a_mirror_with_the_same_arguments():
 def test_public_names_are_importable_from_the_package_and_their_module():
     import importlib
     domains = [importlib.import_module(f"fasttrack.{name}") for name in (
-        "batch", "filtering", "kernel", "memory", "metrics", "models", "montecarlo",
-        "predictor", "random", "resampler", "resampling", "simulate", "smoother", "threads",
-        "tracker", "types", "updater")]
+        "batch", "filtering", "kernel", "memory", "metrics", "mixturereducer", "models",
+        "montecarlo", "predictor", "random", "resampler", "resampling", "simulate", "smoother",
+        "threads", "tracker", "types", "updater")]
     for name in fasttrack.__all__:
         obj = getattr(fasttrack, name)
         if name == "warmup":
@@ -521,6 +521,12 @@ mixture = ft.types.GaussianMixture(rng.standard_normal((6, 2)),
                                    [0, 1, 0, 2, 1, 0]).reduce()
 out["mixture"] = np.hstack([mixture.means, mixture.covars.reshape(3, -1),
                             mixture.log_weights[:, None]])
+many = ft.GaussianMixture(rng.standard_normal((80, 2)) * 5.0,
+                          np.broadcast_to(np.eye(2), (80, 2, 2)), rng.normal(size=80))
+for mode in ("textbook", "stonesoup"):
+    reduced = ft.GaussianMixtureReducer(merge_threshold=4.0, mode=mode).reduce(many)
+    out["reduce-" + mode] = np.hstack([reduced.means, reduced.covars.reshape(-1, 4),
+                                       reduced.log_weights[:, None]])
 json.dump({k: [np.asarray(v).dtype.kind, np.asarray(v).tolist()] for k, v in out.items()},
           sys.stdout)
 """

@@ -90,3 +90,137 @@ def test_a_group_without_weight_is_an_error_naming_its_label():
 def test_bad_mixtures_are_refused_naming_the_argument(arguments, message):
     with pytest.raises(ValueError, match=message):
         GaussianMixture(*arguments)
+
+
+# -- Reduction: prune, merge, cap ---------------------------------------------------------
+
+def _clustered(rng, j, d, spread=30.0, clusters=None):
+    """``j`` components around ``clusters`` centres (default j // 3 + 1), with linear
+    weights spanning 1e-12 to 1."""
+    centres = rng.uniform(-spread, spread, size=(clusters or j // 3 + 1, d))
+    means = centres[rng.integers(0, centres.shape[0], size=j)] + rng.normal(size=(j, d))
+    a = rng.standard_normal((j, d, d)) * 0.5
+    covars = a @ a.transpose(0, 2, 1) + np.eye(d) * rng.uniform(0.2, 2.0, size=(j, 1, 1))
+    return means, covars, 10.0 ** rng.uniform(-12, 0, size=j)
+
+
+def _reduced(reduce, means, covars, weights, mode, prune, merging, threshold, cap):
+    j, d = means.shape
+    out = (np.empty((j, d)), np.empty((j, d, d)), np.empty(j), np.empty(j, dtype=np.int64),
+           np.empty(j, dtype=np.int64))
+    count = reduce(means, covars, weights, mixture.MODES[mode], prune, merging, threshold,
+                   cap, mixture._grid_axes(means), *out)
+    return count, [a[:count] for a in out[:4]] + [out[4]]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 160), st.integers(1, 4), st.sampled_from(["textbook", "stonesoup"]),
+       st.sampled_from([-np.inf, 0.0, 1e-6, 1e-3]), st.booleans(),
+       st.sampled_from([0.5, 4.0, 16.0, 200.0]), st.sampled_from([1, 5, 40, 2**40]),
+       st.integers(0, 2**31))
+def test_reduce_matches_its_mirror(j, d, mode, prune, merging, threshold, cap, seed):
+    """Above 64 components the kernel gates merges by a grid; the mirror tests every pair."""
+    means, covars, weights = _clustered(np.random.default_rng(seed), j, d)
+    count, got = _reduced(kernels.reduce, means, covars, weights, mode, prune, merging,
+                          threshold, cap)
+    want_count, want = _reduced(reference.mixture.reduce, means, covars, weights, mode, prune,
+                                merging, threshold, cap)
+    assert count == want_count
+    for name, a, b in zip(["means", "covars", "weights"], got, want):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9, err_msg=name)
+    np.testing.assert_array_equal(got[3], want[3])
+    np.testing.assert_array_equal(got[4], want[4])
+
+
+def test_reduce_follows_a_merged_mean_that_drifts_out_of_the_gate():
+    """A chain of components 0.5 apart, lighter towards the heaviest at one end: with the
+    merged weight capped at 1, Stone Soup's running mean walks along the chain, far past
+    the gate drawn around its start."""
+    n = 100
+    means = np.zeros((n, 2))
+    means[:, 0] = 0.5 * np.arange(n)
+    covars = np.broadcast_to(np.eye(2), (n, 2, 2)).copy()
+    weights = 0.5 + 0.001 * np.arange(n)
+    weights[0] = 1.0
+    for mode in ("stonesoup", "textbook"):
+        got = _reduced(kernels.reduce, means, covars, weights, mode, -np.inf, True, 4.0, 2**40)
+        want = _reduced(reference.mixture.reduce, means, covars, weights, mode, -np.inf, True,
+                        4.0, 2**40)
+        assert got[0] == want[0]
+        np.testing.assert_array_equal(got[1][4], want[1][4])
+        np.testing.assert_allclose(got[1][0], want[1][0], rtol=1e-12)
+        assert (got[1][4] == 0).sum() > (50 if mode == "stonesoup" else 1)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(1, 120), st.integers(1, 4), st.integers(0, 2**31))
+def test_textbook_merges_conserve_mass_within_the_threshold(j, d, seed):
+    means, covars, weights = _clustered(np.random.default_rng(seed), j, d)
+    out_means, out_covars, out_weights, source, member = mixture.reduce(
+        means, covars, weights, prune_threshold=None, merge_threshold=9.0)
+    assert out_weights.sum() == pytest.approx(weights.sum(), rel=1e-12)
+    assert (member >= 0).all()
+    for i in range(j):  # each component lies within the threshold of its group's heaviest
+        best = source[member[i]]
+        v = means[i] - means[best]
+        assert v @ np.linalg.solve(covars[best], v) <= 9.0 * (1 + 1e-9)
+        assert weights[i] <= weights[best]
+    for o in range(out_weights.size):  # each group is the moment match of its members
+        w = weights[member == o] / weights[member == o].sum()
+        np.testing.assert_allclose(out_means[o], w @ means[member == o], rtol=1e-9, atol=1e-9)
+
+
+def test_reduce_closed_forms():
+    p = np.eye(2)
+    means = np.array([[0.0, 0.0], [1.0, 0.0], [50.0, 0.0]])
+    # textbook: the two near ones merge with the spread term, weights summed
+    m, c, w, source, member = mixture.reduce(means, [p, p, p], [0.6, 0.2, 0.1])
+    np.testing.assert_allclose(m, [[0.25, 0.0], [50.0, 0.0]])
+    np.testing.assert_allclose(c[0], p + np.diag([0.75 * 0.25, 0.0]))
+    np.testing.assert_allclose(w, [0.8, 0.1])
+    np.testing.assert_array_equal(source, [0, 2])
+    np.testing.assert_array_equal(member, [0, 0, 1])
+    # Stone Soup: merged weight capped at 1; pruned mass spread evenly; cut mass likewise
+    m, c, w, source, member = mixture.reduce(means, [p, p, p], [0.9, 0.5, 1e-10],
+                                             mode="stonesoup", prune_threshold=1e-9)
+    np.testing.assert_allclose(w, [1.0])
+    np.testing.assert_array_equal(member, [0, 0, -1])
+    m, c, w, source, member = mixture.reduce(means, [p, p, p], [0.5, 0.3, 0.2],
+                                             mode="stonesoup", merge_threshold=0.5,
+                                             max_components=2)
+    np.testing.assert_allclose(w, [0.6, 0.4])
+    np.testing.assert_array_equal(member, [0, 1, -1])
+    m, c, w, source, member = mixture.reduce(means, [p, p, p], [0.5, 0.3, 0.2],
+                                             merge_threshold=0.5, max_components=2)
+    np.testing.assert_allclose(w, [0.625, 0.375])
+
+
+def test_reduce_of_nothing_and_of_one():
+    m, c, w, source, member = mixture.reduce(np.zeros((0, 3)), np.zeros((0, 3, 3)), [])
+    assert m.shape == (0, 3) and c.shape == (0, 3, 3) and w.shape == (0,) and member.size == 0
+    m, c, w, source, member = mixture.reduce([[1.0, 2.0]], [np.eye(2)], [1e-12])
+    assert w.size == 0 and member[0] == -1
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(weights=[0.5, -0.1]), r"weights must be >= 0, got -0.1 at weights\[1\]"),
+    (dict(weights=[0.5, np.nan]), "weights"),
+    (dict(covars=[np.eye(2), -np.eye(2)]), r"covars\[1\] is not positive definite"),
+    (dict(covars=[np.eye(2), [[1.0, 0.5], [0.0, 1.0]]]), r"covars\[1\] is not symmetric"),
+    (dict(mode="vo"), "mode must be one of 'textbook', 'stonesoup'"),
+    (dict(prune_threshold=-1.0), "prune_threshold must be finite and >= 0"),
+    (dict(merge_threshold=np.nan), "merge_threshold must be >= 0"),
+    (dict(max_components=0), "max_components must be >= 1"),
+    (dict(means=[[0.0, np.inf], [0.0, 0.0]]), "means"),
+])
+def test_bad_reductions_are_refused_naming_the_argument(change, message):
+    arguments = dict(means=[[0.0, 0.0], [1.0, 0.0]], covars=[np.eye(2), np.eye(2)],
+                     weights=[0.5, 0.5])
+    arguments.update(change)
+    with pytest.raises(ValueError, match=message):
+        mixture.reduce(**arguments)
+
+
+def test_zero_weights_merged_without_pruning_are_an_error():
+    with pytest.raises(ValueError, match="zero weight merged"):
+        mixture.reduce([[0.0], [0.1]], [[[1.0]], [[1.0]]], [0.0, 0.0], prune_threshold=None)

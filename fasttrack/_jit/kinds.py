@@ -10,3 +10,6 @@ SELECT, BEARING_RANGE, BEARING = np.int64(0), np.int64(1), np.int64(2)
 POLYNOMIAL, GAUSSIAN, MATRIX = np.int64(0), np.int64(1), np.int64(2)
 #: Measurement Jacobians: analytic (built-in sensors), forward or central differences.
 ANALYTIC, FORWARD, CENTRAL = np.int64(0), np.int64(1), np.int64(2)
+#: Mixture reduction rules: Stone Soup's ``GaussianMixtureReducer`` (quirks included) or the
+#: textbook ones (Vo and Ma 2006, the spread of the means kept in merged covariances).
+STONESOUP, TEXTBOOK = np.int64(0), np.int64(1)

@@ -74,3 +74,10 @@ ENUMERATED_EVENTS = 4096
 #: each): a short script never pays Numba's set-up (its import, target, kernel loads and
 #: exit, about 0.7 s), and a long one spends at most about as long again in NumPy first.
 NUMPY_WORK = 8000
+
+#: Below this many components a mixture reduction tests every pair; above, a grid on two state
+#: axes gates the merge tests.
+REDUCE_GRID_FROM = 64
+#: Most components of a gated mixture reduction whose merge radius exceeds the grid's cell
+#: (they are tested against every merge; the cell is their next-largest radius).
+REDUCE_WIDE = 32

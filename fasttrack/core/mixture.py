@@ -3,9 +3,13 @@
 hypotheses of one track, the components one reduction merges)."""
 import numpy as np
 
-from .. import _jit
+from .. import _jit, _validate
+from .._jit.kinds import STONESOUP, TEXTBOOK
 
 _mixture = _jit.lazy("mixture")
+
+#: The reduction rules by name (see :func:`reduce`).
+MODES = {"textbook": TEXTBOOK, "stonesoup": STONESOUP}
 
 
 def segment_logsumexp(values, starts):
@@ -80,3 +84,104 @@ def moment_match(means, covars, log_weights, labels=None):
         raise ValueError(f"the components labelled {unique[failed]} have no positive finite "
                          f"total weight to merge by")
     return (*out, unique)
+
+
+def reduce(means, covars, weights, mode="textbook", prune_threshold=1e-9,
+           merge_threshold=16.0, max_components=None, merging=True):
+    """Prune, merge and cap a Gaussian mixture, one compiled pass.
+
+    Pruning drops the components lighter than ``prune_threshold``; merging takes the
+    heaviest component left, merges into it every one within ``merge_threshold``
+    (squared Mahalanobis distance), and repeats; capping keeps the ``max_components``
+    heaviest. Two sets of rules:
+
+    - ``"textbook"`` (Vo and Ma 2006): keep ``w > prune_threshold``; the heaviest's
+      covariance measures ``<= merge_threshold`` from its mean; the group becomes the
+      Gaussian of the same moments (spread of the means included) with the summed weight;
+      the cap rescales the kept weights to the whole mass.
+    - ``"stonesoup"`` (Stone Soup's ``GaussianMixtureReducer``): keep
+      ``w >= prune_threshold`` and add the pruned mass evenly to the kept; candidates in
+      ascending weight, each's own covariance measuring ``< merge_threshold`` from the
+      running merged mean, merged pairwise with the merged weight capped at 1; the cap
+      adds the cut mass evenly.
+
+    Parameters
+    ----------
+    means : (J, d) array_like
+    covars : (J, d, d) array_like
+        Symmetric positive definite (checked when merging).
+    weights : (J,) array_like
+        Linear weights >= 0 (e.g. a PHD's: they sum to the expected number of targets).
+    mode : {"textbook", "stonesoup"}
+    prune_threshold : float or None
+        >= 0; None: no pruning.
+    merge_threshold : float
+        >= 0 (inf merges everything).
+    max_components : int, optional
+        The cap (default: none).
+    merging : bool
+
+    Returns
+    -------
+    means, covars, weights : (L, d), (L, d, d), (L,) ndarray
+        The reduced mixture, each merge's heaviest first (by weight when capped).
+    source : (L,) int64 ndarray
+        The input component each output grew from (its heaviest: whose tag it keeps).
+    member : (J,) int64 ndarray
+        The output each input component went into, -1 if pruned or cut.
+
+    Raises
+    ------
+    ValueError
+        For weights that are negative or not finite, a covariance that is not symmetric
+        or not positive definite, or thresholds out of range, naming the argument.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {', '.join(map(repr, MODES))}, got {mode!r}")
+    means = _validate.finite_array(means, "means", 2)
+    j, d = means.shape
+    covars = _validate.finite_array(covars, "covars", 3)
+    if covars.shape != (j, d, d):
+        raise ValueError(f"covars must have shape ({j}, {d}, {d}), got {covars.shape}")
+    weights = _validate.finite_array(weights, "weights", 1)
+    if weights.shape != (j,):
+        raise ValueError(f"weights must have shape ({j},), got {weights.shape}")
+    if (weights < 0).any():
+        raise ValueError(f"weights must be >= 0, got {weights.min()} at "
+                         f"weights[{int(weights.argmin())}]")
+    prune = -np.inf if prune_threshold is None else \
+        _validate.non_negative(prune_threshold, "prune_threshold")
+    merge = _validate.threshold(merge_threshold, "merge_threshold")
+    cap = _validate.count(max_components, "max_components", default=_validate.MAX_COUNT)
+    out = np.empty((j, d)), np.empty((j, d, d)), np.empty(j)
+    source, member = np.empty(j, dtype=np.int64), np.empty(j, dtype=np.int64)
+    count = _mixture.reduce(means, covars, weights, MODES[mode], prune,
+                            _validate.flag(merging, "merging"), merge, cap, _grid_axes(means),
+                            *out, source, member)
+    if count < 0:
+        i, asymmetric = divmod(-(1 + count), 2)
+        problem = "symmetric" if asymmetric else "positive definite"
+        raise ValueError(f"covars[{i}] is not {problem}")
+    if not (np.isfinite(out[0][:count]).all() and np.isfinite(out[2][:count]).all()):
+        raise ValueError("weights: components of zero weight merged (there is no weight to "
+                         "average them by); prune them (prune_threshold > 0)")
+    return out[0][:count], out[1][:count], out[2][:count], source[:count], member
+
+
+def _grid_axes(means):
+    """(2,) int64: the state rows along which the means spread most (the merge grid's)."""
+    if means.shape[0] == 0 or means.shape[1] == 1:
+        return np.zeros(2, dtype=np.int64)
+    return np.argsort(np.ptp(means, axis=0))[::-1][:2].astype(np.int64)
+
+
+def relabel(labels, weights, first_new):
+    """``labels`` (L,) int64 with each label left on several components kept by the
+    heaviest (the first of equals) and the others numbered ``first_new``, ``first_new + 1``,
+    ... in component order."""
+    order = np.lexsort((-weights, labels))
+    repeat = np.zeros(labels.size, dtype=bool)
+    repeat[order[1:]] = labels[order[1:]] == labels[order[:-1]]
+    out = labels.copy()
+    out[repeat] = first_new + np.arange(np.count_nonzero(repeat))
+    return out

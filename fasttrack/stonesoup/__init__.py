@@ -32,6 +32,7 @@ _MODULES = {
                "QuarticKernel"],
     "measures": ["Mahalanobis"],
     "metricgenerator": ["GOSPAMetric", "OSPAMetric"],
+    "mixturereducer": ["GaussianMixtureReducer"],
     "predictor": ["AdaptiveKernelKalmanPredictor", "ExtendedKalmanPredictor", "KalmanPredictor",
                   "ParticlePredictor", "UnscentedKalmanPredictor"],
     "resampler": ["ESSResampler", "MultinomialResampler", "ResidualMethod", "ResidualResampler",

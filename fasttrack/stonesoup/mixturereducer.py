@@ -1,0 +1,98 @@
+"""Stone Soup's ``stonesoup.mixturereducer``: the ``GaussianMixtureReducer``, its merge and
+truncation in one compiled pass by Stone Soup's rules (:func:`fasttrack.core.mixture.reduce`,
+mode "stonesoup"), gated by a grid instead of testing every pair.
+
+- As Stone Soup does, the pruned mass is added to the kept components' weights in place,
+  the cut mass likewise to the kept ones' after a truncation, and the components that no
+  merge touched are returned themselves; a merge returns a new state of its heaviest
+  component's class (tagged or not), tag and timestamp. A tag then left on several
+  components stays with the heaviest, the others get new uuids.
+- The order is the merges' (each one's heaviest first; by weight after a truncation). Stone
+  Soup regroups its list by tag, in set order, when it renames duplicate tags: its order
+  then differs from run to run.
+- A kd-tree gate (``kdtree_max_distance``), components that are not weighted Gaussian
+  states of one dimension, and a subclass's own ``prune``, ``merge``, ``merge_components``
+  or ``truncate`` run Stone Soup's code.
+"""
+import uuid
+
+import numpy as np
+from stonesoup.mixturereducer import gaussianmixture as ss
+from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianState
+
+from ..core import mixture as _mixture
+from ._fallback import fall_back
+
+__all__ = ["GaussianMixtureReducer"]
+
+_OWN_METHODS = ("prune", "merge", "merge_components", "truncate")
+
+
+class GaussianMixtureReducer(ss.GaussianMixtureReducer):
+    """Stone Soup's ``GaussianMixtureReducer``, compiled."""
+
+    def reduce(self, components_list):
+        reason = self._reason(components_list)
+        if reason:
+            fall_back(self, "reduce", reason)
+            return super().reduce(components_list)
+        if not components_list:
+            return components_list
+        if self.pruning:
+            components_list = self.prune(components_list)
+        if not components_list:
+            return components_list
+        means = np.hstack([c.state_vector for c in components_list]).T.astype(np.float64)
+        covars = np.array([c.covar for c in components_list], dtype=np.float64)
+        weights = np.array([c.weight for c in components_list], dtype=np.float64)
+        cap = self.max_number_components
+        means, covars, weights, source, member = _mixture.reduce(
+            means, covars, weights, "stonesoup", None, self.merge_threshold,
+            cap if self.truncating and cap < len(components_list) else None, self.merging)
+        alone = np.bincount(member[member >= 0], minlength=weights.size) == 1
+        reduced = []
+        for o, i in enumerate(source):
+            heaviest = components_list[i]
+            if alone[o]:
+                heaviest.weight = float(weights[o])
+                reduced.append(heaviest)
+            else:
+                kind = (TaggedWeightedGaussianState
+                        if isinstance(heaviest, TaggedWeightedGaussianState)
+                        else WeightedGaussianState)
+                extra = {"tag": heaviest.tag} if kind is TaggedWeightedGaussianState else {}
+                reduced.append(kind(state_vector=means[o][:, None], covar=covars[o],
+                                    weight=float(weights[o]), timestamp=heaviest.timestamp,
+                                    **extra))
+        _rename_shared_tags(reduced)
+        return reduced
+
+    def _reason(self, components_list):
+        """Why Stone Soup's code must reduce ``components_list``, or None."""
+        if self.kdtree_max_distance is not None:
+            return "a kd-tree gate (kdtree_max_distance)"
+        own = [name for name in _OWN_METHODS
+               if getattr(type(self), name) is not getattr(ss.GaussianMixtureReducer, name)]
+        if own:
+            return f"the subclass's own {', '.join(own)}"
+        if not all(isinstance(c, WeightedGaussianState) for c in components_list):
+            return "components that are not weighted Gaussian states"
+        if len({c.state_vector.shape for c in components_list}) > 1:
+            return "components of different dimensions"
+        return None
+
+
+def _rename_shared_tags(components):
+    """Stone Soup's rule when every component is tagged: a tag on several components stays
+    with the heaviest (the first of equals), the others get new uuids."""
+    if not all(isinstance(c, TaggedWeightedGaussianState) for c in components):
+        return
+    heaviest = {}
+    for c in components:
+        kept = heaviest.get(c.tag)
+        if kept is None:
+            heaviest[c.tag] = c
+        elif c.weight > kept.weight:
+            kept.tag, heaviest[c.tag] = str(uuid.uuid4()), c
+        else:
+            c.tag = str(uuid.uuid4())
