@@ -1,0 +1,123 @@
+"""The Gaussian-mixture PHD update (Vo and Ma 2006) on arrays, in log weights: a mixture of
+J predicted components, (J, d) means, (J, d, d) covariances and (J,) log weights, and a scan
+of M detections (M, m) give the posterior mixture of the missed components and the
+detected (component, detection) pairs. The innovation covariance, gain and updated
+covariance are computed once per component and shared by its detections; the detections
+each component's gate holds come from :func:`fasttrack.core.gating.gate`."""
+import numpy as np
+
+from .. import _validate
+from . import gating as _gating
+from . import mixture as _mixture
+from .kinds import SELECT
+
+
+def update(model, means, covars, log_weights, detections, prob_detect, clutter_intensity,
+           gate_threshold=None):
+    """The PHD posterior of a predicted Gaussian mixture given one scan, by a linear
+    measurement model.
+
+    Component i (mean m_i, covariance P_i, weight w_i) gives a missed component
+    (m_i, P_i, (1 - P_D) w_i) and, for each detection z its gate holds, a detected one
+    (m_i + K_i (z - H m_i), P_i - K_i S_i K_i^T,
+    P_D w_i N(z; H m_i, S_i) / (kappa + sum_j P_D w_j N(z; H m_j, S_j))), the sum over the
+    components whose gates hold z. The weights are computed in logs: none underflows.
+
+    Parameters
+    ----------
+    model : LinearGaussian
+        The measurement model (H selects state rows; R its noise).
+    means : (J, d) array_like
+    covars : (J, d, d) array_like
+        Symmetric positive semi-definite, with H P H^T + R positive definite.
+    log_weights : (J,) array_like
+        Log weights, -inf for zero.
+    detections : (M, m) array_like
+    prob_detect : float
+        P_D in [0, 1].
+    clutter_intensity : float
+        kappa > 0: expected clutter detections per unit volume of measurement space.
+    gate_threshold : float, optional
+        Squared Mahalanobis distance within which a detection updates a component (default:
+        every pair).
+
+    Returns
+    -------
+    means, covars, log_weights : (J + n, d), (J + n, d, d), (J + n,) ndarray
+        The J missed components, then the n detected pairs, component by component.
+    components : (J + n,) int64 ndarray
+        The predicted component each came from.
+    detections : (J + n,) int64 ndarray
+        The detection that updated it, -1 for a missed component.
+
+    Raises
+    ------
+    ValueError
+        For shapes that do not match, non-finite values, P_D outside [0, 1], a clutter
+        intensity that is not finite and > 0, or an innovation covariance that is not
+        positive definite, naming the argument.
+    """
+    spec = model.spec
+    if spec.kind != SELECT:
+        raise ValueError("the GM-PHD update takes a linear measurement model (LinearGaussian), "
+                         f"got {type(model).__name__}")
+    means = _validate.finite_array(means, "means", 2)
+    j, d = means.shape
+    if d != spec.ndim_state:
+        raise ValueError(f"means must have {spec.ndim_state} columns (the model's state), "
+                         f"got {d}")
+    covars = _validate.finite_array(covars, "covars", 3)
+    if covars.shape != (j, d, d):
+        raise ValueError(f"covars must have shape ({j}, {d}, {d}), got {covars.shape}")
+    log_weights = _validate.float_array(log_weights, "log_weights", 1)
+    if log_weights.shape != (j,) or np.isnan(log_weights).any() or (log_weights == np.inf).any():
+        raise ValueError(f"log_weights must be {j} numbers, not NaN or +inf")
+    log_detect = _log(_validate.probability(prob_detect, "prob_detect"))
+    log_missed = _log(1.0 - float(prob_detect))
+    log_clutter = np.log(_validate.positive(clutter_intensity, "clutter_intensity"))
+    scan = _validate.finite_array(detections, "detections")
+    scan = scan.reshape(0, spec.ndim_meas) if scan.size == 0 else scan
+    if scan.ndim != 2 or scan.shape[1] != spec.ndim_meas:
+        raise ValueError(f"detections must have shape (M, {spec.ndim_meas}), got {scan.shape}")
+    mapping = spec.mapping
+    z_hats = means[:, mapping]
+    cross = covars[:, :, mapping]  # P H^T
+    innovation = cross[:, mapping, :] + spec.noise_covar
+    if gate_threshold is None:
+        _symmetric(covars)
+        gate = _gating.gate_arrays(z_hats, innovation, scan, np.inf, None,
+                                   np.empty(0, dtype=np.int64))
+    else:
+        gate = _gating.gate(z_hats, innovation, scan,
+                            _validate.positive(gate_threshold, "gate_threshold"))
+    gains = np.linalg.solve(innovation, cross.transpose(0, 2, 1)).transpose(0, 2, 1)
+    updated = covars - gains @ cross.transpose(0, 2, 1)
+    updated = 0.5 * (updated + updated.transpose(0, 2, 1))
+    pairs = np.repeat(np.arange(j), np.diff(gate.starts))
+    log_detected = log_detect + log_weights[pairs] + gate.log_likelihoods
+    by_detection = np.argsort(gate.detections, kind="stable")
+    starts = np.searchsorted(gate.detections[by_detection], np.arange(scan.shape[0] + 1))
+    totals = _mixture.segment_logsumexp(log_detected[by_detection], starts)
+    log_detected -= np.logaddexp(log_clutter, totals[gate.detections])
+    innovations = scan[gate.detections] - z_hats[pairs]
+    detected_means = means[pairs] + np.einsum("kij,kj->ki", gains[pairs], innovations)
+    return (np.concatenate((means, detected_means)),
+            np.concatenate((covars, updated[pairs])),
+            np.concatenate((log_weights + log_missed, log_detected)),
+            np.concatenate((np.arange(j), pairs)),
+            np.concatenate((np.full(j, -1), gate.detections)))
+
+
+def _log(value):
+    """log of a probability, -inf for 0."""
+    with np.errstate(divide="ignore"):
+        return np.log(value)
+
+
+def _symmetric(covars):
+    """ValueError naming the first of ``covars`` that is not symmetric."""
+    scale = np.abs(covars).max(axis=(1, 2), initial=0.0)
+    asymmetric = np.abs(covars - covars.transpose(0, 2, 1)).max(axis=(1, 2), initial=0.0) \
+        > 1e-9 * scale
+    if asymmetric.any():
+        raise ValueError(f"covars[{np.argmax(asymmetric)}] is not symmetric")

@@ -1,0 +1,122 @@
+"""The GM-PHD update on arrays: closed forms (the Kalman filter, the weight-sum identity), a
+direct evaluation of the formula, gates, log weights that do not underflow, and bad input."""
+import numpy as np
+import pytest
+from scipy.stats import multivariate_normal
+
+import fasttrack as ft
+from fasttrack.core import phd
+
+SENSOR = ft.LinearGaussian(4, (0, 2), np.diag([0.75, 0.75]))
+
+
+def _mixture(seed, j):
+    rng = np.random.default_rng(seed)
+    means = rng.normal(size=(j, 4)) * [20.0, 1.0, 20.0, 1.0]
+    a = rng.standard_normal((j, 4, 4)) * 0.5
+    covars = a @ a.transpose(0, 2, 1) + np.eye(4)
+    return means, covars, np.log(rng.uniform(0.01, 1.0, j))
+
+
+def _direct(means, covars, log_weights, detections, p_d, kappa):
+    """The update formula evaluated pair by pair in the linear domain."""
+    h, r = np.zeros((2, 4)), SENSOR.noise_covar
+    h[0, 0] = h[1, 2] = 1.0
+    w = np.exp(log_weights)
+    out = [(m, p, (1 - p_d) * wi) for m, p, wi in zip(means, covars, w)]
+    for z in detections:
+        terms = []
+        for m, p, wi in zip(means, covars, w):
+            s = h @ p @ h.T + r
+            k = p @ h.T @ np.linalg.inv(s)
+            terms.append((m + k @ (z - h @ m), p - k @ s @ k.T,
+                          p_d * wi * multivariate_normal.pdf(z, h @ m, s)))
+        total = sum(t[2] for t in terms)
+        out += [(m, p, q / (kappa + total)) for m, p, q in terms]
+    return out
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_update_is_the_formula(seed):
+    means, covars, log_weights = _mixture(seed, 7)
+    detections = np.random.default_rng(seed + 10).normal(size=(5, 2)) * 20.0
+    got = phd.update(SENSOR, means, covars, log_weights, detections, 0.9, 1e-4)
+    want = _direct(means, covars, log_weights, detections, 0.9, 1e-4)
+    order = np.lexsort((got[3], got[4]))  # missed first, then detection by detection
+    assert got[0].shape == (7 * 6, 4)
+    for k, (m, p, w) in zip(order, want):
+        np.testing.assert_allclose(got[0][k], m, rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(got[1][k], p, rtol=1e-10, atol=1e-10)
+        assert np.exp(got[2][k]) == pytest.approx(w, rel=1e-9, abs=1e-300)
+
+
+def test_one_target_always_detected_without_clutter_is_the_kalman_filter():
+    prior = ft.GaussianState([[1.0], [0.5], [-2.0], [0.1]], np.diag([4.0, 1.0, 4.0, 1.0]),
+                             timestamp=0.0)
+    z = ft.Detection([[1.5], [-1.0]], timestamp=0.0, measurement_model=SENSOR)
+    kalman = ft.KalmanUpdater(SENSOR).update(ft.SingleHypothesis(prior, z))
+    means, covars, log_weights, components, detections = phd.update(
+        SENSOR, prior.state_vector.T, prior.covar[None], [0.0], z.state_vector.T, 1.0, 1e-300)
+    assert np.exp(log_weights).tolist() == [0.0, pytest.approx(1.0, rel=1e-12)]
+    np.testing.assert_allclose(means[1], kalman.state_vector.ravel(), rtol=1e-12)
+    np.testing.assert_allclose(covars[1], kalman.covar, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("threshold", [None, 9.0])
+def test_the_weights_sum_as_the_phd_identity(threshold):
+    """sum w+ = (1 - P_D) sum w + sum_z W_z / (W_z + kappa), W_z over the gated pairs."""
+    means, covars, log_weights = _mixture(3, 30)
+    detections = np.random.default_rng(4).normal(size=(12, 2)) * 20.0
+    out = phd.update(SENSOR, means, covars, log_weights, detections, 0.8, 2e-4, threshold)
+    detected = out[4] >= 0
+    w_z = np.bincount(out[4][detected], weights=np.exp(out[2][detected]), minlength=12)
+    assert w_z.max() < 1.0  # normalised by W_z + kappa
+    raw = np.zeros(12)
+    for i, z in zip(out[3][detected], out[4][detected]):  # W_z from the gated pairs
+        s = covars[i][np.ix_([0, 2], [0, 2])] + SENSOR.noise_covar
+        raw[z] += 0.8 * np.exp(log_weights[i]) * multivariate_normal.pdf(
+            detections[z], means[i, [0, 2]], s)
+    np.testing.assert_allclose(w_z, raw / (raw + 2e-4), rtol=1e-9)
+    assert np.exp(out[2]).sum() == pytest.approx(
+        0.2 * np.exp(log_weights).sum() + (raw / (raw + 2e-4)).sum(), rel=1e-12)
+    if threshold is not None:  # the gate keeps exactly the pairs within it
+        assert 0 < detected.sum() < 30 * 12
+
+
+def test_far_detections_keep_their_weight_in_logs():
+    """A component 1e3 standard deviations away: N underflows to 0 in linear terms, not in
+    logs, and the weight of that pair is exp(-5e5 ...), a finite log."""
+    out = phd.update(SENSOR, [[0.0, 0.0, 0.0, 0.0], [1e3, 0, 0, 0]], [np.eye(4)] * 2,
+                     [0.0, 0.0], [[1e3, 0.0]], 0.9, 1e-300)
+    assert np.isfinite(out[2]).all() and out[2][2] < -1e5
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(prob_detect=1.5), "prob_detect must lie in"),
+    (dict(clutter_intensity=0.0), "clutter_intensity must be finite and > 0"),
+    (dict(log_weights=[np.nan, 0.0]), "log_weights must be 2 numbers"),
+    (dict(detections=[[0.0, 0.0, 0.0]]), r"detections must have shape \(M, 2\)"),
+    (dict(covars=[np.eye(4), -np.eye(4)]), "not positive definite"),
+    (dict(means=np.zeros((2, 3))), "means must have 4 columns"),
+    (dict(gate_threshold=-1.0), "gate_threshold must be finite and > 0"),
+])
+def test_bad_updates_are_refused_naming_the_argument(change, message):
+    arguments = dict(model=SENSOR, means=np.zeros((2, 4)), covars=[np.eye(4)] * 2,
+                     log_weights=[0.0, 0.0], detections=[[0.0, 1.0]], prob_detect=0.9,
+                     clutter_intensity=1e-4)
+    arguments.update(change)
+    with pytest.raises(ValueError, match=message):
+        phd.update(**arguments)
+
+
+def test_a_nonlinear_sensor_is_refused():
+    sensor = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.01, 1.0]))
+    with pytest.raises(ValueError, match="linear measurement model"):
+        phd.update(sensor, np.zeros((1, 4)), [np.eye(4)], [0.0], [[0.1, 1.0]], 0.9, 1e-4)
+
+
+def test_no_detections_leaves_the_missed_components():
+    means, covars, log_weights = _mixture(0, 3)
+    out = phd.update(SENSOR, means, covars, log_weights, np.empty((0, 2)), 0.9, 1e-4)
+    np.testing.assert_allclose(out[2], log_weights + np.log(0.1))
+    assert (out[4] == -1).all()
