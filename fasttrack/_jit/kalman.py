@@ -30,7 +30,7 @@ from .kinds import CV, FIXED
 from .jacobian import (ANALYTIC, measurement_jacobian, measurement_jacobian_function,
                        transition_jacobian_function)
 from .sensor import SELECT, _polar_jacobian, _predict_block, _sensor_frame
-from .linalg import ONE, _check_covariance, _cholesky, _covariance_code, _sandwich, _solve
+from .linalg import _check_covariance, _cholesky, _covariance_code, _sandwich, _solve
 from .numeric import copy_into, fill, wrap_angle
 from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
                      PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
@@ -350,7 +350,7 @@ def linear_predict(matrix, covar, mapping, noise, means, covariances, means_out,
     product = np.empty((d, d))
     for t in range(k_tracks):
         status[t] = OK
-        _check_covariance(ONE, covariances[t].reshape((d, d, 1)), status[t:t + 1],
+        _check_covariance(1, covariances[t].reshape((d, d, 1)), status[t:t + 1],
                           PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
         for r in range(d):
             s = 0.0
@@ -468,8 +468,8 @@ def predict_one(kind, rates, fixed_matrix, fixed_covar, dt, x, covariance, x_out
     d = x.shape[0]
     matrix, covar = np.empty((d, d, 1)), np.empty((d, d, 1))
     status = np.zeros(1, dtype=np.int64)
-    _transition(ONE, kind, rates, fixed_matrix, fixed_covar, np.full(1, dt), matrix, covar)
-    _predict(ONE, matrix, covar, x, covariance.reshape((d, d, 1)), x_out,
+    _transition(1, kind, rates, fixed_matrix, fixed_covar, np.full(1, dt), matrix, covar)
+    _predict(1, matrix, covar, x, covariance.reshape((d, d, 1)), x_out,
             covariance_out.reshape((d, d, 1)), status)
     return status[0]
 
@@ -494,7 +494,7 @@ def predict_function(function, dt, covar, central, x, covariance, x_out, covaria
         for c in range(d):
             matrix[r, c, 0] = jacobian[r, c]
     status = np.zeros(1, dtype=np.int64)
-    _predict_covariance(ONE, matrix, covar.reshape((d, d, 1)), covariance.reshape((d, d, 1)),
+    _predict_covariance(1, matrix, covar.reshape((d, d, 1)), covariance.reshape((d, d, 1)),
                         covariance_out.reshape((d, d, 1)), status)
     return status[0]
 
@@ -508,10 +508,10 @@ def update_one(kind, mapping, offset, rotation, noise, angles, method, joseph, x
     m = z.shape[0]
     status = np.zeros(1, dtype=np.int64)
     covariance = covariance.reshape((d, d, 1))
-    _check_covariance(ONE, covariance, status, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    _check_covariance(1, covariance, status, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
     jacobian = np.empty((m, d, 1))
-    _measure(ONE, kind, mapping, offset, rotation, method, x, z_hat, jacobian, status)
-    _update(ONE, x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out,
+    _measure(1, kind, mapping, offset, rotation, method, x, z_hat, jacobian, status)
+    _update(1, x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out,
             covariance_out.reshape((d, d, 1)), innovation_covar.reshape((m, m, 1)),
             cross.reshape((d, m, 1)), status)
     return status[0]
@@ -534,13 +534,13 @@ def update_function(function, noise, angles, central, joseph, x, covariance, z, 
         return code
     status = np.zeros(1, dtype=np.int64)
     covariance = covariance.reshape((d, d, 1))
-    _check_covariance(ONE, covariance, status, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    _check_covariance(1, covariance, status, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
     jacobian = np.empty((m, d, 1))
     for r in range(m):
         z_hat[r, 0] = wrap_angle(values[r, 0]) if angles[r] else values[r, 0]
         for c in range(d):
             jacobian[r, c, 0] = one[r, c]
-    _update(ONE, x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out,
+    _update(1, x, covariance, z, z_hat, jacobian, noise, angles, joseph, x_out,
             covariance_out.reshape((d, d, 1)), innovation_covar.reshape((m, m, 1)),
             cross.reshape((d, m, 1)), status)
     return status[0]

@@ -7,10 +7,6 @@ from .dispatch import jit
 from .tunables import PSD_TOLERANCE
 from .status import OK
 
-#: A stack of one filter: typed int64, not the literal 1, so that one-filter kernels call the
-#: stack kernels' compiled code instead of compiling each again for the constant.
-ONE = np.int64(1)
-
 
 @jit()
 def _cholesky(nb, a, lower, status, code):

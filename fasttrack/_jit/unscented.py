@@ -22,7 +22,7 @@ import numpy as np
 
 from .dispatch import jit
 from .kalman import FILTERS_PER_BLOCK, _correct, _from_block, _to_block, _transition
-from .linalg import ONE, _check_covariance, _solve
+from .linalg import _check_covariance, _solve
 from .numeric import copy_into, fill, sin_cos_turns, wrap_angle
 from .sensor import _predict_block
 from .status import (OK, PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
@@ -246,7 +246,7 @@ def sigma_points(x, covariance, alpha, beta, kappa, lower, points, mean_weights,
     their weights (2d + 1,) into ``mean_weights`` and ``covar_weights``, and the Cholesky
     factor used into ``lower`` (d, d)."""
     d = x.shape[0]
-    block, factor, wm, wc = _sigma(ONE, x, covariance.reshape((d, d, 1)), alpha, beta, kappa)
+    block, factor, wm, wc = _sigma(1, x, covariance.reshape((d, d, 1)), alpha, beta, kappa)
     copy_into(block, points)
     copy_into(factor, lower)
     copy_into(wm, mean_weights)
@@ -261,7 +261,7 @@ def unscented_moments(points, transformed, mean_weights, covar_weights, angles, 
     (m,) is True are angles (circular mean, wrapped differences)."""
     d, n = points.shape
     m = transformed.shape[0]
-    _moments(ONE, points.reshape((d, n, 1)), transformed.reshape((m, n, 1)), mean_weights,
+    _moments(1, points.reshape((d, n, 1)), transformed.reshape((m, n, 1)), mean_weights,
              covar_weights, angles, noise.reshape((m, m, 1)), mean,
              covar.reshape((m, m, 1)), cross.reshape((d, m, 1)))
 
@@ -272,7 +272,7 @@ def _checked(covariance, asymmetric, indefinite):
     ``asymmetric`` or ``indefinite``."""
     d = covariance.shape[0]
     status = np.zeros(1, dtype=np.int64)
-    _check_covariance(ONE, covariance.reshape((d, d, 1)), status, asymmetric, indefinite)
+    _check_covariance(1, covariance.reshape((d, d, 1)), status, asymmetric, indefinite)
     return status
 
 
@@ -286,8 +286,8 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
     status = _checked(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
     if status[0] == OK:
         matrix, covar = np.empty((d, d, 1)), np.empty((d, d, 1))
-        _transition(ONE, kind, rates, fixed_matrix, fixed_covar, np.full(1, dt), matrix, covar)
-        _predict(ONE, matrix, covar, alpha, beta, kappa, x, covariance.reshape((d, d, 1)), x_out,
+        _transition(1, kind, rates, fixed_matrix, fixed_covar, np.full(1, dt), matrix, covar)
+        _predict(1, matrix, covar, alpha, beta, kappa, x, covariance.reshape((d, d, 1)), x_out,
                  covariance_out.reshape((d, d, 1)))
     return status[0]
 
@@ -303,13 +303,13 @@ def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covar
     status = _checked(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
     if status[0] != OK:
         return status[0]
-    points, _, mean_weights, covar_weights = _sigma(ONE, x, covariance.reshape((d, d, 1)), alpha,
+    points, _, mean_weights, covar_weights = _sigma(1, x, covariance.reshape((d, d, 1)), alpha,
                                                     beta, kappa)
     n = points.shape[1]
     moved = function(points.reshape((d, n)), dt)
     code = output_status(moved, d, n)
     if code == OK:
-        _moments(ONE, points, np.ascontiguousarray(moved).reshape((d, n, 1)), mean_weights,
+        _moments(1, points, np.ascontiguousarray(moved).reshape((d, n, 1)), mean_weights,
                  covar_weights, np.zeros(d, dtype=np.bool_), covar.reshape((d, d, 1)), x_out,
                  covariance_out.reshape((d, d, 1)), cross.reshape((cross.shape[0], d, 1)))
     return code
@@ -330,9 +330,9 @@ def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta
     status = _checked(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
     if status[0] == OK:
         covariance = covariance.reshape((d, d, 1))
-        measured = _measure(ONE, kind, mapping, offset, rotation, alpha, beta, kappa, x,
+        measured = _measure(1, kind, mapping, offset, rotation, alpha, beta, kappa, x,
                             covariance, m)
-        _update(ONE, measured, noise, angles, joseph, x, covariance, z, x_out,
+        _update(1, measured, noise, angles, joseph, x, covariance, z, x_out,
                 covariance_out.reshape((d, d, 1)), z_hat, innovation_covar.reshape((m, m, 1)),
                 cross.reshape((d, m, 1)), status)
     return status[0]
@@ -349,7 +349,7 @@ def unscented_update_function(function, noise, angles, alpha, beta, kappa, josep
     if status[0] != OK:
         return status[0]
     covariance = covariance.reshape((d, d, 1))
-    points, lower, mean_weights, covar_weights = _sigma(ONE, x, covariance, alpha, beta, kappa)
+    points, lower, mean_weights, covar_weights = _sigma(1, x, covariance, alpha, beta, kappa)
     n = points.shape[1]
     transformed = function(points.reshape((d, n)))
     code = output_status(transformed, m, n)
@@ -357,7 +357,7 @@ def unscented_update_function(function, noise, angles, alpha, beta, kappa, josep
         return code
     measured = (np.ascontiguousarray(transformed).reshape((m, n, 1)), points, lower,
                 mean_weights, covar_weights)
-    _update(ONE, measured, noise, angles, joseph, x, covariance, z, x_out,
+    _update(1, measured, noise, angles, joseph, x, covariance, z, x_out,
             covariance_out.reshape((d, d, 1)), z_hat, innovation_covar.reshape((m, m, 1)),
             cross.reshape((d, m, 1)), status)
     return status[0]
