@@ -26,6 +26,7 @@ from .mixturereducer import GaussianMixtureReducer
 from .models.measurement import LinearGaussian
 from .models.transition import (CombinedLinearGaussianTransitionModel, ConstantVelocity,
                                 LinearGaussianTransitionModel)
+from .phd import PHDTracker
 from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
                         ParticlePredictor, UnscentedKalmanPredictor)
 from .resampler import (ESSResampler, MultinomialResampler, ResidualResampler, StratifiedResampler,
@@ -180,6 +181,11 @@ def _mixture():
     segment_logsumexp(mixture.log_weights, np.array([0, 2, 3]))
     for mode in ("textbook", "stonesoup"):
         GaussianMixtureReducer(mode=mode).reduce(mixture)
+    scenario = grid_targets(n_targets=2, steps=2, clutter_rate=2.0, seed=0)
+    birth = GaussianMixture(scenario.truths[0], np.broadcast_to(np.eye(4), (2, 4, 4)))
+    for gate in (None, 9.0):
+        PHDTracker(scenario.transition_model, scenario.measurement_model, birth, 0.9, 0.99,
+                   scenario.clutter_density, gate).run(scenario.detections)
 
 
 def _jpda():

@@ -41,16 +41,18 @@ class GaussianMixtureReducer:
                              f"got {mode!r}")
         self.mode = mode
 
-    def reduce(self, mixture):
+    def reduce(self, mixture, first_label=None):
         """The reduced ``mixture``.
 
         Each merge keeps the label of its heaviest component; where a label is then left on
         several components, the heaviest keeps it and the others get new labels, counting
-        up from one above the largest in ``mixture``.
+        up from ``first_label``.
 
         Parameters
         ----------
         mixture : GaussianMixture
+        first_label : int, optional
+            The first new label (default: one above the largest in ``mixture``).
 
         Returns
         -------
@@ -63,7 +65,10 @@ class GaussianMixtureReducer:
             mixture.means, mixture.covars, np.exp(mixture.log_weights), self.mode,
             self.prune_threshold if self.pruning else None, self.merge_threshold,
             self.max_number_components if self.truncating else None, self.merging)
-        first_new = mixture.labels.max() + 1 if len(mixture) else 0
-        labels = _mixture.relabel(mixture.labels[source], weights, first_new)
+        if first_label is None:
+            first_label = int(mixture.labels.max()) + 1 if len(mixture) else 0
+        elif not _validate.is_integer(first_label):
+            raise TypeError(f"first_label must be an int, got {type(first_label).__name__}")
+        labels = _mixture.relabel(mixture.labels[source], weights, first_label)
         with np.errstate(divide="ignore"):
             return GaussianMixture(means, covars, np.log(weights), labels)

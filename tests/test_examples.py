@@ -77,6 +77,15 @@ def test_guide_mixture_reduction_runs():
     assert 0 < len(namespace["reduced"]) < 1000
 
 
+def test_guide_phd_tracker_runs():
+    import re
+    guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()
+    code = re.search(r"```python\n([^`]*?ft\.PHDTracker[^`]*?)```", guide, re.S).group(1)
+    namespace = {}
+    exec(compile(code, "guide phd", "exec"), namespace)
+    assert 6 <= len(namespace["estimates"][-1]) <= 12
+
+
 def test_guide_multi_target_runs():
     import re
     guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()

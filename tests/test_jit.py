@@ -142,8 +142,8 @@ def test_public_names_are_importable_from_the_package_and_their_module():
     import importlib
     domains = [importlib.import_module(f"fasttrack.{name}") for name in (
         "batch", "filtering", "kernel", "memory", "metrics", "mixturereducer", "models",
-        "montecarlo", "predictor", "random", "resampler", "resampling", "simulate", "smoother",
-        "threads", "tracker", "types", "updater")]
+        "montecarlo", "phd", "predictor", "random", "resampler", "resampling", "simulate",
+        "smoother", "threads", "tracker", "types", "updater")]
     for name in fasttrack.__all__:
         obj = getattr(fasttrack, name)
         if name == "warmup":

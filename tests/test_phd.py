@@ -120,3 +120,48 @@ def test_no_detections_leaves_the_missed_components():
     out = phd.update(SENSOR, means, covars, log_weights, np.empty((0, 2)), 0.9, 1e-4)
     np.testing.assert_allclose(out[2], log_weights + np.log(0.1))
     assert (out[4] == -1).all()
+
+
+# -- The tracker ---------------------------------------------------------------------------
+
+def _tracker(scenario, **settings):
+    starts = scenario.truths[0]
+    birth = ft.GaussianMixture(starts, np.broadcast_to(np.diag([4.0, 1.0, 4.0, 1.0]),
+                                                       (len(starts), 4, 4)),
+                               np.log(np.full(len(starts), 0.05)))
+    return ft.PHDTracker(scenario.transition_model, scenario.measurement_model, birth,
+                         prob_detect=0.9, prob_survival=0.99,
+                         clutter_intensity=scenario.clutter_density, **settings)
+
+
+@pytest.mark.parametrize("gate", [None, 16.0])
+def test_the_tracker_finds_the_targets_and_keeps_their_labels(gate):
+    from fasttrack.scenarios import grid_targets
+    scenario = grid_targets(n_targets=9, steps=25, spacing=30.0, clutter_rate=10.0, seed=1)
+    tracker = _tracker(scenario, gate_threshold=gate)
+    estimates = tracker.run(scenario.detections)
+    assert 7.0 < tracker.expected_number < 11.0
+    assert np.mean([len(e) for e in estimates[-10:]]) == pytest.approx(9, abs=1.0)
+    labels, distances = [], []
+    for truths, found in zip(scenario.truths[-10:], estimates[-10:]):
+        distances.append(ft.metrics.gospa(truths[:, [0, 2]], found.means[:, [0, 2]],
+                                          c=10.0).distance)
+        nearest = np.argmin(np.linalg.norm(found.means[:, [0, 2]] - truths[0, [0, 2]], axis=1))
+        labels.append(found.labels[nearest])
+    # 9 targets about 1 m off; a missed detection drops a target below 0.5 for a scan and a
+    # detection left over may pass it (5 each): 15-25 a scan, against 45 for no estimates
+    assert np.mean(distances) < 22.0
+    assert len(set(labels)) == 1  # the first target keeps one label
+
+
+def test_the_tracker_refuses_bad_settings():
+    from fasttrack.scenarios import grid_targets
+    scenario = grid_targets(n_targets=2, steps=2, seed=0)
+    with pytest.raises(TypeError, match="birth must be a GaussianMixture"):
+        ft.PHDTracker(scenario.transition_model, scenario.measurement_model, None, 0.9, 0.99,
+                      1e-4)
+    with pytest.raises(ValueError, match="prob_survival must lie in"):
+        _tracker(scenario).__class__(scenario.transition_model, scenario.measurement_model,
+                                     _tracker(scenario).birth, 0.9, 1.2, 1e-4)
+    with pytest.raises(ValueError, match="dt must be finite and > 0"):
+        _tracker(scenario).step(scenario.detections[0], dt=-1.0)

@@ -1,0 +1,125 @@
+"""A Gaussian-mixture PHD tracker over scans (Vo and Ma 2006), on arrays: the intensity is a
+:class:`~fasttrack.types.GaussianMixture` whose labels follow each component's line (the
+heaviest child of a merge keeps its parent's), so the estimates it extracts are tagged."""
+import numpy as np
+
+from . import _validate
+from .core import kalman as _kalman
+from .core import phd as _phd
+from .mixturereducer import GaussianMixtureReducer
+from .types.mixture import GaussianMixture
+
+
+class PHDTracker:
+    """The GM-PHD filter, scan by scan: predict the intensity (weights times P_S), add the
+    birth components, update with the scan (:func:`fasttrack.core.phd.update`), reduce, and
+    extract the components heavier than ``extraction_threshold``.
+
+    Parameters
+    ----------
+    transition_model : TransitionModel
+        Linear (e.g. :class:`~fasttrack.CombinedLinearGaussianTransitionModel`).
+    measurement_model : LinearGaussian
+    birth : GaussianMixture
+        The intensity born each scan (its weights: expected births a scan, by component).
+    prob_detect, prob_survival : float
+        P_D and P_S, in [0, 1].
+    clutter_intensity : float
+        Expected clutter detections per unit volume of measurement space, > 0.
+    gate_threshold : float, optional
+        Squared Mahalanobis distance within which a detection updates a component (default:
+        every pair).
+    reducer : GaussianMixtureReducer, optional
+        Default: prune 1e-5, merge 4, at most 100 components (Vo's), textbook rules.
+    extraction_threshold : float
+        Components heavier than this are the estimates (default 0.5).
+
+    Attributes
+    ----------
+    mixture : GaussianMixture
+        The current intensity; the sum of its weights is the expected number of targets.
+    """
+
+    def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
+                 clutter_intensity, gate_threshold=None, reducer=None,
+                 extraction_threshold=0.5):
+        if not isinstance(birth, GaussianMixture):
+            raise TypeError(f"birth must be a GaussianMixture, got {type(birth).__name__}")
+        if birth.means.shape[1] != measurement_model.ndim_state:
+            raise ValueError(f"birth must have {measurement_model.ndim_state}-D components "
+                             f"(the models' state), got {birth.means.shape[1]}-D")
+        self.transition_model, self.measurement_model = transition_model, measurement_model
+        self.birth = birth
+        self.prob_detect = _validate.probability(prob_detect, "prob_detect")
+        self.prob_survival = _validate.probability(prob_survival, "prob_survival")
+        self.clutter_intensity = _validate.positive(clutter_intensity, "clutter_intensity")
+        self.gate_threshold = (None if gate_threshold is None
+                               else _validate.positive(gate_threshold, "gate_threshold"))
+        self.reducer = (GaussianMixtureReducer(1e-5, 4.0, 100) if reducer is None
+                        else reducer)
+        if not isinstance(self.reducer, GaussianMixtureReducer):
+            raise TypeError(f"reducer must be a GaussianMixtureReducer, got "
+                            f"{type(self.reducer).__name__}")
+        self.extraction_threshold = _validate.non_negative(extraction_threshold,
+                                                           "extraction_threshold")
+        d = birth.means.shape[1]
+        self.mixture = GaussianMixture(np.empty((0, d)), np.empty((0, d, d)), np.empty(0),
+                                       np.empty(0, dtype=np.int64))
+        self._next_label = 0
+
+    @property
+    def expected_number(self):
+        """The expected number of targets: the sum of the intensity's weights."""
+        return float(np.exp(self.mixture.log_weights).sum())
+
+    def step(self, detections, dt=1.0):
+        """Advance ``dt`` seconds and take one scan.
+
+        Parameters
+        ----------
+        detections : (M, m) array_like
+            The scan (an empty one for none).
+        dt : float
+            Seconds since the previous scan, > 0.
+
+        Returns
+        -------
+        GaussianMixture
+            The estimates: the components heavier than ``extraction_threshold``, labelled.
+        """
+        dt = _validate.positive(dt, "dt")
+        predicted = self._predicted(dt)
+        means, covars, log_weights, components, _ = _phd.update(
+            self.measurement_model, predicted.means, predicted.covars, predicted.log_weights,
+            detections, self.prob_detect, self.clutter_intensity, self.gate_threshold)
+        updated = GaussianMixture(means, covars, log_weights, predicted.labels[components])
+        self.mixture = self.reducer.reduce(updated, first_label=self._next_label)
+        if len(self.mixture):
+            self._next_label = max(self._next_label, int(self.mixture.labels.max()) + 1)
+        heavy = self.mixture.log_weights > np.log(self.extraction_threshold) \
+            if self.extraction_threshold > 0 else np.ones(len(self.mixture), dtype=bool)
+        return GaussianMixture(self.mixture.means[heavy], self.mixture.covars[heavy],
+                               self.mixture.log_weights[heavy], self.mixture.labels[heavy])
+
+    def run(self, scans, dt=1.0):
+        """:meth:`step` through ``scans``; returns the estimates of each."""
+        return [self.step(scan, dt) for scan in scans]
+
+    def _predicted(self, dt):
+        """The intensity ``dt`` seconds on, survival applied, with the births (new labels)."""
+        mixture = self.mixture
+        k = len(mixture)
+        means, covars = mixture.means, mixture.covars
+        if k:
+            means, covars, _, _ = _kalman.stack_predict(
+                self.transition_model, self.measurement_model, np.full(k, dt), means, covars)
+        with np.errstate(divide="ignore"):
+            log_survive = np.log(self.prob_survival)
+        births = len(self.birth)
+        labels = np.concatenate((mixture.labels,
+                                 self._next_label + np.arange(births, dtype=np.int64)))
+        self._next_label += births
+        return GaussianMixture(np.concatenate((means, self.birth.means)),
+                               np.concatenate((covars, self.birth.covars)),
+                               np.concatenate((mixture.log_weights + log_survive,
+                                               self.birth.log_weights)), labels)
