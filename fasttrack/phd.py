@@ -102,7 +102,19 @@ class PHDTracker:
                                self.mixture.log_weights[heavy], self.mixture.labels[heavy])
 
     def run(self, scans, dt=1.0):
-        """:meth:`step` through ``scans``; returns the estimates of each."""
+        """:meth:`step` through ``scans``.
+
+        Parameters
+        ----------
+        scans : iterable of (M, m) array_like
+        dt : float
+            Seconds between scans, > 0.
+
+        Returns
+        -------
+        list of GaussianMixture
+            The estimates of each scan.
+        """
         return [self.step(scan, dt) for scan in scans]
 
     def _predicted(self, dt):

@@ -8,9 +8,11 @@ import numpy as np
 from . import _validate
 from . import random as _random
 from .models import (Cartesian2DToBearing, CartesianToBearingRange,
-                     CombinedLinearGaussianTransitionModel, ConstantVelocity, LinearGaussian)
-from .simulate import MAX_RATE, detections, ground_truth, multi_target
-from .types import GaussianState, KernelParticleState, ParticleState
+                     CombinedLinearGaussianTransitionModel, ConstantVelocity, LinearGaussian,
+                     LinearGaussianTransitionModel)
+from .simulate import (MAX_RATE, MultiTargetScenario, _observe, _rate, detections, ground_truth,
+                       multi_target)
+from .types import GaussianMixture, GaussianState, KernelParticleState, ParticleState
 
 START = datetime.datetime(2026, 1, 1)
 
@@ -185,3 +187,71 @@ def grid_targets(n_targets=20, steps=50, spacing=20.0, clutter_rate=20.0, prob_d
     edge = (side - 1) * spacing
     return multi_target(transition, sensor, initial, steps, [[-50, -50], [edge + 50] * 2],
                         prob_detect=prob_detect, clutter_rate=clutter_rate, rng=rng)
+
+
+#: Vo and Ma's linear scenario: each target's first state, and the scans (from 1) of its
+#: birth and of its last state.
+_VO_STARTS = np.array([[0.0, 0.0, 0.0, -10.0], [400.0, -10.0, -600.0, 5.0],
+                       [-800.0, 20.0, -200.0, -5.0], [400.0, -7.0, -600.0, -4.0],
+                       [400.0, -2.5, -600.0, 10.0], [0.0, 7.5, 0.0, -5.0],
+                       [-800.0, 12.0, -200.0, 7.0], [-200.0, 15.0, 800.0, -10.0],
+                       [-800.0, 3.0, -200.0, 15.0], [-200.0, -3.0, 800.0, -15.0],
+                       [0.0, -20.0, 0.0, -15.0], [-200.0, 15.0, 800.0, -5.0]])
+_VO_BIRTHS = np.array([1, 1, 1, 20, 20, 20, 40, 40, 60, 60, 80, 80])
+_VO_DEATHS = np.array([70, 100, 70, 100, 100, 100, 100, 100, 100, 100, 100, 100])
+
+
+def vo_linear(clutter_rate=60.0, seed=None):
+    """Vo and Ma's linear Gaussian scenario (the GM-PHD paper's, as their MATLAB toolbox
+    generates it): 100 scans a second apart, 12 targets in all, at most 10 at once (born at
+    scans 1, 1, 1, 20, 20, 20, 40, 40, 60, 60, 80, 80 at or near four places; two die after
+    scan 70), moving at constant velocity without process noise; a position sensor with
+    R = 100 I m^2 and P_D = 0.98; Poisson(``clutter_rate``) clutter uniform over
+    [-1000, 1000]^2 m. The transition model is the toolbox's (F of constant velocity,
+    Q = 25 B B^T, B = [[1/2, 0], [1, 0], [0, 1/2], [0, 1]]). :func:`vo_linear_birth` is its
+    birth intensity.
+
+    Parameters
+    ----------
+    clutter_rate : float
+        Expected clutter measurements a scan, in [0, 1e7] (the toolbox's PHD demo: 60, its
+        GLMB demo: 30).
+    seed : None, int, numpy.random.SeedSequence or numpy.random.Generator
+        Fixes the detections and clutter.
+
+    Returns
+    -------
+    fasttrack.simulate.MultiTargetScenario
+    """
+    clutter_rate = _rate(clutter_rate, "clutter_rate")
+    rng = _generator(seed)
+    f = np.kron(np.eye(2), [[1.0, 1.0], [0.0, 1.0]])
+    b = np.kron(np.eye(2), [[0.5], [1.0]])
+    transition = LinearGaussianTransitionModel(f, 25.0 * b @ b.T)
+    sensor = LinearGaussian(4, (0, 2), 100.0 * np.eye(2))
+    region = np.array([[-1000.0, -1000.0], [1000.0, 1000.0]])
+    out = {"truths": [], "truth_ids": [], "detections": [], "origins": []}
+    for scan in range(1, 101):
+        ids = np.flatnonzero((_VO_BIRTHS <= scan) & (scan <= _VO_DEATHS))
+        steps = scan - _VO_BIRTHS[ids] + 1  # the toolbox records F x0 at the birth scan
+        states = _VO_STARTS[ids].copy()
+        states[:, 0] += steps * states[:, 1]
+        states[:, 2] += steps * states[:, 3]
+        _observe(out, scan - 1, states, ids, sensor, 0.98, clutter_rate, region, rng)
+    return MultiTargetScenario(transition, sensor, time_interval=1.0, region=region,
+                               clutter_density=clutter_rate / 4e6, **out)
+
+
+def vo_linear_birth():
+    """The birth intensity of :func:`vo_linear`: four components of weight 0.03 at
+    (0, 0), (400, -600), (-800, -200) and (-200, 800) m, at rest, covariance
+    diag(10, 10, 10, 10)^2.
+
+    Returns
+    -------
+    fasttrack.types.GaussianMixture
+    """
+    means = np.array([[0.0, 0, 0, 0], [400.0, 0, -600, 0], [-800.0, 0, -200, 0],
+                      [-200.0, 0, 800, 0]])
+    return GaussianMixture(means, np.broadcast_to(np.eye(4) * 100.0, (4, 4, 4)),
+                           np.log(np.full(4, 0.03)))

@@ -303,20 +303,29 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
                                  f"transition model over time_interval={dt:g} s (or a birth "
                                  f"from birth_covar) gives states that are not finite; "
                                  f"check initial_states, time_interval and birth_covar")
-        seen = rng.random(ids.size) < prob_detect
-        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is raised below
-            measured = (np.asarray(measurement_model.function(states[seen].T, noise=True,
-                                                              rng=rng)).T.reshape(-1, m)
-                        if seen.any() else np.empty((0, m)))
-        if not np.isfinite(measured).all():
-            raise ValueError(f"the measurements at scan {t} are not finite: measurement_model "
-                             f"overflows float64 on the targets' states")
-        clutter = rng.uniform(region[0], region[1], (rng.poisson(clutter_rate), m))
-        shuffle = rng.permutation(measured.shape[0] + clutter.shape[0])
-        out["truths"].append(states.copy())
-        out["truth_ids"].append(ids.copy())
-        out["detections"].append(np.ascontiguousarray(np.concatenate((measured, clutter))[shuffle]))
-        out["origins"].append(np.concatenate((ids[seen], np.full(clutter.shape[0], -1)))[shuffle])
+        _observe(out, t, states, ids, measurement_model, prob_detect, clutter_rate, region,
+                 rng)
     return MultiTargetScenario(transition_model, measurement_model, time_interval=dt,
                                region=region,
                                clutter_density=clutter_density, **out)
+
+
+def _observe(out, t, states, ids, measurement_model, prob_detect, clutter_rate, region, rng):
+    """Scan ``t`` of the targets ``states`` (n, d) with identities ``ids``: each detected
+    with ``prob_detect`` (with noise), Poisson(``clutter_rate``) clutter uniform in
+    ``region``, shuffled; appended to the lists of ``out``."""
+    m = measurement_model.ndim_meas
+    seen = rng.random(ids.size) < prob_detect
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is raised below
+        measured = (np.asarray(measurement_model.function(states[seen].T, noise=True,
+                                                          rng=rng)).T.reshape(-1, m)
+                    if seen.any() else np.empty((0, m)))
+    if not np.isfinite(measured).all():
+        raise ValueError(f"the measurements at scan {t} are not finite: measurement_model "
+                         f"overflows float64 on the targets' states")
+    clutter = rng.uniform(region[0], region[1], (rng.poisson(clutter_rate), m))
+    shuffle = rng.permutation(measured.shape[0] + clutter.shape[0])
+    out["truths"].append(states.copy())
+    out["truth_ids"].append(ids.copy())
+    out["detections"].append(np.ascontiguousarray(np.concatenate((measured, clutter))[shuffle]))
+    out["origins"].append(np.concatenate((ids[seen], np.full(clutter.shape[0], -1)))[shuffle])
