@@ -114,3 +114,22 @@ def test_phd_step_stonesoup(benchmark, n):
         components = step(components, k)
     benchmark.extra_info["components"] = len(components)
     benchmark.pedantic(step, (components, STEPS - 1), rounds=3, warmup_rounds=0)
+
+
+@pytest.mark.parametrize("clutter", [10, 30, 60])
+def test_phd_vo_linear_run(benchmark, clutter):
+    """A whole run of Vo and Ma's linear scenario (100 scans): PHDTracker with its birth
+    intensity, gate chi2(0.999, 2) = 13.8, prune 1e-5, merge 4, at most 100 components."""
+    from fasttrack.scenarios import vo_linear, vo_linear_birth
+    benchmark.group = "gm-phd vo-linear run"
+    scenario = vo_linear(clutter_rate=float(clutter), seed=1)
+
+    def run():
+        tracker = ft.PHDTracker(scenario.transition_model, scenario.measurement_model,
+                                vo_linear_birth(), 0.98, 0.99, scenario.clutter_density,
+                                gate_threshold=13.8)
+        return tracker.run(scenario.detections)
+
+    estimates = run()
+    assert np.mean([abs(len(e) - len(t)) for e, t in zip(estimates, scenario.truths)]) < 1.0
+    benchmark.pedantic(run, rounds=7, warmup_rounds=1)

@@ -71,4 +71,4 @@ class GaussianMixtureReducer:
             raise TypeError(f"first_label must be an int, got {type(first_label).__name__}")
         labels = _mixture.relabel(mixture.labels[source], weights, first_label)
         with np.errstate(divide="ignore"):
-            return GaussianMixture(means, covars, np.log(weights), labels)
+            return GaussianMixture._made(means, covars, np.log(weights), labels)

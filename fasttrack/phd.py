@@ -92,14 +92,14 @@ class PHDTracker:
         means, covars, log_weights, components, _ = _phd.update(
             self.measurement_model, predicted.means, predicted.covars, predicted.log_weights,
             detections, self.prob_detect, self.clutter_intensity, self.gate_threshold)
-        updated = GaussianMixture(means, covars, log_weights, predicted.labels[components])
+        updated = GaussianMixture._made(means, covars, log_weights, predicted.labels[components])
         self.mixture = self.reducer.reduce(updated, first_label=self._next_label)
         if len(self.mixture):
             self._next_label = max(self._next_label, int(self.mixture.labels.max()) + 1)
         heavy = self.mixture.log_weights > np.log(self.extraction_threshold) \
             if self.extraction_threshold > 0 else np.ones(len(self.mixture), dtype=bool)
-        return GaussianMixture(self.mixture.means[heavy], self.mixture.covars[heavy],
-                               self.mixture.log_weights[heavy], self.mixture.labels[heavy])
+        return GaussianMixture._made(self.mixture.means[heavy], self.mixture.covars[heavy],
+                                     self.mixture.log_weights[heavy], self.mixture.labels[heavy])
 
     def run(self, scans, dt=1.0):
         """:meth:`step` through ``scans``.
@@ -131,7 +131,7 @@ class PHDTracker:
         labels = np.concatenate((mixture.labels,
                                  self._next_label + np.arange(births, dtype=np.int64)))
         self._next_label += births
-        return GaussianMixture(np.concatenate((means, self.birth.means)),
-                               np.concatenate((covars, self.birth.covars)),
-                               np.concatenate((mixture.log_weights + log_survive,
-                                               self.birth.log_weights)), labels)
+        return GaussianMixture._made(np.concatenate((means, self.birth.means)),
+                                     np.concatenate((covars, self.birth.covars)),
+                                     np.concatenate((mixture.log_weights + log_survive,
+                                                     self.birth.log_weights)), labels)

@@ -120,9 +120,14 @@ def squared_distance(difference, covar):
     return float(whitened @ whitened)
 
 
+def default_axes(angles):
+    """The grid's default rows: the first two that are not angles (``angles`` (m,) bool)."""
+    return np.flatnonzero(~angles)[:2].astype(np.int64)
+
+
 def _grid_axes(m, angles, grid_axes):
     if grid_axes is None:
-        return np.flatnonzero(~angles)[:2].astype(np.int64)
+        return default_axes(angles)
     axes = np.array(_validate.indices(grid_axes, "grid_axes", m), dtype=np.int64)
     if axes.size > 2 or np.unique(axes).size != axes.size:
         raise ValueError(f"grid_axes must be up to 2 distinct measurement rows in [0, {m}), "

@@ -11,6 +11,9 @@ from . import gating as _gating
 from . import mixture as _mixture
 from .kinds import SELECT
 
+#: Below this many (component, detection) pairs the gate tests every pair: a grid costs more.
+GRID_FROM_PAIRS = 4096
+
 
 def update(model, means, covars, log_weights, detections, prob_detect, clutter_intensity,
            gate_threshold=None):
@@ -83,13 +86,13 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
     z_hats = means[:, mapping]
     cross = covars[:, :, mapping]  # P H^T
     innovation = cross[:, mapping, :] + spec.noise_covar
-    if gate_threshold is None:
-        _symmetric(covars)
-        gate = _gating.gate_arrays(z_hats, innovation, scan, np.inf, None,
-                                   np.empty(0, dtype=np.int64))
-    else:
-        gate = _gating.gate(z_hats, innovation, scan,
-                            _validate.positive(gate_threshold, "gate_threshold"))
+    threshold = np.inf if gate_threshold is None else \
+        _validate.positive(gate_threshold, "gate_threshold")
+    _symmetric(covars)
+    few = j * scan.shape[0] <= GRID_FROM_PAIRS  # test every pair, without a grid
+    axes = np.empty(0, dtype=np.int64) if few or threshold == np.inf else \
+        _gating.default_axes(spec.angles)
+    gate = _gating.gate_arrays(z_hats, innovation, scan, threshold, spec.angles, axes)
     gains = np.linalg.solve(innovation, cross.transpose(0, 2, 1)).transpose(0, 2, 1)
     updated = covars - gains @ cross.transpose(0, 2, 1)
     updated = 0.5 * (updated + updated.transpose(0, 2, 1))

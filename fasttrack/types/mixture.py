@@ -50,6 +50,16 @@ class GaussianMixture:
                             ("labels", labels.astype(np.int64))):
             object.__setattr__(self, name, value)
 
+    @classmethod
+    def _made(cls, means, covars, log_weights, labels):
+        """A mixture of arrays fasttrack made: C-contiguous float64 (K, d), (K, d, d), (K,)
+        and int64 (K,) labels, not checked again."""
+        out = object.__new__(cls)
+        for name, value in (("means", means), ("covars", covars), ("log_weights", log_weights),
+                            ("labels", labels)):
+            object.__setattr__(out, name, value)
+        return out
+
     def __len__(self):
         return self.means.shape[0]
 
