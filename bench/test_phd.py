@@ -68,21 +68,29 @@ def test_phd_step_fasttrack(benchmark, n):
                        warmup_rounds=1)
 
 
-@pytest.mark.parametrize("n", [10])
-def test_phd_step_stonesoup(benchmark, n):
+@pytest.mark.parametrize("n, implementation", [(10, "stonesoup"), (10, "dropin"),
+                                               (50, "dropin"), (100, "dropin")])
+def test_phd_step_stonesoup(benchmark, n, implementation):
+    """Stone Soup's classes, or the drop-ins of its Kalman predictor and updater,
+    hypothesisers, measure, PHD updater and reducer."""
     pytest.importorskip("stonesoup")
-    from stonesoup.hypothesiser.distance import DistanceHypothesiser
-    from stonesoup.hypothesiser.gaussianmixture import GaussianMixtureHypothesiser
-    from stonesoup.measures import Mahalanobis
-    from stonesoup.mixturereducer.gaussianmixture import GaussianMixtureReducer
     from stonesoup.models.measurement.linear import LinearGaussian
     from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
                                                     ConstantVelocity)
-    from stonesoup.predictor.kalman import KalmanPredictor
     from stonesoup.types.detection import Detection
     from stonesoup.types.state import TaggedWeightedGaussianState
-    from stonesoup.updater.kalman import KalmanUpdater
-    from stonesoup.updater.pointprocess import PHDUpdater
+    if implementation == "stonesoup":
+        from stonesoup.hypothesiser.distance import DistanceHypothesiser
+        from stonesoup.hypothesiser.gaussianmixture import GaussianMixtureHypothesiser
+        from stonesoup.measures import Mahalanobis
+        from stonesoup.mixturereducer.gaussianmixture import GaussianMixtureReducer
+        from stonesoup.predictor.kalman import KalmanPredictor
+        from stonesoup.updater.kalman import KalmanUpdater
+        from stonesoup.updater.pointprocess import PHDUpdater
+    else:
+        from fasttrack.stonesoup import (DistanceHypothesiser, GaussianMixtureHypothesiser,
+                                         GaussianMixtureReducer, KalmanPredictor,
+                                         KalmanUpdater, Mahalanobis, PHDUpdater)
     benchmark.group = f"gm-phd step N={n}"
     transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
     sensor = LinearGaussian(4, (0, 2), np.eye(2))

@@ -95,18 +95,21 @@ def test_stone_soup_property_orders_the_fast_path_relies_on():
         assert list(cls.properties) == order, cls.__name__
 
 
-def test_gm_phd_tutorial_tracks_the_same_with_the_drop_in_hypothesiser():
+def test_gm_phd_tutorial_tracks_the_same_with_the_drop_ins():
     """Stone Soup's GM-PHD tutorial: its scenario once (it draws in set-iteration order, so
     two runs differ whatever the seed), then its tracking with Stone Soup's Kalman
-    predictor, updater, hypothesiser and measure, and with the drop-ins."""
+    predictor, updater, hypothesiser, measure, PHD updater and reducer, and with the
+    drop-ins."""
     source = (TUTORIALS / "010_gm_phd_filter.txt").read_text()
     split = source.index("from stonesoup.updater.kalman import KalmanUpdater")
     end = source.index("\nfor track in tracks:\n    for state in track:")  # then plots
     scenario, tracking = source[:split], source[split:end]
     switched, count = re.subn(r"^from stonesoup\.(?:updater\.kalman|predictor\.kalman"
-                              r"|hypothesiser\.distance|measures) import ",
-                              "from fasttrack.stonesoup import ", tracking, flags=re.M)
-    assert count == 4
+                              r"|hypothesiser\.distance|measures|updater\.pointprocess"
+                              r"|mixturereducer\.gaussianmixture|hypothesiser\.gaussianmixture)"
+                              r" import ", "from fasttrack.stonesoup import ", tracking,
+                              flags=re.M)
+    assert count == 7
     np.random.seed(3)
     world = {"__name__": "__main__"}
     exec(compile(scenario, "GM-PHD scenario", "exec"), world)

@@ -26,7 +26,7 @@ _MODULES = {
                        "NearestNeighbour", "PDA"],
     "deleter": ["CovarianceBasedDeleter", "UpdateTimeStepsDeleter"],
     "gater": ["DistanceGater"],
-    "hypothesiser": ["DistanceHypothesiser", "PDAHypothesiser"],
+    "hypothesiser": ["DistanceHypothesiser", "GaussianMixtureHypothesiser", "PDAHypothesiser"],
     "initiator": ["MultiMeasurementInitiator", "SimpleMeasurementInitiator"],
     "kernel": ["GaussianKernel", "LinearKernel", "PolynomialKernel", "QuadraticKernel",
                "QuarticKernel"],
@@ -40,7 +40,7 @@ _MODULES = {
     "smoother": ["ExtendedKalmanSmoother", "KalmanSmoother", "UnscentedKalmanSmoother"],
     "tracker": ["MultiTargetMixtureTracker", "MultiTargetTracker"],
     "updater": ["AdaptiveKernelKalmanUpdater", "ExtendedKalmanUpdater", "KalmanUpdater",
-                "ParticleUpdater", "UnscentedKalmanUpdater"],
+                "ParticleUpdater", "PHDUpdater", "UnscentedKalmanUpdater"],
     "_fallback": ["fallbacks"],
 }
 

@@ -1,12 +1,18 @@
 """Stone Soup's ``stonesoup.hypothesiser``: the ``DistanceHypothesiser`` and
-``PDAHypothesiser``, vectorised over the detections (see ``_scan``)."""
+``PDAHypothesiser``, vectorised over the detections (see ``_scan``), and the
+``GaussianMixtureHypothesiser``, vectorised over the components too."""
 from stonesoup.hypothesiser import distance as ss_distance
+from stonesoup.hypothesiser import gaussianmixture as ss_gaussianmixture
 from stonesoup.hypothesiser import probability as ss_probability
+from stonesoup.types.detection import MissedDetection
+from stonesoup.types.multihypothesis import MultipleHypothesis
+from stonesoup.types.prediction import Prediction
+from stonesoup.types.state import TaggedWeightedGaussianState
 
 from ._fallback import fall_back
 from ._scan import _scan, vectorised
 
-__all__ = ["DistanceHypothesiser", "PDAHypothesiser"]
+__all__ = ["DistanceHypothesiser", "GaussianMixtureHypothesiser", "PDAHypothesiser"]
 
 
 @vectorised("distance")
@@ -75,3 +81,57 @@ class PDAHypothesiser(ss_probability.PDAHypothesiser):
             fall_back(self, "hypothesise", scan)
             return super().hypothesise(track, detections, timestamp, **kwargs)
         return scan.hypotheses(0)
+
+
+class GaussianMixtureHypothesiser(ss_gaussianmixture.GaussianMixtureHypothesiser):
+    """Stone Soup's ``GaussianMixtureHypothesiser``: with a drop-in ``DistanceHypothesiser``
+    or ``PDAHypothesiser``, every component is predicted and scored against every detection
+    in one scan (the drop-in associators' path), and the hypotheses are grouped by detection
+    in one pass; the same hypotheses as Stone Soup's, in the same order. Another
+    hypothesiser runs Stone Soup's code."""
+
+    def generate_hypotheses(self, components, detections, timestamp, **kwargs):
+        components = list(components)
+        scan = _scan(self.hypothesiser, components, detections, timestamp, kwargs)
+        if isinstance(scan, str):
+            fall_back(self, "generate_hypotheses", scan)
+            return super().generate_hypotheses(components, detections, timestamp, **kwargs)
+        return {component: scan.hypotheses(k) for k, component in enumerate(components)}
+
+    def hypothesise(self, components, detections, timestamp, **kwargs):
+        if len({detection.timestamp for detection in detections}) > 1:
+            raise ValueError("All detections must have the same timestamp")
+        hypotheses = []
+        for component, multiple in self.generate_hypotheses(components, detections, timestamp,
+                                                            **kwargs).items():
+            for hypothesis in multiple:
+                hypothesis.prediction = Prediction.from_state(
+                    component, state_vector=hypothesis.prediction.state_vector,
+                    covar=hypothesis.prediction.covar,
+                    timestamp=hypothesis.prediction.timestamp,
+                    **_tag(component, hypothesis))
+            if len(multiple) > 0:
+                hypotheses.append(MultipleHypothesis(multiple))
+        if not self.order_by_detection:
+            return hypotheses
+        by_detection = {id(detection): [] for detection in detections}
+        missed = []
+        for multiple in hypotheses:
+            for hypothesis in multiple:
+                if not hypothesis:
+                    missed.append(hypothesis)
+                if id(hypothesis.measurement) in by_detection:
+                    by_detection[id(hypothesis.measurement)].append(hypothesis)
+        return [MultipleHypothesis(by_detection[id(detection)]) for detection in detections] \
+            + [MultipleHypothesis(missed)]
+
+
+def _tag(component, hypothesis):
+    """The ``tag`` keyword of a component's hypothesis, by Stone Soup's rule: a birth
+    component keeps 'birth' when missed and gets a new tag when detected."""
+    if not isinstance(component, TaggedWeightedGaussianState):
+        return {}
+    if component.tag == component.BIRTH:
+        return {"tag": component.BIRTH if isinstance(hypothesis.measurement, MissedDetection)
+                else None}
+    return {"tag": component.tag}

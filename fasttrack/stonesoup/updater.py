@@ -13,11 +13,14 @@ import numpy as np
 from stonesoup.models.base import GaussianModel
 from stonesoup.types.angle import Bearing
 from stonesoup.types.array import StateVectors
+from stonesoup.models.measurement.linear import LinearGaussian as SSLinearGaussian
 from stonesoup.types.prediction import MeasurementPrediction
-from stonesoup.types.update import Update
+from stonesoup.types.state import TaggedWeightedGaussianState
+from stonesoup.types.update import GaussianMixtureUpdate, Update
 from stonesoup.updater import kalman as ss_kalman
 from stonesoup.updater import kernel as ss_kernel
 from stonesoup.updater import particle as ss_particle
+from stonesoup.updater import pointprocess as ss_pointprocess
 
 from ..core import akkf as ft_akkf
 from ..core import kalman as ft_kalman
@@ -330,3 +333,85 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
             weight=w, kernel_covar=dense_kernel_covar(factors),
             timestamp=hypothesis.measurement.timestamp, hypothesis=hypothesis)
         return remember_factors(update, factors)
+
+
+class PHDUpdater(ss_pointprocess.PHDUpdater):
+    """Stone Soup's ``PHDUpdater``: the Kalman updates and likelihoods of every (component,
+    detection) pair computed at once on arrays, for a ``KalmanUpdater`` and one linear
+    Gaussian measurement model, by Stone Soup's rules: P_S applied at the update to every
+    component not tagged 'birth' (a detected birth component is given a new tag), a missed
+    birth component dropped, the likelihoods in linear terms, a weight of 0 set to eps.
+    Another updater or measurement model goes through Stone Soup's code."""
+
+    def update(self, hypotheses):
+        reason = self._reason(hypotheses)
+        if reason:
+            fall_back(self, "update", reason)
+            return super().update(hypotheses)
+        pairs = [hypothesis for multiple in hypotheses[:-1] for hypothesis in multiple]
+        detection = np.repeat(np.arange(len(hypotheses) - 1),
+                              [len(multiple) for multiple in hypotheses[:-1]])
+        updated = []
+        weight_sums = np.zeros(len(hypotheses) - 1)
+        if pairs:
+            means, covars, weights = self._pair_updates(pairs)
+            weight_sums = np.bincount(detection, weights, minlength=len(hypotheses) - 1)
+            if self.normalisation:
+                weights = weights / (weight_sums[detection] + self.clutter_spatial_density)
+            for hypothesis, mean, covar, weight in zip(pairs, means, covars, weights):
+                tag = hypothesis.prediction.tag
+                updated.append(TaggedWeightedGaussianState(
+                    tag=tag if tag != "birth" else None, weight=float(weight),
+                    state_vector=mean[:, None], covar=covar,
+                    timestamp=hypothesis.measurement.timestamp))
+        l1 = self._calculate_update_terms(list(weight_sums), hypotheses)
+        missed = (1 - self.prob_detection) * l1 * self.prob_survival
+        for hypothesis in hypotheses[-1]:
+            prediction = hypothesis.prediction
+            if prediction.tag != "birth":
+                updated.append(TaggedWeightedGaussianState(
+                    tag=prediction.tag, weight=prediction.weight * missed,
+                    state_vector=prediction.mean, covar=prediction.covar,
+                    timestamp=prediction.timestamp))
+        for component in updated:
+            if component.weight == 0:
+                component.weight = np.finfo(float).eps
+        return GaussianMixtureUpdate(hypothesis=hypotheses, components=updated)
+
+    def _pair_updates(self, pairs):
+        """Posterior means (n, d), covariances (n, d, d) and unnormalised weights
+        ``P_D w q (P_S)`` of the pairs, as Stone Soup's ``KalmanUpdater`` computes them."""
+        model = _measurement_model(self.updater, pairs[0])
+        h, r = model.matrix(), model.covar()
+        means = np.array([p.prediction.state_vector[:, 0] for p in pairs], dtype=np.float64)
+        covars = np.array([p.prediction.covar for p in pairs], dtype=np.float64)
+        z = np.array([p.measurement.state_vector[:, 0] for p in pairs], dtype=np.float64)
+        cross = covars @ h.T
+        innovation = h @ cross + r
+        gains = cross @ np.linalg.inv(innovation)
+        v = z - means @ h.T
+        if self.updater.use_joseph_cov:
+            i_kh = np.eye(means.shape[1]) - gains @ h
+            post = i_kh @ covars @ i_kh.transpose(0, 2, 1) + gains @ r @ gains.transpose(0, 2, 1)
+        else:
+            post = covars - gains @ innovation @ gains.transpose(0, 2, 1)
+        _, log_det = np.linalg.slogdet(2 * np.pi * innovation)
+        mahalanobis = np.einsum("ki,ki->k", v, np.linalg.solve(innovation, v[..., None])[..., 0])
+        q = np.exp(-0.5 * (mahalanobis + log_det))
+        prior = np.array([float(p.prediction.weight) for p in pairs])
+        weights = self.prob_detection * prior * q
+        born = np.array([p.prediction.tag == "birth" for p in pairs])
+        weights = np.where(born, weights, weights * self.prob_survival)
+        return means + np.einsum("kij,kj->ki", gains, v), post, weights
+
+    def _reason(self, hypotheses):
+        """Why Stone Soup's code must run, or None."""
+        if type(self.updater) not in (ss_kalman.KalmanUpdater, KalmanUpdater):
+            return f"an updater of type {type(self.updater).__name__}"
+        models = {id(_measurement_model(self.updater, h)): _measurement_model(self.updater, h)
+                  for multiple in hypotheses[:-1] for h in multiple}
+        if len(models) > 1:
+            return "detections of several measurement models"
+        if models and type(next(iter(models.values()))) is not SSLinearGaussian:
+            return f"a measurement model of type {type(next(iter(models.values()))).__name__}"
+        return None

@@ -1,0 +1,82 @@
+"""The drop-in ``PHDUpdater`` against Stone Soup's own on GM-PHD scans: the same
+components (up to order and fresh tags), weights to 1e-9, and Stone Soup's code for what the
+arrays do not cover."""
+import datetime
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stonesoup")
+from stonesoup.hypothesiser.distance import DistanceHypothesiser
+from stonesoup.hypothesiser.gaussianmixture import GaussianMixtureHypothesiser
+from stonesoup.measures import Mahalanobis
+from stonesoup.models.measurement.linear import LinearGaussian
+from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                ConstantVelocity)
+from stonesoup.predictor.kalman import KalmanPredictor
+from stonesoup.types.detection import Detection
+from stonesoup.types.state import TaggedWeightedGaussianState
+from stonesoup.updater.kalman import KalmanUpdater
+from stonesoup.updater.pointprocess import PHDUpdater as Original
+
+from fasttrack.stonesoup import PHDUpdater, fallbacks
+
+T0 = datetime.datetime(2025, 1, 1)
+TRANSITION = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
+SENSOR = LinearGaussian(4, (0, 2), np.diag([0.75, 0.75]))
+
+
+def _hypotheses(seed, n=8, clutter=6):
+    rng = np.random.default_rng(seed)
+    x = np.c_[rng.uniform(-50, 50, n), rng.normal(0, 1, n), rng.uniform(-50, 50, n),
+              rng.normal(0, 1, n)]
+    components = {TaggedWeightedGaussianState(xi[:, None], np.diag([2.0, 0.5, 2.0, 0.5]),
+                                              weight=rng.uniform(0.2, 1.0), timestamp=T0,
+                                              tag=f"t{i}") for i, xi in enumerate(x)}
+    components.add(TaggedWeightedGaussianState(np.zeros((4, 1)), np.diag([1e4, 2, 1e4, 2]),
+                                                weight=0.25, timestamp=T0, tag="birth"))
+    t1 = T0 + datetime.timedelta(seconds=1)
+    z = np.vstack([x[:, [0, 2]] + x[:, [1, 3]] + rng.normal(0, 0.8, (n, 2)),
+                   rng.uniform(-60, 60, (clutter, 2))])
+    scan = {Detection(zi[:, None], timestamp=t1, measurement_model=SENSOR) for zi in z}
+    hypothesiser = GaussianMixtureHypothesiser(DistanceHypothesiser(
+        KalmanPredictor(TRANSITION), KalmanUpdater(SENSOR), Mahalanobis(),
+        missed_distance=3), order_by_detection=True)
+    return hypothesiser.hypothesise(components, scan, t1, order_by_detection=True)
+
+
+def _key(c):
+    return (round(float(c.weight), 12), tuple(np.round(c.state_vector.ravel(), 8)))
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("joseph", [False, True])
+def test_the_drop_in_updates_as_stone_soup_does(seed, joseph):
+    hypotheses = _hypotheses(seed)
+    settings = dict(clutter_spatial_density=1e-3, prob_detection=0.9, prob_survival=0.99)
+    fallbacks(clear=True)
+    got = PHDUpdater(KalmanUpdater(SENSOR, use_joseph_cov=joseph), **settings).update(hypotheses)
+    want = Original(KalmanUpdater(SENSOR, use_joseph_cov=joseph), **settings).update(hypotheses)
+    assert not fallbacks()
+    assert len(got) == len(want) and len(got) > 9
+    for g, w in zip(sorted(got, key=_key), sorted(want, key=_key)):
+        assert float(g.weight) == pytest.approx(float(w.weight), rel=1e-9)
+        np.testing.assert_allclose(g.state_vector, w.state_vector, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(g.covar, w.covar, rtol=1e-9, atol=1e-9)
+        assert g.timestamp == w.timestamp
+        assert (g.tag == w.tag) or (g.tag != "birth" and len(g.tag) == 36)  # fresh uuids
+    assert {c.tag for c in got if len(c.tag) < 36} == {c.tag for c in want if len(c.tag) < 36}
+
+
+def test_another_updater_runs_stone_soups_code_and_says_why():
+    class OwnUpdater(KalmanUpdater):
+        """A user's updater: its own code may differ."""
+
+    hypotheses = _hypotheses(1)
+    fallbacks(clear=True)
+    got = PHDUpdater(OwnUpdater(SENSOR), clutter_spatial_density=1e-3,
+                     prob_detection=0.9).update(hypotheses)
+    want = Original(OwnUpdater(SENSOR), clutter_spatial_density=1e-3,
+                    prob_detection=0.9).update(hypotheses)
+    assert len(got) == len(want) > 0
+    assert [reason for (_, _, reason) in fallbacks()] == ["an updater of type OwnUpdater"]
