@@ -17,9 +17,11 @@ from stonesoup.predictor.kalman import KalmanPredictor
 from stonesoup.types.detection import Detection
 from stonesoup.types.state import TaggedWeightedGaussianState
 from stonesoup.updater.kalman import KalmanUpdater
-from stonesoup.updater.pointprocess import PHDUpdater as Original
+from stonesoup.updater import pointprocess
 
-from fasttrack.stonesoup import PHDUpdater, fallbacks
+from fasttrack.stonesoup import LCCUpdater, PHDUpdater, fallbacks
+
+Original = pointprocess.PHDUpdater
 
 T0 = datetime.datetime(2025, 1, 1)
 TRANSITION = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
@@ -80,3 +82,19 @@ def test_another_updater_runs_stone_soups_code_and_says_why():
                     prob_detection=0.9).update(hypotheses)
     assert len(got) == len(want) > 0
     assert [reason for (_, _, reason) in fallbacks()] == ["an updater of type OwnUpdater"]
+
+
+def test_the_lcc_drop_in_keeps_stone_soups_cumulant_over_scans():
+    settings = dict(clutter_spatial_density=1e-3, prob_detection=0.9, prob_survival=0.99,
+                    mean_number_of_false_alarms=6, variance_of_false_alarms=8)
+    mine = LCCUpdater(KalmanUpdater(SENSOR), **settings)
+    theirs = pointprocess.LCCUpdater(KalmanUpdater(SENSOR), **settings)
+    fallbacks(clear=True)
+    for seed in (5, 6, 7):
+        hypotheses = _hypotheses(seed)
+        got, want = mine.update(hypotheses), theirs.update(hypotheses)
+        np.testing.assert_allclose(sorted(float(c.weight) for c in got),
+                                   sorted(float(c.weight) for c in want), rtol=1e-9)
+        assert mine.second_order_cumulant == pytest.approx(theirs.second_order_cumulant,
+                                                          rel=1e-9)
+    assert not fallbacks()

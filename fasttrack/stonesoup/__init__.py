@@ -40,7 +40,7 @@ _MODULES = {
     "smoother": ["ExtendedKalmanSmoother", "KalmanSmoother", "UnscentedKalmanSmoother"],
     "tracker": ["MultiTargetMixtureTracker", "MultiTargetTracker"],
     "updater": ["AdaptiveKernelKalmanUpdater", "ExtendedKalmanUpdater", "KalmanUpdater",
-                "ParticleUpdater", "PHDUpdater", "UnscentedKalmanUpdater"],
+                "LCCUpdater", "ParticleUpdater", "PHDUpdater", "UnscentedKalmanUpdater"],
     "_fallback": ["fallbacks"],
 }
 

@@ -335,13 +335,14 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
         return remember_factors(update, factors)
 
 
-class PHDUpdater(ss_pointprocess.PHDUpdater):
-    """Stone Soup's ``PHDUpdater``: the Kalman updates and likelihoods of every (component,
-    detection) pair computed at once on arrays, for a ``KalmanUpdater`` and one linear
-    Gaussian measurement model, by Stone Soup's rules: P_S applied at the update to every
-    component not tagged 'birth' (a detected birth component is given a new tag), a missed
-    birth component dropped, the likelihoods in linear terms, a weight of 0 set to eps.
-    Another updater or measurement model goes through Stone Soup's code."""
+class _PointProcess:
+    """Stone Soup's ``PointProcessUpdater.update``: the Kalman updates and likelihoods of
+    every (component, detection) pair computed at once on arrays, for a ``KalmanUpdater``
+    and one linear Gaussian measurement model, by Stone Soup's rules: P_S applied at the
+    update to every component not tagged 'birth' (a detected birth component is given a new
+    tag), a missed birth component dropped, the likelihoods in linear terms, a weight of 0
+    set to eps; the missed components scaled by the filter's own update terms. Another
+    updater or measurement model goes through Stone Soup's code."""
 
     def update(self, hypotheses):
         reason = self._reason(hypotheses)
@@ -415,3 +416,12 @@ class PHDUpdater(ss_pointprocess.PHDUpdater):
         if models and type(next(iter(models.values()))) is not SSLinearGaussian:
             return f"a measurement model of type {type(next(iter(models.values()))).__name__}"
         return None
+
+
+class PHDUpdater(_PointProcess, ss_pointprocess.PHDUpdater):
+    __doc__ = "Stone Soup's ``PHDUpdater``, its update on arrays. " + _PointProcess.__doc__
+
+
+class LCCUpdater(_PointProcess, ss_pointprocess.LCCUpdater):
+    __doc__ = ("Stone Soup's ``LCCUpdater`` (its cumulant terms as Stone Soup computes them), "
+               "its update on arrays. " + _PointProcess.__doc__)
