@@ -224,3 +224,30 @@ def test_bad_reductions_are_refused_naming_the_argument(change, message):
 def test_zero_weights_merged_without_pruning_are_an_error():
     with pytest.raises(ValueError, match="zero weight merged"):
         mixture.reduce([[0.0], [0.1]], [[[1.0]], [[1.0]]], [0.0, 0.0], prune_threshold=None)
+
+
+@pytest.mark.parametrize("settings, error, message", [
+    (dict(mode="vo"), ValueError, "mode must be one of 'textbook', 'stonesoup'"),
+    (dict(max_number_components=0), ValueError, "max_number_components must be >= 1"),
+    (dict(prune_threshold=np.nan), ValueError, "prune_threshold must be finite"),
+    (dict(merge_threshold="4"), TypeError, "merge_threshold must be a real number"),
+    (dict(merging=1), TypeError, "merging must be a bool"),
+])
+def test_bad_reducer_settings_are_refused_naming_them(settings, error, message):
+    from fasttrack import GaussianMixtureReducer
+    with pytest.raises(error, match=message):
+        GaussianMixtureReducer(**settings)
+
+
+def test_the_reducer_face_keeps_labels_and_names_new_ones():
+    from fasttrack import GaussianMixtureReducer
+    p = np.eye(2)
+    mixture = GaussianMixture([[0.0, 0.0], [0.5, 0.0], [50.0, 0.0], [80.0, 0.0]], [p] * 4,
+                              np.log([0.6, 0.3, 0.2, 0.1]), labels=[4, 7, 4, 9])
+    reduced = GaussianMixtureReducer(merge_threshold=4.0).reduce(mixture, first_label=100)
+    np.testing.assert_array_equal(reduced.labels, [4, 100, 9])  # label 4 left twice
+    np.testing.assert_allclose(np.exp(reduced.log_weights), [0.9, 0.2, 0.1])
+    with pytest.raises(TypeError, match="mixture must be a GaussianMixture"):
+        GaussianMixtureReducer().reduce([0.0])
+    with pytest.raises(TypeError, match="first_label must be an int"):
+        GaussianMixtureReducer().reduce(mixture, first_label=1.5)
