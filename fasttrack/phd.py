@@ -29,7 +29,7 @@ class PHDTracker:
     gate_threshold : float, optional
         Squared Mahalanobis distance within which a detection updates a component (default:
         every pair).
-    reducer : GaussianMixtureReducer, optional
+    reducer : ~fasttrack.mixturereducer.GaussianMixtureReducer, optional
         Default: prune 1e-5, merge 4, at most 100 components (Vo's), textbook rules.
     extraction_threshold : float
         Components heavier than this are the estimates (default 0.5).
