@@ -235,3 +235,13 @@ def threshold(value, name):
     if not value >= 0:
         raise ValueError(f"{name} must be >= 0, got {value}")
     return float(value)
+
+
+def symmetric_stack(value, name):
+    """ValueError naming the first matrix of a (K, n, n) float array that is not symmetric
+    (to 1e-9 of its largest entry)."""
+    scale = np.abs(value).max(axis=(1, 2), initial=0.0)
+    asymmetric = np.abs(value - value.transpose(0, 2, 1)).max(axis=(1, 2), initial=0.0) \
+        > 1e-9 * scale
+    if asymmetric.any():
+        raise ValueError(f"{name}[{np.argmax(asymmetric)}] is not symmetric")

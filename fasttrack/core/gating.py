@@ -199,11 +199,7 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
     if covars.shape != (k, m, m):
         raise ValueError(f"innovation_covars must have shape ({k}, {m}, {m}), "
                          f"got {covars.shape}")
-    scale = np.abs(covars).max(axis=(1, 2), initial=0.0)
-    asymmetric = np.abs(covars - covars.transpose(0, 2, 1)).max(axis=(1, 2), initial=0.0) \
-        > 1e-9 * scale
-    if asymmetric.any():
-        raise ValueError(f"innovation_covars[{np.argmax(asymmetric)}] is not symmetric")
+    _validate.symmetric_stack(covars, "innovation_covars")
     detections = _validate.finite_array(detections, "detections")
     if detections.size == 0:
         detections = detections.reshape(0, m)

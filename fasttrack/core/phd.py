@@ -88,7 +88,7 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
     innovation = cross[:, mapping, :] + spec.noise_covar
     threshold = np.inf if gate_threshold is None else \
         _validate.positive(gate_threshold, "gate_threshold")
-    _symmetric(covars)
+    _validate.symmetric_stack(covars, "covars")
     few = j * scan.shape[0] <= GRID_FROM_PAIRS  # test every pair, without a grid
     axes = np.empty(0, dtype=np.int64) if few or threshold == np.inf else \
         _gating.default_axes(spec.angles)
@@ -116,11 +116,3 @@ def _log(value):
     with np.errstate(divide="ignore"):
         return np.log(value)
 
-
-def _symmetric(covars):
-    """ValueError naming the first of ``covars`` that is not symmetric."""
-    scale = np.abs(covars).max(axis=(1, 2), initial=0.0)
-    asymmetric = np.abs(covars - covars.transpose(0, 2, 1)).max(axis=(1, 2), initial=0.0) \
-        > 1e-9 * scale
-    if asymmetric.any():
-        raise ValueError(f"covars[{np.argmax(asymmetric)}] is not symmetric")
