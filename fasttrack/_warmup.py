@@ -302,5 +302,6 @@ def ship(destination, processes=None, report=None):
         compiled, = pathlib.Path(scratch).iterdir()
         folder.parent.mkdir(parents=True, exist_ok=True)
         shutil.copytree(compiled, folder, ignore=shutil.ignore_patterns(".lock"))
+    cache.compress(folder)
     cache.write_manifest(folder)
     return folder

@@ -164,7 +164,7 @@ def test_a_damaged_shipped_entry_gives_the_right_result_one_warning_and_a_per_us
     assert compiled == [] and float(result) == 10.0 and stderr.count("is damaged") == 1
 
 
-@pytest.mark.parametrize("change", ["cpu", "sources", "numba", "settings"])
+@pytest.mark.parametrize("change", ["cpu", "sources", "entries", "numba", "settings"])
 def test_shipped_kernels_that_cannot_serve_fall_back_to_compiling_and_say_why_once(
         package_copy, tmp_path, change):
     shipped = package_copy / "_kernels" / cache.tag()
@@ -174,6 +174,8 @@ def test_shipped_kernels_that_cannot_serve_fall_back_to_compiling_and_say_why_on
         manifest["cpu"][1] = "a-cpu-of-elsewhere"
     elif change == "sources":
         manifest["source_stamp"] = "0" * 64
+    elif change == "entries":
+        del manifest["entries"]  # as an older fasttrack wrote them
     elif change == "numba":
         shipped.rename(shipped.with_name("numba0.1.0-numpy1.0-cpython-30"))
     else:
@@ -185,6 +187,7 @@ def test_shipped_kernels_that_cannot_serve_fall_back_to_compiling_and_say_why_on
     assert stderr.count("cannot be used") == 1, stderr
     assert "python -m fasttrack warmup" in stderr
     expected = {"cpu": "for another CPU (a-cpu-of-elsewhere", "sources": "other fasttrack sources",
+                "entries": "stored in another format",
                 "numba": "compiled for numba0.1.0-numpy1.0-cpython-30, and this process runs",
                 "settings": "other Numba settings (OPT _OptLevel(3) there, _OptLevel(2) here)"}
     assert expected[change] in stderr, stderr
@@ -242,6 +245,24 @@ def test_a_damaged_index_is_replaced_by_the_next_save(tmp_path):
     (tmp_path / "kernel.nbi").write_bytes(b"garbage")
     store.save("second", b"two")
     assert store.load("second") == b"two"
+
+
+def test_compressed_entries_load_as_saved_and_only_through_the_shipped_store(tmp_path):
+    entry = b"kernel code " * 1000
+    cache._Store(str(tmp_path), "kernel", "stamp").save("key", entry)
+    size = (tmp_path / "kernel.1.nbc").stat().st_size
+    cache.compress(tmp_path)
+    assert (tmp_path / "kernel.1.nbc").stat().st_size < size / 10
+    assert cache._ShippedStore(str(tmp_path), "kernel", "stamp").load("key") == entry
+    with pytest.raises(Exception):  # the per-user store reads its entries as saved
+        cache._Store(str(tmp_path), "kernel", "stamp").load("key")
+
+
+def test_the_shipped_kernels_are_compressed():
+    import zlib
+    _shipped_or_skip()
+    data = sorted(cache.shipped()[0].glob("*.nbc"))
+    assert data and all(zlib.decompress(path.read_bytes()) for path in data[:20])
 
 
 _SAME_KERNEL = {"int64": "ft.systematic(np.zeros(8), rng=0)",
