@@ -140,6 +140,12 @@ def test_update_errors():
     nan_model = ft.NonlinearGaussianMeasurement(_half_nan, 4, NOISE)
     with pytest.raises(ValueError, match="NaN"):
         updater.update(ft.SingleHypothesis(prediction, ft.Detection([0.0, 1.0], measurement_model=nan_model)))
+    written = ft.ParticleState(prediction.state_vector.copy(), log_weight=prediction.log_weight,
+                               timestamp=prediction.timestamp)
+    written.state_vector[0, 7] = np.nan  # after construction: named where it is found
+    with pytest.raises(ValueError, match=r"particles are not finite \(1 particles, the first "
+                                         r"at index 7\)"):
+        updater.update(ft.SingleHypothesis(written, ft.Detection([0.0, 1.0])))
     with pytest.raises(ValueError, match="no measurement model"):
         ft.ParticleUpdater().update(ft.SingleHypothesis(prediction, ft.Detection([0.0, 1.0])))
     with pytest.raises(ValueError, match="hypothesis.measurement is None"):

@@ -90,6 +90,11 @@ def weigh(model, z, particles, log_weight):
     log_w = _buffers.empty(particles.shape[1])
     top = model.log_likelihood(z, particles, log_weight, log_w)
     if np.isnan(top):
+        for name, bad in (("particles are not finite", ~np.isfinite(particles).all(axis=0)),
+                          ("log weights are NaN", np.isnan(log_weight))):
+            if bad.any():
+                raise ValueError(f"the prediction's {name} ({np.count_nonzero(bad)} "
+                                 f"particles, the first at index {np.argmax(bad)})")
         raise ValueError(f"{type(model).__name__} gave NaN log-likelihoods for this "
                          f"measurement")
     if top == -np.inf:
