@@ -141,3 +141,21 @@ def test_phd_vo_linear_run(benchmark, clutter):
     estimates = run()
     assert np.mean([abs(len(e) - len(t)) for e, t in zip(estimates, scenario.truths)]) < 1.0
     benchmark.pedantic(run, rounds=7, warmup_rounds=1)
+
+
+@pytest.mark.parametrize("clutter", [10, 30, 60])
+def test_cphd_vo_linear_run(benchmark, clutter):
+    """The same run with CPHDTracker (at most 30 targets, Vo's N_max)."""
+    from fasttrack.scenarios import vo_linear, vo_linear_birth
+    benchmark.group = "gm-cphd vo-linear run"
+    scenario = vo_linear(clutter_rate=float(clutter), seed=1)
+
+    def run():
+        tracker = ft.CPHDTracker(scenario.transition_model, scenario.measurement_model,
+                                 vo_linear_birth(), 0.98, 0.99, scenario.clutter_density,
+                                 float(clutter), max_targets=30, gate_threshold=13.8)
+        return tracker.run(scenario.detections)
+
+    estimates = run()
+    assert np.mean([abs(len(e) - len(t)) for e, t in zip(estimates, scenario.truths)]) < 1.0
+    benchmark.pedantic(run, rounds=7, warmup_rounds=1)

@@ -23,7 +23,7 @@ _MODULES = {
                "TransitionModel"],
     "montecarlo": ["MetricSummary", "RunFailure", "TrialResults", "local_cluster", "run_seeds",
                    "run_trial", "run_trials"],
-    "phd": ["PHDTracker"],
+    "phd": ["CPHDTracker", "PHDTracker"],
     "predictor": ["AdaptiveKernelKalmanPredictor", "ExtendedKalmanPredictor", "KalmanPredictor",
                   "ParticlePredictor", "UnscentedKalmanPredictor"],
     "random": ["seed"],

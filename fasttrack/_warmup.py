@@ -26,7 +26,7 @@ from .mixturereducer import GaussianMixtureReducer
 from .models.measurement import LinearGaussian
 from .models.transition import (CombinedLinearGaussianTransitionModel, ConstantVelocity,
                                 LinearGaussianTransitionModel)
-from .phd import PHDTracker
+from .phd import CPHDTracker, PHDTracker
 from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,
                         ParticlePredictor, UnscentedKalmanPredictor)
 from .resampler import (ESSResampler, MultinomialResampler, ResidualResampler, StratifiedResampler,
@@ -186,6 +186,8 @@ def _mixture():
     for gate in (None, 9.0):
         PHDTracker(scenario.transition_model, scenario.measurement_model, birth, 0.9, 0.99,
                    scenario.clutter_density, gate).run(scenario.detections)
+        CPHDTracker(scenario.transition_model, scenario.measurement_model, birth, 0.9, 0.99,
+                    scenario.clutter_density, 2.0, 8, gate).run(scenario.detections)
 
 
 def _jpda():

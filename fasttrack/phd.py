@@ -1,16 +1,114 @@
-"""A Gaussian-mixture PHD tracker over scans (Vo and Ma 2006), on arrays: the intensity is a
-:class:`~fasttrack.types.GaussianMixture` whose labels follow each component's line (the
-heaviest child of a merge keeps its parent's), so the estimates it extracts are tagged."""
+"""Gaussian-mixture PHD and CPHD trackers over scans (Vo and Ma 2006; Vo, Vo and Cantoni
+2007), on arrays: the intensity is a :class:`~fasttrack.types.GaussianMixture` whose labels
+follow each component's line (the heaviest child of a merge keeps its parent's), so the
+estimates it extracts are tagged."""
 import numpy as np
 
 from . import _validate
+from .core import cphd as _cphd
 from .core import kalman as _kalman
 from .core import phd as _phd
 from .mixturereducer import GaussianMixtureReducer
 from .types.mixture import GaussianMixture
 
 
-class PHDTracker:
+class _IntensityTracker:
+    """What the PHD and CPHD trackers share: the models, the birth intensity, P_D, P_S,
+    the clutter intensity, the gate and the reducer (see :class:`PHDTracker`), and the
+    step: predict, add the births, update (:meth:`_update`), reduce, extract
+    (:meth:`_extract`)."""
+
+    def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
+                 clutter_intensity, gate_threshold, reducer):
+        if not isinstance(birth, GaussianMixture):
+            raise TypeError(f"birth must be a GaussianMixture, got {type(birth).__name__}")
+        if birth.means.shape[1] != measurement_model.ndim_state:
+            raise ValueError(f"birth must have {measurement_model.ndim_state}-D components "
+                             f"(the models' state), got {birth.means.shape[1]}-D")
+        self.transition_model, self.measurement_model = transition_model, measurement_model
+        self.birth = birth
+        self.prob_detect = _validate.probability(prob_detect, "prob_detect")
+        self.prob_survival = _validate.probability(prob_survival, "prob_survival")
+        self.clutter_intensity = _validate.positive(clutter_intensity, "clutter_intensity")
+        self.gate_threshold = (None if gate_threshold is None
+                               else _validate.positive(gate_threshold, "gate_threshold"))
+        self.reducer = (GaussianMixtureReducer(1e-5, 4.0, 100) if reducer is None
+                        else reducer)
+        if not isinstance(self.reducer, GaussianMixtureReducer):
+            raise TypeError(f"reducer must be a GaussianMixtureReducer, got "
+                            f"{type(self.reducer).__name__}")
+        d = birth.means.shape[1]
+        self.mixture = GaussianMixture(np.empty((0, d)), np.empty((0, d, d)), np.empty(0),
+                                       np.empty(0, dtype=np.int64))
+        self._next_label = 0
+
+    def step(self, detections, dt=1.0):
+        """Advance ``dt`` seconds and take one scan.
+
+        Parameters
+        ----------
+        detections : (M, m) array_like
+            The scan (an empty one for none).
+        dt : float
+            Seconds since the previous scan, > 0.
+
+        Returns
+        -------
+        GaussianMixture
+            The estimates (:meth:`_extract`), labelled.
+        """
+        dt = _validate.positive(dt, "dt")
+        predicted = self._predicted(dt)
+        means, covars, log_weights, components = self._update(predicted, detections)
+        updated = GaussianMixture._made(means, covars, log_weights, predicted.labels[components])
+        self.mixture = self.reducer.reduce(updated, first_label=self._next_label)
+        if len(self.mixture):
+            self._next_label = max(self._next_label, int(self.mixture.labels.max()) + 1)
+        return self._picked(self._extract())
+
+    def run(self, scans, dt=1.0):
+        """:meth:`step` through ``scans``.
+
+        Parameters
+        ----------
+        scans : iterable of (M, m) array_like
+        dt : float
+            Seconds between scans, > 0.
+
+        Returns
+        -------
+        list of GaussianMixture
+            The estimates of each scan.
+        """
+        return [self.step(scan, dt) for scan in scans]
+
+    def _picked(self, index):
+        """The components ``index`` (a mask or indices) of the intensity."""
+        mixture = self.mixture
+        return GaussianMixture._made(mixture.means[index], mixture.covars[index],
+                                     mixture.log_weights[index], mixture.labels[index])
+
+    def _predicted(self, dt):
+        """The intensity ``dt`` seconds on, survival applied, with the births (new labels)."""
+        mixture = self.mixture
+        k = len(mixture)
+        means, covars = mixture.means, mixture.covars
+        if k:
+            means, covars, _, _ = _kalman.stack_predict(
+                self.transition_model, self.measurement_model, np.full(k, dt), means, covars)
+        with np.errstate(divide="ignore"):
+            log_survive = np.log(self.prob_survival)
+        births = len(self.birth)
+        labels = np.concatenate((mixture.labels,
+                                 self._next_label + np.arange(births, dtype=np.int64)))
+        self._next_label += births
+        return GaussianMixture._made(np.concatenate((means, self.birth.means)),
+                                     np.concatenate((covars, self.birth.covars)),
+                                     np.concatenate((mixture.log_weights + log_survive,
+                                                     self.birth.log_weights)), labels)
+
+
+class PHDTracker(_IntensityTracker):
     """The GM-PHD filter, scan by scan: predict the intensity (weights times P_S), add the
     birth components, update with the scan (:func:`fasttrack.core.phd.update`), reduce, and
     extract the components heavier than ``extraction_threshold``.
@@ -43,95 +141,95 @@ class PHDTracker:
     def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
                  clutter_intensity, gate_threshold=None, reducer=None,
                  extraction_threshold=0.5):
-        if not isinstance(birth, GaussianMixture):
-            raise TypeError(f"birth must be a GaussianMixture, got {type(birth).__name__}")
-        if birth.means.shape[1] != measurement_model.ndim_state:
-            raise ValueError(f"birth must have {measurement_model.ndim_state}-D components "
-                             f"(the models' state), got {birth.means.shape[1]}-D")
-        self.transition_model, self.measurement_model = transition_model, measurement_model
-        self.birth = birth
-        self.prob_detect = _validate.probability(prob_detect, "prob_detect")
-        self.prob_survival = _validate.probability(prob_survival, "prob_survival")
-        self.clutter_intensity = _validate.positive(clutter_intensity, "clutter_intensity")
-        self.gate_threshold = (None if gate_threshold is None
-                               else _validate.positive(gate_threshold, "gate_threshold"))
-        self.reducer = (GaussianMixtureReducer(1e-5, 4.0, 100) if reducer is None
-                        else reducer)
-        if not isinstance(self.reducer, GaussianMixtureReducer):
-            raise TypeError(f"reducer must be a GaussianMixtureReducer, got "
-                            f"{type(self.reducer).__name__}")
+        super().__init__(transition_model, measurement_model, birth, prob_detect,
+                         prob_survival, clutter_intensity, gate_threshold, reducer)
         self.extraction_threshold = _validate.non_negative(extraction_threshold,
                                                            "extraction_threshold")
-        d = birth.means.shape[1]
-        self.mixture = GaussianMixture(np.empty((0, d)), np.empty((0, d, d)), np.empty(0),
-                                       np.empty(0, dtype=np.int64))
-        self._next_label = 0
 
     @property
     def expected_number(self):
         """The expected number of targets: the sum of the intensity's weights."""
         return float(np.exp(self.mixture.log_weights).sum())
 
-    def step(self, detections, dt=1.0):
-        """Advance ``dt`` seconds and take one scan.
-
-        Parameters
-        ----------
-        detections : (M, m) array_like
-            The scan (an empty one for none).
-        dt : float
-            Seconds since the previous scan, > 0.
-
-        Returns
-        -------
-        GaussianMixture
-            The estimates: the components heavier than ``extraction_threshold``, labelled.
-        """
-        dt = _validate.positive(dt, "dt")
-        predicted = self._predicted(dt)
+    def _update(self, predicted, detections):
         means, covars, log_weights, components, _ = _phd.update(
             self.measurement_model, predicted.means, predicted.covars, predicted.log_weights,
             detections, self.prob_detect, self.clutter_intensity, self.gate_threshold)
-        updated = GaussianMixture._made(means, covars, log_weights, predicted.labels[components])
-        self.mixture = self.reducer.reduce(updated, first_label=self._next_label)
-        if len(self.mixture):
-            self._next_label = max(self._next_label, int(self.mixture.labels.max()) + 1)
-        heavy = self.mixture.log_weights > np.log(self.extraction_threshold) \
-            if self.extraction_threshold > 0 else np.ones(len(self.mixture), dtype=bool)
-        return GaussianMixture._made(self.mixture.means[heavy], self.mixture.covars[heavy],
-                                     self.mixture.log_weights[heavy], self.mixture.labels[heavy])
+        return means, covars, log_weights, components
 
-    def run(self, scans, dt=1.0):
-        """:meth:`step` through ``scans``.
+    def _extract(self):
+        """The components heavier than ``extraction_threshold``."""
+        if self.extraction_threshold == 0:
+            return np.arange(len(self.mixture))
+        return self.mixture.log_weights > np.log(self.extraction_threshold)
 
-        Parameters
-        ----------
-        scans : iterable of (M, m) array_like
-        dt : float
-            Seconds between scans, > 0.
 
-        Returns
-        -------
-        list of GaussianMixture
-            The estimates of each scan.
-        """
-        return [self.step(scan, dt) for scan in scans]
+class CPHDTracker(_IntensityTracker):
+    """The GM-CPHD filter, scan by scan: as :class:`PHDTracker`, with a distribution of the
+    number of targets besides the intensity (:mod:`fasttrack.core.cphd`), Poisson clutter,
+    and as estimates the most probable number of targets' heaviest components.
 
-    def _predicted(self, dt):
-        """The intensity ``dt`` seconds on, survival applied, with the births (new labels)."""
-        mixture = self.mixture
-        k = len(mixture)
-        means, covars = mixture.means, mixture.covars
-        if k:
-            means, covars, _, _ = _kalman.stack_predict(
-                self.transition_model, self.measurement_model, np.full(k, dt), means, covars)
-        with np.errstate(divide="ignore"):
-            log_survive = np.log(self.prob_survival)
-        births = len(self.birth)
-        labels = np.concatenate((mixture.labels,
-                                 self._next_label + np.arange(births, dtype=np.int64)))
-        self._next_label += births
-        return GaussianMixture._made(np.concatenate((means, self.birth.means)),
-                                     np.concatenate((covars, self.birth.covars)),
-                                     np.concatenate((mixture.log_weights + log_survive,
-                                                     self.birth.log_weights)), labels)
+    Parameters
+    ----------
+    transition_model : TransitionModel
+        Linear.
+    measurement_model : LinearGaussian
+    birth : GaussianMixture
+        The intensity born each scan; the number born is Poisson, of mean its weights' sum.
+    prob_detect, prob_survival : float
+        P_D and P_S, in [0, 1].
+    clutter_intensity : float
+        Expected clutter detections per unit volume of measurement space, > 0.
+    clutter_rate : float
+        Expected clutter detections a scan, > 0 (``clutter_intensity`` times the volume
+        observed).
+    max_targets : int
+        N: the largest number of targets represented (default 100); the predicted
+        probability above N is dropped.
+    gate_threshold : float, optional
+        As :class:`PHDTracker`'s.
+    reducer : ~fasttrack.mixturereducer.GaussianMixtureReducer, optional
+        As :class:`PHDTracker`'s.
+
+    Attributes
+    ----------
+    mixture : GaussianMixture
+        The current intensity.
+    log_cardinality : (N + 1,) ndarray
+        Log probabilities of 0..N targets (at first, no target).
+    """
+
+    def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
+                 clutter_intensity, clutter_rate, max_targets=100, gate_threshold=None,
+                 reducer=None):
+        super().__init__(transition_model, measurement_model, birth, prob_detect,
+                         prob_survival, clutter_intensity, gate_threshold, reducer)
+        self.clutter_rate = _validate.positive(clutter_rate, "clutter_rate")
+        self.log_cardinality = np.full(_validate.count(max_targets, "max_targets") + 1,
+                                       -np.inf)
+        self.log_cardinality[0] = 0.0
+
+    @property
+    def expected_number(self):
+        """The expected number of targets: the cardinality distribution's mean."""
+        return float(np.exp(self.log_cardinality) @ np.arange(self.log_cardinality.size))
+
+    @property
+    def most_probable_number(self):
+        """The most probable number of targets (the cardinality's mode)."""
+        return int(np.argmax(self.log_cardinality))
+
+    def _update(self, predicted, detections):
+        birth_mean = float(np.exp(self.birth.log_weights).sum())
+        log_cardinality = _cphd.predict_cardinality(self.log_cardinality, self.prob_survival,
+                                                    birth_mean)
+        means, covars, log_weights, components, _, self.log_cardinality = _cphd.update(
+            self.measurement_model, predicted.means, predicted.covars, predicted.log_weights,
+            log_cardinality, detections, self.prob_detect, self.clutter_rate,
+            self.clutter_intensity, self.gate_threshold)
+        return means, covars, log_weights, components
+
+    def _extract(self):
+        """The :attr:`most_probable_number` heaviest components (all, if fewer)."""
+        order = np.argsort(-self.mixture.log_weights, kind="stable")
+        return np.sort(order[:self.most_probable_number])

@@ -86,6 +86,15 @@ def test_guide_phd_tracker_runs():
     assert 6 <= len(namespace["estimates"][-1]) <= 12
 
 
+def test_guide_cphd_tracker_runs():
+    import re
+    guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()
+    code = re.search(r"```python\n([^`]*?ft\.CPHDTracker[^`]*?)```", guide, re.S).group(1)
+    namespace = {}
+    exec(compile(code, "guide cphd", "exec"), namespace)
+    assert len(namespace["estimates"][-1]) == namespace["tracker"].most_probable_number == 10
+
+
 def test_guide_multi_target_runs():
     import re
     guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()

@@ -60,10 +60,58 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
         intensity that is not finite and > 0, or an innovation covariance that is not
         positive definite, naming the argument.
     """
+    scan = detections_of(model, detections)
+    log_clutter = np.log(_validate.positive(clutter_intensity, "clutter_intensity"))
+    pairs = detected_pairs(model, means, covars, log_weights, scan, prob_detect,
+                           gate_threshold)
+    log_detected = pairs.log_detected - np.logaddexp(log_clutter,
+                                                     pairs.totals[pairs.detections])
+    return pairs.components(_log(1.0 - float(prob_detect)), log_detected)
+
+
+def detections_of(model, detections):
+    """The scan ``detections`` as a validated (M, m) float array for ``model`` (a linear
+    model, else a ValueError naming its type)."""
     spec = model.spec
     if spec.kind != SELECT:
-        raise ValueError("the GM-PHD update takes a linear measurement model (LinearGaussian), "
-                         f"got {type(model).__name__}")
+        raise ValueError("the Gaussian-mixture updates take a linear measurement model "
+                         f"(LinearGaussian), got {type(model).__name__}")
+    scan = _validate.finite_array(detections, "detections")
+    scan = scan.reshape(0, spec.ndim_meas) if scan.size == 0 else scan
+    if scan.ndim != 2 or scan.shape[1] != spec.ndim_meas:
+        raise ValueError(f"detections must have shape (M, {spec.ndim_meas}), got {scan.shape}")
+    return scan
+
+
+class DetectedPairs:
+    """The (component, detection) pairs that a scan's gates hold, updated: ``means``,
+    ``covars`` and ``log_detected`` (log P_D w_i N(z; H m_i, S_i)) of each pair, its
+    ``pairs`` (component) and ``detections`` indices, and ``totals``, the log of the sum
+    of ``exp(log_detected)`` over each detection's pairs (-inf for none); with the
+    predicted mixture's validated ``means``, ``covars`` and ``log_weights`` as
+    ``predicted``."""
+
+    def __init__(self, predicted, means, covars, pairs, detections, log_detected, totals):
+        self.predicted, self.means, self.covars = predicted, means, covars
+        self.pairs, self.detections = pairs, detections
+        self.log_detected, self.totals = log_detected, totals
+
+    def components(self, log_missed, log_detected):
+        """The posterior mixture of the missed components (the predicted log weights plus
+        ``log_missed``) and the detected pairs (log weights ``log_detected``):
+        :func:`update`'s five arrays."""
+        means, covars, log_weights = self.predicted
+        j = means.shape[0]
+        return (np.concatenate((means, self.means)), np.concatenate((covars, self.covars)),
+                np.concatenate((log_weights + log_missed, log_detected)),
+                np.concatenate((np.arange(j), self.pairs)),
+                np.concatenate((np.full(j, -1), self.detections)))
+
+
+def detected_pairs(model, means, covars, log_weights, scan, prob_detect, gate_threshold=None):
+    """The :class:`DetectedPairs` of a predicted mixture and a validated scan (arguments
+    as :func:`update`'s), validating the mixture, P_D and the threshold."""
+    spec = model.spec
     means = _validate.finite_array(means, "means", 2)
     j, d = means.shape
     if d != spec.ndim_state:
@@ -76,12 +124,6 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
     if log_weights.shape != (j,) or np.isnan(log_weights).any() or (log_weights == np.inf).any():
         raise ValueError(f"log_weights must be {j} numbers, not NaN or +inf")
     log_detect = _log(_validate.probability(prob_detect, "prob_detect"))
-    log_missed = _log(1.0 - float(prob_detect))
-    log_clutter = np.log(_validate.positive(clutter_intensity, "clutter_intensity"))
-    scan = _validate.finite_array(detections, "detections")
-    scan = scan.reshape(0, spec.ndim_meas) if scan.size == 0 else scan
-    if scan.ndim != 2 or scan.shape[1] != spec.ndim_meas:
-        raise ValueError(f"detections must have shape (M, {spec.ndim_meas}), got {scan.shape}")
     mapping = spec.mapping
     z_hats = means[:, mapping]
     cross = covars[:, :, mapping]  # P H^T
@@ -101,14 +143,10 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
     by_detection = np.argsort(gate.detections, kind="stable")
     starts = np.searchsorted(gate.detections[by_detection], np.arange(scan.shape[0] + 1))
     totals = _mixture.segment_logsumexp(log_detected[by_detection], starts)
-    log_detected -= np.logaddexp(log_clutter, totals[gate.detections])
     innovations = scan[gate.detections] - z_hats[pairs]
     detected_means = means[pairs] + np.einsum("kij,kj->ki", gains[pairs], innovations)
-    return (np.concatenate((means, detected_means)),
-            np.concatenate((covars, updated[pairs])),
-            np.concatenate((log_weights + log_missed, log_detected)),
-            np.concatenate((np.arange(j), pairs)),
-            np.concatenate((np.full(j, -1), gate.detections)))
+    return DetectedPairs((means, covars, log_weights), detected_means, updated[pairs], pairs,
+                         gate.detections, log_detected, totals)
 
 
 def _log(value):
