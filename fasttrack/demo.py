@@ -1,6 +1,6 @@
-"""The demo behind ``python -m fasttrack demo``: the four tutorial scenarios and a
-multi-target scenario tracked with fasttrack, in one table of accuracy and time per step
-against Stone Soup (when installed), with PNG plots."""
+"""The demo behind ``python -m fasttrack demo``: the four tutorial scenarios, a multi-target
+scenario and Vo and Ma's PHD scenario tracked with fasttrack, in one table of accuracy and
+time per step against Stone Soup (when installed), with PNG plots."""
 import pathlib
 import sys
 import time
@@ -11,7 +11,8 @@ import fasttrack as ft
 from fasttrack._jit import cache
 from fasttrack.metrics import gospa_over_time, position_rmse
 from fasttrack.scenarios import (adaptive_kernel_tutorial, extended_kalman_tutorial,
-                                 grid_targets, particle_filter_tutorial)
+                                 grid_targets, particle_filter_tutorial, vo_linear,
+                                 vo_linear_birth)
 
 TUTORIAL_WEIGHTS = np.array([1, 5, 1.5, 0.5, 2]) / 10
 AKKF_KERNELS = {"quadratic": lambda: ft.QuadraticKernel(c=1, ialpha=1),
@@ -226,6 +227,35 @@ def multi_target(table, plots, sizes, stonesoup_sizes, steps):
                        f"GNN tracker: {n} targets, {n} clutter per scan, P_D = 0.9")
 
 
+def random_finite_sets(table, plots, clutter_rates, repeats):
+    """The GM-PHD and GM-CPHD trackers on Vo and Ma's linear scenario (100 scans, up to 10
+    targets, P_D = 0.98, P_S = 0.99, gate chi2(0.999, 2) = 13.8), for each clutter rate
+    (clutter detections a scan)."""
+    for rate in clutter_rates:
+        scenario = vo_linear(clutter_rate=float(rate), seed=1)
+        common = (scenario.transition_model, scenario.measurement_model, vo_linear_birth(),
+                  0.98, 0.99, scenario.clutter_density)
+        trackers = {"GM-PHD": lambda: ft.PHDTracker(*common, gate_threshold=13.8),
+                    "GM-CPHD": lambda: ft.CPHDTracker(*common, float(rate), max_targets=30,
+                                                      gate_threshold=13.8)}
+        counts = {}
+        for name, make in trackers.items():
+            _progress(f"{name} tracker, clutter {rate} a scan")
+            estimates, seconds = _timed_track(lambda: make().run(scenario.detections),
+                                              repeats, len(scenario.detections))
+            table.add(f"{name}, clutter a scan", rate, _matched_rmse(scenario, estimates),
+                      seconds)
+            counts[f"{name}: number of estimates"] = [len(e) for e in estimates]
+        if plots and rate == clutter_rates[0]:
+            ax = plots.plotting.plot_multi_target(scenario, estimates)
+            plots.save(ax, f"cphd-vo-linear-{rate}.png",
+                       f"GM-CPHD estimates (a colour a label): Vo and Ma's scenario, "
+                       f"clutter {rate} a scan")
+            ax = plots.plotting.plot_target_count(scenario, counts)
+            plots.save(ax, f"target-count-{rate}.png",
+                       f"Number of targets, GM-PHD and GM-CPHD: clutter {rate} a scan")
+
+
 class Plots:
     """PNG plots of the demo, written to ``out``."""
 
@@ -260,7 +290,8 @@ def run(quick=False, out="fasttrack-demo"):
                                             if shipped else
                                             "compiling kernels (cached after the first run)..."),
           flush=True)
-    families = ["kalman", "akkf", "gating", "assign", "jpda", "resample", "particle"]
+    families = ["kalman", "akkf", "gating", "assign", "jpda", "mixture", "resample",
+                "particle"]
     if not quick:
         families.append("unscented")
 
@@ -287,6 +318,7 @@ def run(quick=False, out="fasttrack-demo"):
                            repeats=2 if quick else 5)
     multi_target(table, plots, [50] if quick else [50, 1000], stonesoup_sizes=[50],
                  steps=10 if quick else 100)
+    random_finite_sets(table, plots, [30] if quick else [10, 30, 60], repeats=1 if quick else 3)
     print(" " * 80, end="\r")
     print("\nTime per step (resamplers: per call; tracker: per scan), medians; RMSE: position "
           "error against the truth (tracker: of the tracks matched to targets)\n")

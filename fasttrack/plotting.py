@@ -123,8 +123,9 @@ def plot_multi_target(scenario, tracks=None, mapping=(0, 2), ax=None, units="m")
     Parameters
     ----------
     scenario : fasttrack.simulate.MultiTargetScenario
-    tracks : sequence of TrackSet, optional
-        E.g. ``MultiTargetTracker.run(scenario.detections)``.
+    tracks : sequence of TrackSet or GaussianMixture, optional
+        E.g. ``MultiTargetTracker.run(scenario.detections)``, or the labelled estimates of
+        ``PHDTracker.run`` (a path per label).
     mapping : sequence of int
         The position components of the states.
     ax : matplotlib.axes.Axes, optional
@@ -143,11 +144,37 @@ def plot_multi_target(scenario, tracks=None, mapping=(0, 2), ax=None, units="m")
     ax.scatter(*detections[origins >= 0].T, s=8, facecolors="none", edgecolors="tab:blue",
                linewidths=0.5, label="target detections")
     if tracks is not None:
-        paths = _paths([t.ids for t in tracks], [t.means[:, index] for t in tracks])
+        labelled = not all(hasattr(t, "ids") for t in tracks)  # a PHD tracker's estimates
+        paths = _paths([t.labels if labelled else t.ids for t in tracks],
+                       [t.means[:, index] for t in tracks])
+        name = "estimates (a path per label)" if labelled else "tracks"
         for k, xy in enumerate(paths.values()):
-            ax.plot(xy[:, 0], xy[:, 1], linewidth=1.2, label="tracks" if k == 0 else None)
+            ax.plot(xy[:, 0], xy[:, 1], linewidth=1.2, label=name if k == 0 else None)
     ax.set_xlabel(f"x = state[{mapping[0]}] ({units})")
     ax.set_ylabel(f"y = state[{mapping[1]}] ({units})")
+    return ax
+
+
+def plot_target_count(scenario, estimated, ax=None):
+    """The number of targets over the scans: the truth's (a step line) and each series of
+    ``estimated``.
+
+    Parameters
+    ----------
+    scenario : fasttrack.simulate.MultiTargetScenario
+    estimated : dict of str to sequence of float
+        Label: one estimated number a scan (e.g. the number of a PHD tracker's estimates).
+    ax : matplotlib.axes.Axes, optional
+    """
+    ax = _axes(ax)
+    scans = np.arange(len(scenario.truths))
+    ax.step(scans, [len(x) for x in scenario.truths], where="mid", color="k", linewidth=1.5,
+            label="true number")
+    for label, counts in estimated.items():
+        ax.plot(scans[:len(counts)], counts, marker=".", markersize=4, linewidth=0.8,
+                label=label)
+    ax.set_xlabel("scan")
+    ax.set_ylabel("number of targets")
     return ax
 
 

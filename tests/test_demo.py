@@ -22,11 +22,13 @@ def test_quick_demo_runs_and_writes_plots(tmp_path):
     out = done.stdout
     assert "Resampler tutorial" in out and "offspring" in out
     for row in ("resample systematic", "resample residual", "particle filter",
-                "extended Kalman filter", "AKKF quadratic", "AKKF gaussian"):
+                "extended Kalman filter", "AKKF quadratic", "AKKF gaussian", "GM-PHD",
+                "GM-CPHD"):
         assert row in out
     assert "speed-up" in out and "Demo finished" in out
     pngs = sorted(tmp_path.glob("*.png"))
-    assert len(pngs) >= 7
+    assert len(pngs) >= 7 and {"cphd-vo-linear-30.png", "target-count-30.png"} <= {
+        png.name for png in pngs}
     for png in pngs:
         _assert_drawn(png)
 
@@ -104,6 +106,24 @@ def test_multi_target_plot_draws_truths_clutter_detections_and_tracks():
     first = lines[0].get_xydata()
     np.testing.assert_allclose(first, [x[0, [0, 2]] for x in scenario.truths])
     assert ax.get_xlabel() == "x = state[0] (m)"
+
+
+def test_phd_estimates_and_the_number_of_targets_are_drawn():
+    from fasttrack.scenarios import vo_linear, vo_linear_birth
+    scenario = vo_linear(clutter_rate=10.0, seed=0)
+    tracker = ft.CPHDTracker(scenario.transition_model, scenario.measurement_model,
+                             vo_linear_birth(), 0.98, 0.99, scenario.clutter_density, 10.0,
+                             max_targets=20, gate_threshold=13.8)
+    estimates = tracker.run(scenario.detections[:30])
+    ax = plotting.plot_multi_target(scenario, estimates)
+    assert ax.get_legend_handles_labels()[1][-1] == "estimates (a path per label)"
+    labels = {int(i) for e in estimates for i in e.labels}
+    assert len(ax.get_lines()) == 12 + len(labels)  # a dashed path per target, one per label
+    counts = [len(e) for e in estimates]
+    ax = plotting.plot_target_count(scenario, {"CPHD": counts})
+    truth, line = ax.get_lines()
+    assert truth.get_ydata().tolist() == [len(x) for x in scenario.truths]
+    assert line.get_ydata().tolist() == counts and ax.get_ylabel() == "number of targets"
 
 
 def test_plotting_errors():
