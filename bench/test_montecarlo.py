@@ -93,3 +93,32 @@ def test_thousand_multi_target_runs_on_dask(benchmark, cluster):
     results = benchmark.pedantic(lambda: trials(N_RUNS), rounds=1, iterations=1)
     assert not results.failures and len(results.table) == 30 * N_RUNS
     assert results.mean_over_time("gospa")[-1] < 40  # 20 targets: c / 2 = 5 m each if lost
+
+
+def _vo_linear(seed):
+    from fasttrack.scenarios import vo_linear
+    return vo_linear(clutter_rate=10.0, seed=seed)
+
+
+def make_cphd(scenario, rng):
+    from fasttrack.scenarios import vo_linear_birth
+    return ft.CPHDTracker(scenario.transition_model, scenario.measurement_model,
+                          vo_linear_birth(), 0.98, 0.99, scenario.clutter_density, 10.0,
+                          max_targets=30, gate_threshold=13.8)
+
+
+def test_thousand_cphd_runs(benchmark):
+    """1,000 runs of Vo and Ma's linear scenario (100 scans, clutter 10) by the GM-CPHD
+    tracker, scored by GOSPA (c = 100 m) and the cardinality error, on a local pool of 2
+    worker processes."""
+    benchmark.group = f"montecarlo-cphd runs={N_RUNS}"
+    benchmark.extra_info["runs"] = N_RUNS
+
+    def trials(n_runs):
+        return ft.run_trials(_vo_linear, make_cphd, n_runs, seed=1, processes=2,
+                             gospa_cutoff=100.0, progress=False)
+
+    trials(8)  # workers started, kernels loaded
+    results = benchmark.pedantic(lambda: trials(N_RUNS), rounds=1, iterations=1)
+    assert not results.failures and len(results.table) == 100 * N_RUNS
+    assert results.per_run()["mean_cardinality_error"].mean() < 1.0

@@ -40,39 +40,47 @@ class _IntensityTracker:
         d = birth.means.shape[1]
         self.mixture = GaussianMixture(np.empty((0, d)), np.empty((0, d, d)), np.empty(0),
                                        np.empty(0, dtype=np.int64))
+        self.time = None
         self._next_label = 0
 
-    def step(self, detections, dt=1.0):
-        """Advance ``dt`` seconds and take one scan.
+    def step(self, detections, time):
+        """Process one scan.
 
         Parameters
         ----------
         detections : (M, m) array_like
             The scan (an empty one for none).
-        dt : float
-            Seconds since the previous scan, > 0.
+        time : float
+            The scan's time in seconds, finite, after the previous scan's (the intensity is
+            predicted over the difference).
 
         Returns
         -------
         GaussianMixture
             The estimates (:meth:`_extract`), labelled.
         """
-        dt = _validate.positive(dt, "dt")
+        time = _validate.real(time, "time")
+        dt = 0.0 if self.time is None else time - self.time
+        if self.time is not None and not dt > 0:
+            raise ValueError(f"time must be after the previous scan's ({self.time} s), "
+                             f"got {time}")
         predicted = self._predicted(dt)
         means, covars, log_weights, components = self._update(predicted, detections)
         updated = GaussianMixture._made(means, covars, log_weights, predicted.labels[components])
         self.mixture = self.reducer.reduce(updated, first_label=self._next_label)
         if len(self.mixture):
             self._next_label = max(self._next_label, int(self.mixture.labels.max()) + 1)
+        self.time = time
         return self._picked(self._extract())
 
-    def run(self, scans, dt=1.0):
-        """:meth:`step` through ``scans``.
+    def run(self, scans, time_interval=1.0):
+        """:meth:`step` through ``scans``, ``time_interval`` seconds apart (after the previous
+        scan's time, or from 0).
 
         Parameters
         ----------
         scans : iterable of (M, m) array_like
-        dt : float
+        time_interval : float
             Seconds between scans, > 0.
 
         Returns
@@ -80,7 +88,9 @@ class _IntensityTracker:
         list of GaussianMixture
             The estimates of each scan.
         """
-        return [self.step(scan, dt) for scan in scans]
+        time_interval = _validate.positive(time_interval, "time_interval")
+        start = 0.0 if self.time is None else self.time + time_interval
+        return [self.step(scan, start + t * time_interval) for t, scan in enumerate(scans)]
 
     def _picked(self, index):
         """The components ``index`` (a mask or indices) of the intensity."""
@@ -93,7 +103,7 @@ class _IntensityTracker:
         mixture = self.mixture
         k = len(mixture)
         means, covars = mixture.means, mixture.covars
-        if k:
+        if k and dt > 0:
             means, covars, _, _ = _kalman.stack_predict(
                 self.transition_model, self.measurement_model, np.full(k, dt), means, covars)
         with np.errstate(divide="ignore"):
@@ -136,6 +146,8 @@ class PHDTracker(_IntensityTracker):
     ----------
     mixture : GaussianMixture
         The current intensity; the sum of its weights is the expected number of targets.
+    time : float or None
+        The last scan's time in seconds (None before the first).
     """
 
     def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
@@ -197,6 +209,8 @@ class CPHDTracker(_IntensityTracker):
         The current intensity.
     log_cardinality : (N + 1,) ndarray
         Log probabilities of 0..N targets (at first, no target).
+    time : float or None
+        The last scan's time in seconds (None before the first).
     """
 
     def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,

@@ -279,8 +279,9 @@ def test_the_cphd_tracker_counts_the_targets_better_than_the_phd_tracker():
     truth = np.array([len(t) for t in scenario.truths])
     phd_counts = [len(e) for e in phd_tracker.run(scenario.detections)]
     cphd_counts, expected = [], []
-    for scan in scenario.detections:
-        found = cphd_tracker.step(scan)
+    for t, scan in enumerate(scenario.detections):
+        found = cphd_tracker.step(scan, float(t))
+        assert len(set(found.labels.tolist())) == len(found)  # distinct labels
         cphd_counts.append(len(found))
         assert len(found) == min(cphd_tracker.most_probable_number, len(cphd_tracker.mixture))
         assert np.exp(cphd_tracker.log_cardinality).sum() == pytest.approx(1.0, rel=1e-12)
@@ -290,8 +291,6 @@ def test_the_cphd_tracker_counts_the_targets_better_than_the_phd_tracker():
     cphd_error = np.abs(np.array(cphd_counts) - truth).mean()
     assert cphd_error < 0.45 and cphd_error < np.abs(np.array(phd_counts) - truth).mean()
     assert np.abs(np.array(expected) - truth).mean() < 0.5
-    assert cphd_tracker.step(scenario.detections[-1]).labels.size == len(
-        set(cphd_tracker.step(scenario.detections[-1]).labels))  # distinct labels
 
 
 def test_the_cphd_tracker_refuses_bad_settings():
@@ -305,3 +304,32 @@ def test_the_cphd_tracker_refuses_bad_settings():
     with pytest.raises(ValueError, match="clutter_rate must be finite and > 0"):
         ft.CPHDTracker(phd_tracker.transition_model, phd_tracker.measurement_model,
                        phd_tracker.birth, 0.9, 0.99, 1e-5, clutter_rate=-1.0)
+
+
+def _vo_scenario(seed):
+    from fasttrack.scenarios import vo_linear
+    return vo_linear(clutter_rate=10.0, seed=seed)
+
+
+def _make_cphd(scenario, rng):
+    from fasttrack.scenarios import vo_linear_birth
+    return ft.CPHDTracker(scenario.transition_model, scenario.measurement_model,
+                          vo_linear_birth(), 0.98, 0.99, scenario.clutter_density, 10.0,
+                          max_targets=30, gate_threshold=13.8)
+
+
+def test_monte_carlo_runs_score_the_cphd_tracker_scan_by_scan():
+    from fasttrack import montecarlo as mc
+    results = mc.run_trials(_vo_scenario, _make_cphd, 3, seed=1, processes=1, progress=False,
+                            gospa_cutoff=100.0)  # Vo's c: the detections' noise is 10 m
+    assert not results.failures and len(results.table) == 3 * 100
+    world = _vo_scenario(mc.run_seeds(1, 3)[1].spawn(2)[0])
+    estimates = _make_cphd(world, None).run(world.detections)
+    row = results.table[results.table["run"] == 1]
+    assert row["n_tracks"].tolist() == [len(e) for e in estimates]
+    assert row["cardinality_error"].tolist() == [abs(len(e) - len(x))
+                                                 for e, x in zip(estimates, world.truths)]
+    per_run = results.per_run()  # measured 0.22-0.55 against 7.7 for no estimates
+    assert (per_run["mean_cardinality_error"] < 1.0).all()
+    no_estimates = np.mean([50.0 * len(x) for x in world.truths])  # c / 2 a missed target
+    assert (per_run["mean_gospa"] < 0.4 * no_estimates).all()  # measured 0.25

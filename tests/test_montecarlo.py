@@ -337,7 +337,7 @@ def test_multi_target_runs_score_gospa_per_scan(serial_tracking):
     assert over_time[-1] < 0.5 * over_time[0]  # the tracker finds the targets
     assert {s.metric for s in results.summary()} == {
         "mean_gospa", "mean_localisation", "mean_missed", "mean_false", "mean_tracks",
-        "step_seconds"}
+        "mean_cardinality_error", "step_seconds"}
     with pytest.raises(ValueError, match="rmse_over_time needs the metric 'position_error'"):
         results.rmse_over_time()
 
@@ -353,6 +353,7 @@ def test_a_multi_target_run_is_the_tracker_on_its_scenario(serial_tracking):
         want = gospa(world.truths[t][:, [0, 2]], tracks.means[:, [0, 2]], 10.0)
         assert row["gospa"][t] == pytest.approx(want.distance, rel=1e-12)
         assert row["n_tracks"][t] == len(tracks)
+        assert row["cardinality_error"][t] == abs(len(tracks) - len(world.truths[t]))
 
 
 def test_multi_target_results_do_not_depend_on_processes(serial_tracking):

@@ -163,8 +163,18 @@ def test_the_tracker_refuses_bad_settings():
     with pytest.raises(ValueError, match="prob_survival must lie in"):
         _tracker(scenario).__class__(scenario.transition_model, scenario.measurement_model,
                                      _tracker(scenario).birth, 0.9, 1.2, 1e-4)
-    with pytest.raises(ValueError, match="dt must be finite and > 0"):
-        _tracker(scenario).step(scenario.detections[0], dt=-1.0)
+    tracker = _tracker(scenario)
+    tracker.step(scenario.detections[0], 5.0)
+    with pytest.raises(ValueError, match=r"time must be after the previous scan's \(5.0 s\)"):
+        tracker.step(scenario.detections[1], 5.0)
+    with pytest.raises(ValueError, match="time must be finite"):
+        tracker.step(scenario.detections[1], np.nan)
+    with pytest.raises(TypeError, match="time must be a real number"):
+        tracker.step(scenario.detections[1], "6")
+    with pytest.raises(ValueError, match="time_interval must be finite and > 0"):
+        tracker.run(scenario.detections, 0.0)
+    assert tracker.time == 5.0 and len(tracker.run(scenario.detections[1:])) == 1
+    assert tracker.time == 6.0
 
 
 def test_vo_linear_scenario_and_the_tracker_on_it():

@@ -93,15 +93,25 @@ def log_esf_without(log_values, log_e, out):
 
 
 @jit()
-def _term(u, count, n, j, log_p, log_missed, log_total, log_rate):
+def _log_factorials(size):
+    """log k! for k = 0..size - 1."""
+    out = np.empty(size)
+    for k in range(size):
+        out[k] = math.lgamma(k + 1.0)
+    return out
+
+
+@jit()
+def _term(u, count, n, j, log_p, log_missed, log_total, log_rate, log_factorial):
     """The log of Upsilon^u's term (n, j) for ``count`` detections, times p(n):
     (count - j)! p_K(count - j) P^n_{j+u} (1 - P_D)^(n - j - u) / <1, w>^(j + u) p(n), with
-    Poisson clutter of rate exp(log_rate); -inf where it is 0."""
+    Poisson clutter of rate exp(log_rate); -inf where it is 0. ``log_factorial[k]`` = log k!
+    for k <= n."""
     k = n - j - u
     if k < 0 or log_p == -np.inf or (k > 0 and log_missed == -np.inf):
         return -np.inf
-    return (-math.exp(log_rate) + _power(log_rate, count - j) + math.lgamma(n + 1.0)
-            - math.lgamma(k + 1.0) + _power(log_missed, k) - _power(log_total, j + u) + log_p)
+    return (-math.exp(log_rate) + _power(log_rate, count - j) + log_factorial[n]
+            - log_factorial[k] + _power(log_missed, k) - _power(log_total, j + u) + log_p)
 
 
 @jit()
@@ -113,15 +123,18 @@ def update_sums(log_e, esf_without, log_cardinality, log_missed, log_total, log_
     (m,), from ``log_e`` (m + 1,) and ``esf_without`` (m, m); returns
     log <Upsilon^1[Z], p> / <Upsilon^0[Z], p>."""
     m = esf_without.shape[0]
+    log_factorial = _log_factorials(log_cardinality.size)
     norm = -np.inf
     missed = -np.inf
     for n in range(log_cardinality.size):
         upsilon = -np.inf
         for j in range(min(m, n) + 1):
             upsilon = _add(upsilon, _times(_term(0, m, n, j, log_cardinality[n], log_missed,
-                                                 log_total, log_rate), log_e[j]))
+                                                 log_total, log_rate, log_factorial),
+                                           log_e[j]))
             missed = _add(missed, _times(_term(1, m, n, j, log_cardinality[n], log_missed,
-                                               log_total, log_rate), log_e[j]))
+                                               log_total, log_rate, log_factorial),
+                                         log_e[j]))
         out_cardinality[n] = upsilon
         norm = _add(norm, upsilon)
     for n in range(log_cardinality.size):
@@ -131,7 +144,7 @@ def update_sums(log_e, esf_without, log_cardinality, log_missed, log_total, log_
         total = -np.inf
         for n in range(j + 1, log_cardinality.size):
             total = _add(total, _term(1, m - 1, n, j, log_cardinality[n], log_missed,
-                                      log_total, log_rate))
+                                      log_total, log_rate, log_factorial))
         coefficients[j] = total
     for z in range(m):
         total = -np.inf
@@ -147,11 +160,12 @@ def predict_cardinality(log_cardinality, log_survive, log_die, birth_mean, out):
     exp(log_survive) (exp(log_die) = 1 minus it), a Poisson number of mean ``birth_mean`` is
     born; truncated to the same 0..N and normalised."""
     size = log_cardinality.size
+    log_factorial = _log_factorials(size)
     survived = np.empty(size)
     for s in range(size):
         total = -np.inf
         for b in range(s, size):
-            thinning = (math.lgamma(b + 1.0) - math.lgamma(s + 1.0) - math.lgamma(b - s + 1.0)
+            thinning = (log_factorial[b] - log_factorial[s] - log_factorial[b - s]
                         + _power(log_survive, s) + _power(log_die, b - s))
             total = _add(total, _times(thinning, log_cardinality[b]))
         survived[s] = total
@@ -160,7 +174,7 @@ def predict_cardinality(log_cardinality, log_survive, log_die, birth_mean, out):
     for n in range(size):
         total = -np.inf
         for s in range(n + 1):
-            born = -birth_mean + _power(log_mean, n - s) - math.lgamma(n - s + 1.0)
+            born = -birth_mean + _power(log_mean, n - s) - log_factorial[n - s]
             total = _add(total, _times(born, survived[s]))
         out[n] = total
         norm = _add(norm, total)

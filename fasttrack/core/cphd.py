@@ -119,7 +119,8 @@ def cardinality(log_cardinality, name="log_cardinality"):
     values = _validate.float_array(log_cardinality, name, 1)
     if values.size == 0 or np.isnan(values).any() or (values == np.inf).any():
         raise ValueError(f"{name} must be N + 1 >= 1 log probabilities, not NaN or +inf")
-    total = np.exp(_numpy.logsumexp(values))
+    with np.errstate(over="ignore"):
+        total = np.exp(values).sum()
     if abs(total - 1.0) > 1e-9:
         raise ValueError(f"{name} must sum to 1 as probabilities, got {total!r}")
     return values

@@ -14,13 +14,15 @@ METRICS = ("position_error", "nees", "nis", "ess", "step_seconds")
 #: The metrics a run of a multi-target tracker can record per scan: the GOSPA distance
 #: (p = 1, alpha = 2, cut-off ``gospa_cutoff``) between the true and the tracks' positions,
 #: its localisation, missed-target and false-track parts (they add up to it), the number of
-#: tracks, and the wall time of the scan.
+#: tracks (or estimates), its distance from the number of targets (the cardinality error),
+#: and the wall time of the scan.
 MULTI_TARGET_METRICS = ("gospa", "gospa_localisation", "gospa_missed", "gospa_false",
-                        "n_tracks", "step_seconds")
+                        "n_tracks", "cardinality_error", "step_seconds")
 _SUMMARIES = {"position_error": "rmse", "nees": "anees", "nis": "anis", "ess": "mean_ess",
               "step_seconds": "step_seconds", "gospa": "mean_gospa",
               "gospa_localisation": "mean_localisation", "gospa_missed": "mean_missed",
-              "gospa_false": "mean_false", "n_tracks": "mean_tracks"}
+              "gospa_false": "mean_false", "n_tracks": "mean_tracks",
+              "cardinality_error": "mean_cardinality_error"}
 
 
 def _check_mapping(mapping):
@@ -98,8 +100,10 @@ def _score_scans(metrics, world, tracks, mapping, seconds, cutoff):
     truths = [np.ascontiguousarray(x[:, mapping]) for x in world.truths]
     estimates = [np.ascontiguousarray(t.means[:, mapping]) for t in tracks]
     result = gospa_over_time(truths, estimates, cutoff)
+    counts = np.array([len(t.means) for t in tracks], dtype=np.float64)
     columns = {"gospa": result.distance, "gospa_localisation": result.localisation,
                "gospa_missed": result.missed, "gospa_false": result.false,
-               "n_tracks": np.array([len(t.means) for t in tracks], dtype=np.float64),
+               "n_tracks": counts,
+               "cardinality_error": np.abs(counts - [len(x) for x in world.truths]),
                "step_seconds": np.asarray(seconds)}
     return np.column_stack([columns[name] for name in metrics])

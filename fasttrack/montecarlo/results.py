@@ -88,7 +88,8 @@ class TrialResults:
         before resampling, particle filters), ``step_seconds`` (wall time of predict +
         update); for a multi-target tracker, per scan, ``gospa`` and its parts
         ``gospa_localisation``, ``gospa_missed`` and ``gospa_false`` (position units,
-        p = 1), ``n_tracks`` and ``step_seconds``. NaN where a metric does not apply.
+        p = 1), ``n_tracks``, ``cardinality_error`` (the distance of ``n_tracks`` from the
+        number of targets) and ``step_seconds``. NaN where a metric does not apply.
         Failed runs have no rows.
     failures : list of RunFailure
     seed : numpy.random.SeedSequence
@@ -111,7 +112,8 @@ class TrialResults:
         """One row per completed run: ``run`` and each metric's per-run statistic (``rmse``
         over steps of the position error; the others, ``anees``, ``anis``, ``mean_ess``,
         ``mean_gospa``, ``mean_localisation``, ``mean_missed``, ``mean_false``,
-        ``mean_tracks`` and ``step_seconds``, means over steps)."""
+        ``mean_tracks``, ``mean_cardinality_error`` and ``step_seconds``, means over
+        steps)."""
         runs, starts = np.unique(self.table["run"], return_index=True)
         out = np.zeros(len(runs), [("run", np.int64)]
                        + [(_SUMMARIES[m], np.float64) for m in self.metrics])

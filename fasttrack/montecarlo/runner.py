@@ -67,7 +67,8 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=None, client=No
         fasttrack's particle, Kalman, extended Kalman or adaptive kernel filters), drawing
         its randomness from the Generator ``rng``; for a multi-target scenario, a tracker
         whose ``step(detections, time)`` returns the tracks (with ``means`` (K, d)), such as
-        :class:`~fasttrack.tracker.MultiTargetTracker`.
+        :class:`~fasttrack.tracker.MultiTargetTracker`, or the estimates of
+        :class:`~fasttrack.phd.PHDTracker` and :class:`~fasttrack.phd.CPHDTracker`.
     n_runs : int
         Number of runs, >= 1.
     seed : None, int or numpy.random.SeedSequence
@@ -75,8 +76,8 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=None, client=No
     metrics : sequence of str, optional
         Among ``METRICS`` ('position_error', 'nees', 'nis', 'ess', 'step_seconds') for a
         filter, or ``MULTI_TARGET_METRICS`` ('gospa', 'gospa_localisation', 'gospa_missed',
-        'gospa_false', 'n_tracks', 'step_seconds') for a multi-target tracker (default:
-        all of the kind).
+        'gospa_false', 'n_tracks', 'cardinality_error', 'step_seconds') for a multi-target
+        tracker (default: all of the kind).
     client : distributed.Client or str, optional
         Run on this Dask cluster (or the scheduler at this address) instead of locally.
     batch_size : int, optional
