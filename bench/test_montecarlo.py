@@ -3,7 +3,8 @@ systematic resampling every step), each scenario simulated from its run's seed, 
 every metric: in this process on one Numba thread, on a local pool of 2 worker processes,
 and on a 2-worker Dask LocalCluster (one thread each); and 1,000 runs of a 20-target
 scenario (30 scans, clutter, P_D = 0.9) tracked by the multi-target tracker and scored by
-GOSPA, on the Dask cluster.
+GOSPA, on the Dask cluster; and 1,000 runs of Vo and Ma's PHD scenario by the GM-CPHD tracker
+on the local pool.
 
 The local pool and the cluster are started, and their kernels compiled, before timing;
 ``test_startup`` times what a fresh pool and a fresh cluster cost before their first run.
