@@ -109,9 +109,51 @@ def test_bad_updates_are_refused_naming_the_argument(change, message):
         phd.update(**arguments)
 
 
-def test_a_nonlinear_sensor_is_refused():
-    sensor = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.01, 1.0]))
-    with pytest.raises(ValueError, match="linear measurement model"):
+RADAR = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.01, 1.0]),
+                                   translation_offset=[5.0, -3.0])
+
+
+def _wrapped(angle):
+    return (angle + np.pi) % (2 * np.pi) - np.pi
+
+
+@pytest.mark.parametrize("sensor", [RADAR, ft.Cartesian2DToBearing(4, (0, 2), [[0.01]])])
+def test_a_polar_sensor_updates_each_pair_as_the_extended_kalman_filter(sensor):
+    means, covars, log_weights = _mixture(2, 4)
+    means[3, [0, 2]] = [-40.0, -3.5]  # behind the sensor: bearings near +-pi
+    m = sensor.ndim_meas
+    detections = np.array([sensor.function(ft.GaussianState(x[:, None], np.eye(4))).ravel()
+                           for x in means + 0.3])
+    detections[3, 0] = _wrapped(detections[3, 0] + 0.05)
+    got = phd.update(sensor, means, covars, log_weights, detections, 0.9, 1e-4)
+    assert got[0].shape == (4 * 5, 4)
+    w = np.exp(log_weights)
+    for k in np.flatnonzero(got[4] >= 0):
+        i, z = got[3][k], detections[got[4][k]]
+        prior = ft.GaussianState(means[i][:, None], covars[i])
+        ekf = ft.ExtendedKalmanUpdater(sensor, use_joseph_cov=False).update(
+            ft.SingleHypothesis(prior, ft.Detection(z[:, None], measurement_model=sensor)))
+        np.testing.assert_allclose(got[0][k], ekf.state_vector.ravel(), rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(got[1][k], ekf.covar, rtol=1e-9, atol=1e-9)
+        terms = []
+        for j in range(4):
+            predicted = ft.ExtendedKalmanUpdater(sensor).predict_measurement(
+                ft.GaussianState(means[j][:, None], covars[j]))
+            innovation = z - predicted.state_vector.ravel()
+            innovation[0] = _wrapped(innovation[0])
+            terms.append(0.9 * w[j] * multivariate_normal.pdf(innovation, np.zeros(m),
+                                                                predicted.covar))
+        assert np.exp(got[2][k]) == pytest.approx(terms[i] / (1e-4 + sum(terms)), rel=1e-9,
+                                                  abs=1e-300)
+
+
+def test_a_component_at_the_sensor_and_a_sensor_of_user_functions_are_refused():
+    with pytest.raises(ValueError, match=r"means\[1\] lies at the sensor"):
+        phd.update(RADAR, [[0.0, 1.0, 0.0, 1.0], [5.0, 0.0, -3.0, 0.0]], [np.eye(4)] * 2,
+                   [0.0, 0.0], [[0.1, 1.0]], 0.9, 1e-4)
+    from user_models import bearing_range_from_50_0
+    sensor = ft.NonlinearGaussianMeasurement(bearing_range_from_50_0, 4, np.eye(2))
+    with pytest.raises(ValueError, match="take a built-in measurement model"):
         phd.update(sensor, np.zeros((1, 4)), [np.eye(4)], [0.0], [[0.1, 1.0]], 0.9, 1e-4)
 
 

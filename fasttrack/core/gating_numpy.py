@@ -8,7 +8,7 @@ them.
 """
 import numpy as np
 
-from .kalman_numpy import _wrap
+from .kalman_numpy import wrap
 
 _LOG_2PI = np.log(2.0 * np.pi)
 
@@ -26,7 +26,7 @@ def gate(z_hats, covars, detections, threshold, angles):
         except np.linalg.LinAlgError:
             return t
         innovations = detections - z_hats[t]
-        innovations[:, angles] = _wrap(innovations[:, angles])
+        innovations[:, angles] = wrap(innovations[:, angles])
         whitened = np.linalg.solve(lower, innovations.T)
         distances2 = np.einsum("ij,ij->j", whitened, whitened)
         inside = np.flatnonzero(distances2 < threshold)

@@ -61,7 +61,7 @@ def _upper(n):
     return np.triu(np.ones((n, n), dtype=np.bool_), 1)
 
 
-def _wrap(a):
+def wrap(a):
     """Angles wrapped to [-pi, pi), as the kernels wrap them."""
     return a - 6.283185307179586 * np.floor((a + 3.141592653589793) * 0.15915494309189535)
 
@@ -95,7 +95,7 @@ def measure(sensor, points):
     if sensor.kind == SELECT:
         return points[sensor.mapping]
     px, py = _polar(sensor, points)
-    bearing = _wrap(np.arctan2(py, px))
+    bearing = wrap(np.arctan2(py, px))
     if sensor.kind == BEARING_RANGE:
         return np.stack([bearing, np.sqrt(px * px + py * py)])
     return bearing[None]
@@ -105,6 +105,27 @@ def at_sensor(sensor, x):
     """Whether the state ``x`` (d, 1) is at the polar ``sensor``'s position."""
     px, py = _polar(sensor, x)
     return float(px[0]) == 0.0 and float(py[0]) == 0.0
+
+
+def jacobians(sensor, points):
+    """The (n, m, d) analytic measurement Jacobians of a built-in ``sensor`` at the (d, n)
+    ``points``; NaN where a bearing is taken at the sensor."""
+    m, (d, n) = sensor.ndim_meas, points.shape
+    out = np.zeros((n, m, d))
+    if sensor.kind == SELECT:
+        out[:, np.arange(m), sensor.mapping] = 1.0
+        return out
+    px, py = _polar(sensor, points)
+    rho2 = px * px + py * py
+    columns, rotation = sensor.mapping[:2], sensor.rotation
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out[:, 0, columns] = (-py[:, None] * rotation[0] + px[:, None] * rotation[1]) \
+            / rho2[:, None]
+        if sensor.kind == BEARING_RANGE:
+            out[:, 1, columns] = (px[:, None] * rotation[0] + py[:, None] * rotation[1]) \
+                / np.sqrt(rho2)[:, None]
+    out[rho2 == 0.0] = np.nan
+    return out
 
 
 def jacobian(sensor, method, x):
@@ -121,18 +142,14 @@ def jacobian(sensor, method, x):
     if rho2 == 0.0 and method != FORWARD:
         return np.full((m, d), np.nan)
     if method == ANALYTIC:
-        columns, rotation = sensor.mapping[:2], sensor.rotation
-        out[0, columns] = (-py * rotation[0] + px * rotation[1]) / rho2
-        if sensor.kind == BEARING_RANGE:
-            out[1, columns] = (px * rotation[0] + py * rotation[1]) / np.sqrt(rho2)
-        return out
+        return jacobians(sensor, x)[0]
     point = x[:, 0]
     eye = np.eye(d)
     if method == CENTRAL:
         steps = 6.0554544523933395e-06 * np.maximum(np.abs(point), 1.0)
         values = measure(sensor, np.hstack([x + eye * steps, x - eye * steps]))
         delta = values[:, :d] - values[:, d:]
-        delta[0] = _wrap(delta[0])
+        delta[0] = wrap(delta[0])
         return delta / (2.0 * steps)
     steps = 1e8 * np.spacing(point)
     steps = np.where(steps >= 1e-8, steps, 1e-8)
@@ -203,7 +220,7 @@ def _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross):
     whitened = np.linalg.solve(lower, cross.T)
     gain = np.linalg.solve(lower.T, whitened).T
     innovation = z - z_hat
-    innovation[sensor.angles] = _wrap(innovation[sensor.angles])
+    innovation[sensor.angles] = wrap(innovation[sensor.angles])
     x_out = x + gain @ innovation
     if joseph:
         square = np.eye(x.shape[0]) - gain @ h
@@ -258,10 +275,10 @@ def _moments(sigma, transformed, angles, noise):
     if angles.any():
         turns = transformed[angles] * 0.15915494309189535
         radians = 2.0 * np.pi * (turns - np.floor(turns))
-        mean[angles] = _wrap(np.arctan2(np.sin(radians) @ mean_weights / total,
+        mean[angles] = wrap(np.arctan2(np.sin(radians) @ mean_weights / total,
                                         np.cos(radians) @ mean_weights / total))
     diff = transformed - mean[:, None]
-    diff[angles] = _wrap(diff[angles])
+    diff[angles] = wrap(diff[angles])
     covar = _symmetric((diff * covar_weights) @ diff.T + noise)
     cross = ((points - points[:, :1]) * covar_weights) @ diff.T
     return mean[:, None], covar, cross

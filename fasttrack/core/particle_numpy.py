@@ -8,7 +8,7 @@ Particles are (d, N) arrays, log weights (N,); functions return new arrays.
 import numpy as np
 
 from .._jit.tunables import BLOCK
-from .kalman_numpy import _wrap, measure
+from .kalman_numpy import measure, wrap
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 
@@ -58,7 +58,7 @@ def log_likelihood(spec, z, x, log_w):
     ``z`` (m,)."""
     whiten, log_norm = spec.noise.whitening()
     innovation = z[:, None] - measure(spec, x)
-    innovation[spec.angles] = _wrap(innovation[spec.angles])
+    innovation[spec.angles] = wrap(innovation[spec.angles])
     out = log_w + log_norm - 0.5 * np.sum((whiten @ innovation) ** 2, axis=0)
     return out, (np.nan if np.isnan(out).any() else out.max())
 

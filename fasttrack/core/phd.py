@@ -1,15 +1,17 @@
-"""The Gaussian-mixture PHD update (Vo and Ma 2006) on arrays, in log weights: a mixture of
-J predicted components, (J, d) means, (J, d, d) covariances and (J,) log weights, and a scan
-of M detections (M, m) give the posterior mixture of the missed components and the
-detected (component, detection) pairs. The innovation covariance, gain and updated
-covariance are computed once per component and shared by its detections; the detections
-each component's gate holds come from :func:`fasttrack.core.gating.gate`."""
+"""The Gaussian-mixture PHD update (Vo and Ma 2006) on arrays, in log weights, for linear
+and (linearised, as the extended Kalman filter) polar sensors: a mixture of J predicted
+components, (J, d) means, (J, d, d) covariances and (J,) log weights, and a scan of M
+detections (M, m) give the posterior mixture of the missed components and the detected
+(component, detection) pairs. The innovation covariance, gain and updated covariance are
+computed once per component and shared by its detections; the detections each component's
+gate holds come from :func:`fasttrack.core.gating.gate`."""
 import numpy as np
 
 from .. import _validate
 from . import gating as _gating
 from . import mixture as _mixture
-from .kinds import SELECT
+from . import kalman_numpy as _kalman_numpy
+from .kinds import FUNCTION, SELECT
 
 #: Below this many (component, detection) pairs the gate tests every pair: a grid costs more.
 GRID_FROM_PAIRS = 4096
@@ -17,19 +19,21 @@ GRID_FROM_PAIRS = 4096
 
 def update(model, means, covars, log_weights, detections, prob_detect, clutter_intensity,
            gate_threshold=None):
-    """The PHD posterior of a predicted Gaussian mixture given one scan, by a linear
-    measurement model.
+    """The PHD posterior of a predicted Gaussian mixture given one scan.
 
     Component i (mean m_i, covariance P_i, weight w_i) gives a missed component
     (m_i, P_i, (1 - P_D) w_i) and, for each detection z its gate holds, a detected one
-    (m_i + K_i (z - H m_i), P_i - K_i S_i K_i^T,
-    P_D w_i N(z; H m_i, S_i) / (kappa + sum_j P_D w_j N(z; H m_j, S_j))), the sum over the
-    components whose gates hold z. The weights are computed in logs: none underflows.
+    (m_i + K_i (z - h(m_i)), P_i - K_i S_i K_i^T,
+    P_D w_i N(z; h(m_i), S_i) / (kappa + sum_j P_D w_j N(z; h(m_j), S_j))), the sum over the
+    components whose gates hold z, with S_i = H_i P_i H_i^T + R and K_i = P_i H_i^T S_i^-1.
+    For a linear sensor H_i = H; for a polar one H_i is the Jacobian at m_i (the extended
+    Kalman filter's linearisation, the GM-PHD filter's EK form), and bearing innovations
+    are wrapped to [-pi, pi). The weights are computed in logs: none underflows.
 
     Parameters
     ----------
-    model : LinearGaussian
-        The measurement model (H selects state rows; R its noise).
+    model : LinearGaussian, CartesianToBearingRange or Cartesian2DToBearing
+        The measurement model (h and H; R its noise); a model of user functions is refused.
     means : (J, d) array_like
     covars : (J, d, d) array_like
         Symmetric positive semi-definite, with H P H^T + R positive definite.
@@ -57,8 +61,8 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
     ------
     ValueError
         For shapes that do not match, non-finite values, P_D outside [0, 1], a clutter
-        intensity that is not finite and > 0, or an innovation covariance that is not
-        positive definite, naming the argument.
+        intensity that is not finite and > 0, an innovation covariance that is not
+        positive definite, or a component at a polar sensor, naming the argument.
     """
     scan = detections_of(model, detections)
     log_clutter = np.log(_validate.positive(clutter_intensity, "clutter_intensity"))
@@ -70,12 +74,13 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
 
 
 def detections_of(model, detections):
-    """The scan ``detections`` as a validated (M, m) float array for ``model`` (a linear
+    """The scan ``detections`` as a validated (M, m) float array for ``model`` (a built-in
     model, else a ValueError naming its type)."""
-    spec = model.spec
-    if spec.kind != SELECT:
-        raise ValueError("the Gaussian-mixture updates take a linear measurement model "
-                         f"(LinearGaussian), got {type(model).__name__}")
+    spec = getattr(model, "spec", None)
+    if spec is None or spec.kind == FUNCTION:
+        raise ValueError("the Gaussian-mixture updates take a built-in measurement model "
+                         "(LinearGaussian, CartesianToBearingRange, Cartesian2DToBearing), "
+                         f"got {type(model).__name__}")
     scan = _validate.finite_array(detections, "detections")
     scan = scan.reshape(0, spec.ndim_meas) if scan.size == 0 else scan
     if scan.ndim != 2 or scan.shape[1] != spec.ndim_meas:
@@ -124,10 +129,7 @@ def detected_pairs(model, means, covars, log_weights, scan, prob_detect, gate_th
     if log_weights.shape != (j,) or np.isnan(log_weights).any() or (log_weights == np.inf).any():
         raise ValueError(f"log_weights must be {j} numbers, not NaN or +inf")
     log_detect = _log(_validate.probability(prob_detect, "prob_detect"))
-    mapping = spec.mapping
-    z_hats = means[:, mapping]
-    cross = covars[:, :, mapping]  # P H^T
-    innovation = cross[:, mapping, :] + spec.noise_covar
+    z_hats, cross, innovation = _linearised(spec, means, covars)
     threshold = np.inf if gate_threshold is None else \
         _validate.positive(gate_threshold, "gate_threshold")
     _validate.symmetric_stack(covars, "covars")
@@ -144,9 +146,27 @@ def detected_pairs(model, means, covars, log_weights, scan, prob_detect, gate_th
     starts = np.searchsorted(gate.detections[by_detection], np.arange(scan.shape[0] + 1))
     totals = _mixture.segment_logsumexp(log_detected[by_detection], starts)
     innovations = scan[gate.detections] - z_hats[pairs]
+    innovations[:, spec.angles] = _kalman_numpy.wrap(innovations[:, spec.angles])
     detected_means = means[pairs] + np.einsum("kij,kj->ki", gains[pairs], innovations)
     return DetectedPairs((means, covars, log_weights), detected_means, updated[pairs], pairs,
                          gate.detections, log_detected, totals)
+
+
+def _linearised(spec, means, covars):
+    """``(z_hats, cross, S)``: each component's predicted measurement (J, m), P H^T
+    (J, d, m) and H P H^T + R (J, m, m), H the measurement Jacobian at its mean (the
+    extended Kalman filter's linearisation; exact for a linear sensor)."""
+    if spec.kind == SELECT:
+        cross = covars[:, :, spec.mapping]
+        return means[:, spec.mapping], cross, cross[:, spec.mapping, :] + spec.noise_covar
+    jacobians = _kalman_numpy.jacobians(spec, means.T)
+    undefined = np.flatnonzero(np.isnan(jacobians).any(axis=(1, 2)))
+    if undefined.size:
+        raise ValueError(f"means[{undefined[0]}] lies at the sensor, where its bearing and "
+                         f"the measurement Jacobian are undefined")
+    cross = covars @ jacobians.transpose(0, 2, 1)
+    return (_kalman_numpy.measure(spec, means.T).T, cross,
+            jacobians @ cross + spec.noise_covar)
 
 
 def _log(value):
