@@ -98,3 +98,75 @@ def test_the_lcc_drop_in_keeps_stone_soups_cumulant_over_scans():
         assert mine.second_order_cumulant == pytest.approx(theirs.second_order_cumulant,
                                                           rel=1e-9)
     assert not fallbacks()
+
+
+def _scan_of(seed, n=8, clutter=6):
+    rng = np.random.default_rng(seed)
+    x = np.c_[rng.uniform(-50, 50, n), rng.normal(0, 1, n), rng.uniform(-50, 50, n),
+              rng.normal(0, 1, n)]
+    components = [TaggedWeightedGaussianState(xi[:, None], np.diag([2.0, 0.5, 2.0, 0.5]),
+                                              weight=rng.uniform(0.2, 1.0), timestamp=T0,
+                                              tag=f"t{i}") for i, xi in enumerate(x)]
+    t1 = T0 + datetime.timedelta(seconds=1)
+    z = np.vstack([x[:, [0, 2]] + x[:, [1, 3]] + rng.normal(0, 0.8, (n, 2)),
+                   rng.uniform(-60, 60, (clutter, 2))])
+    return components, {Detection(zi[:, None], timestamp=t1, measurement_model=SENSOR)
+                        for zi in z}, t1
+
+
+def _described(hypotheses):
+    """Each MultipleHypothesis as (measurement id or None, distance) pairs, in order."""
+    return [[(id(h.measurement) if h else None, round(float(h.distance), 10)) for h in multiple]
+            for multiple in hypotheses]
+
+
+@pytest.mark.parametrize("options", [dict(max_distance_covariance_multiplier=1),
+                                     dict(max_distance=4.0),
+                                     dict(number_of_neighbours=2),
+                                     dict(number_of_neighbours=1, max_distance=3.0),
+                                     dict()])
+@pytest.mark.parametrize("order_by_detection", [False, True])
+def test_the_kd_tree_drop_in_keeps_stone_soups_detections(options, order_by_detection):
+    from stonesoup.hypothesiser import gaussianmixture as ss_gaussianmixture
+
+    from fasttrack.stonesoup import (DistanceHypothesiser, GaussianMixtureKDTreeHypothesiser,
+                                     KalmanPredictor, KalmanUpdater as FastKalmanUpdater,
+                                     Mahalanobis as FastMahalanobis)
+    components, scan, t1 = _scan_of(3)
+
+    def made(module_classes):
+        gm, distance, predictor_class, updater_class, measure = module_classes
+        predictor, updater = predictor_class(TRANSITION), updater_class(SENSOR)
+        return gm(DistanceHypothesiser(predictor, updater, measure(), missed_distance=10)
+                  if gm is GaussianMixtureKDTreeHypothesiser else
+                  distance(predictor, updater, measure(), missed_distance=10),
+                  predictor=predictor, updater=updater, order_by_detection=order_by_detection,
+                  **options)
+
+    ours = made((GaussianMixtureKDTreeHypothesiser, None, KalmanPredictor, FastKalmanUpdater,
+                 FastMahalanobis))
+    theirs = made((ss_gaussianmixture.GaussianMixtureKDTreeHypothesiser, DistanceHypothesiser,
+                   KalmanPredictor, KalmanUpdater, Mahalanobis))
+    fallbacks(clear=True)
+    got = ours.hypothesise(components, scan, t1)
+    assert not fallbacks()
+    want = theirs.hypothesise(components, scan, t1)
+    assert _described(got) == _described(want)
+    kept = sum(len(multiple) for multiple in got)
+    assert len(components) < kept < len(components) * (len(scan) + 1)  # the tree filtered
+
+
+def test_the_kd_tree_drop_in_with_another_predictor_runs_stone_soups_code():
+    from fasttrack.stonesoup import (DistanceHypothesiser, GaussianMixtureKDTreeHypothesiser,
+                                     KalmanPredictor, KalmanUpdater as FastKalmanUpdater)
+    components, scan, t1 = _scan_of(4)
+    updater = FastKalmanUpdater(SENSOR)
+    inner = DistanceHypothesiser(KalmanPredictor(TRANSITION), updater, Mahalanobis(),
+                                 missed_distance=10)
+    hypothesiser = GaussianMixtureKDTreeHypothesiser(
+        inner, predictor=KalmanPredictor(TRANSITION), updater=updater, max_distance=5.0)
+    fallbacks(clear=True)
+    got = hypothesiser.hypothesise(components, scan, t1)
+    assert len(got) == len(components)
+    assert [reason for (_, _, reason) in fallbacks()][0] == \
+        "a kd-tree predictor or updater other than the hypothesiser's"
