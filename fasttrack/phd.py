@@ -19,7 +19,7 @@ class _IntensityTracker:
     (:meth:`_extract`)."""
 
     def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
-                 clutter_intensity, gate_threshold, reducer):
+                 clutter_intensity, gate_threshold, reducer, unscented):
         if not isinstance(birth, GaussianMixture):
             raise TypeError(f"birth must be a GaussianMixture, got {type(birth).__name__}")
         if birth.means.shape[1] != measurement_model.ndim_state:
@@ -32,6 +32,7 @@ class _IntensityTracker:
         self.clutter_intensity = _validate.positive(clutter_intensity, "clutter_intensity")
         self.gate_threshold = (None if gate_threshold is None
                                else _validate.positive(gate_threshold, "gate_threshold"))
+        self.unscented = None if unscented is None else _phd.unscented_parameters(unscented)
         self.reducer = (GaussianMixtureReducer(1e-5, 4.0, 100) if reducer is None
                         else reducer)
         if not isinstance(self.reducer, GaussianMixtureReducer):
@@ -127,7 +128,7 @@ class PHDTracker(_IntensityTracker):
     ----------
     transition_model : TransitionModel
         Linear (e.g. :class:`~fasttrack.CombinedLinearGaussianTransitionModel`).
-    measurement_model : LinearGaussian
+    measurement_model : LinearGaussian, CartesianToBearingRange or Cartesian2DToBearing
     birth : GaussianMixture
         The intensity born each scan (its weights: expected births a scan, by component).
     prob_detect, prob_survival : float
@@ -141,6 +142,9 @@ class PHDTracker(_IntensityTracker):
         Default: prune 1e-5, merge 4, at most 100 components (Vo's), textbook rules.
     extraction_threshold : float
         Components heavier than this are the estimates (default 0.5).
+    unscented : (alpha, beta, kappa), optional
+        For a polar sensor, update by the unscented transform with these parameters instead
+        of the Jacobian (see :func:`fasttrack.core.phd.update`).
 
     Attributes
     ----------
@@ -152,9 +156,9 @@ class PHDTracker(_IntensityTracker):
 
     def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
                  clutter_intensity, gate_threshold=None, reducer=None,
-                 extraction_threshold=0.5):
+                 extraction_threshold=0.5, unscented=None):
         super().__init__(transition_model, measurement_model, birth, prob_detect,
-                         prob_survival, clutter_intensity, gate_threshold, reducer)
+                         prob_survival, clutter_intensity, gate_threshold, reducer, unscented)
         self.extraction_threshold = _validate.non_negative(extraction_threshold,
                                                            "extraction_threshold")
 
@@ -166,7 +170,8 @@ class PHDTracker(_IntensityTracker):
     def _update(self, predicted, detections):
         means, covars, log_weights, components, _ = _phd.update(
             self.measurement_model, predicted.means, predicted.covars, predicted.log_weights,
-            detections, self.prob_detect, self.clutter_intensity, self.gate_threshold)
+            detections, self.prob_detect, self.clutter_intensity, self.gate_threshold,
+            self.unscented)
         return means, covars, log_weights, components
 
     def _extract(self):
@@ -185,7 +190,7 @@ class CPHDTracker(_IntensityTracker):
     ----------
     transition_model : TransitionModel
         Linear.
-    measurement_model : LinearGaussian
+    measurement_model : LinearGaussian, CartesianToBearingRange or Cartesian2DToBearing
     birth : GaussianMixture
         The intensity born each scan; the number born is Poisson, of mean its weights' sum.
     prob_detect, prob_survival : float
@@ -202,6 +207,8 @@ class CPHDTracker(_IntensityTracker):
         As :class:`PHDTracker`'s.
     reducer : ~fasttrack.mixturereducer.GaussianMixtureReducer, optional
         As :class:`PHDTracker`'s.
+    unscented : (alpha, beta, kappa), optional
+        As :class:`PHDTracker`'s.
 
     Attributes
     ----------
@@ -215,9 +222,9 @@ class CPHDTracker(_IntensityTracker):
 
     def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
                  clutter_intensity, clutter_rate, max_targets=100, gate_threshold=None,
-                 reducer=None):
+                 reducer=None, unscented=None):
         super().__init__(transition_model, measurement_model, birth, prob_detect,
-                         prob_survival, clutter_intensity, gate_threshold, reducer)
+                         prob_survival, clutter_intensity, gate_threshold, reducer, unscented)
         self.clutter_rate = _validate.positive(clutter_rate, "clutter_rate")
         self.log_cardinality = np.full(_validate.count(max_targets, "max_targets") + 1,
                                        -np.inf)
@@ -240,7 +247,7 @@ class CPHDTracker(_IntensityTracker):
         means, covars, log_weights, components, _, self.log_cardinality = _cphd.update(
             self.measurement_model, predicted.means, predicted.covars, predicted.log_weights,
             log_cardinality, detections, self.prob_detect, self.clutter_rate,
-            self.clutter_intensity, self.gate_threshold)
+            self.clutter_intensity, self.gate_threshold, self.unscented)
         return means, covars, log_weights, components
 
     def _extract(self):

@@ -333,3 +333,32 @@ def test_monte_carlo_runs_score_the_cphd_tracker_scan_by_scan():
     assert (per_run["mean_cardinality_error"] < 1.0).all()
     no_estimates = np.mean([50.0 * len(x) for x in world.truths])  # c / 2 a missed target
     assert (per_run["mean_gospa"] < 0.4 * no_estimates).all()  # measured 0.25
+
+
+@pytest.mark.parametrize("unscented", [None, (0.5, 2.0, None)])
+def test_the_trackers_count_and_find_the_targets_through_a_radar(unscented):
+    from fasttrack.scenarios import vo_linear, vo_linear_birth
+    scenario = vo_linear(clutter_rate=10.0, seed=2)
+    radar = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.003 ** 2, 5.0 ** 2]),
+                                       translation_offset=[0.0, -1500.0])
+    rng = np.random.default_rng(5)
+    lo, hi = np.array([0.2, 300.0]), np.array([np.pi - 0.2, 2800.0])  # bearing, range
+    scans = []
+    for truths in scenario.truths:
+        seen = truths[rng.uniform(size=len(truths)) < 0.98]
+        z = np.array([radar.function(ft.GaussianState(x[:, None], np.eye(4))).ravel()
+                      for x in seen]).reshape(-1, 2)
+        scans.append(np.vstack([z + rng.normal(size=z.shape) * [0.003, 5.0],
+                                rng.uniform(lo, hi, size=(rng.poisson(10), 2))]))
+    kappa = 10.0 / np.prod(hi - lo)
+    for tracker in (ft.PHDTracker(scenario.transition_model, radar, vo_linear_birth(), 0.98,
+                                  0.99, kappa, gate_threshold=13.8, unscented=unscented),
+                    ft.CPHDTracker(scenario.transition_model, radar, vo_linear_birth(), 0.98,
+                                   0.99, kappa, 10.0, max_targets=30, gate_threshold=13.8,
+                                   unscented=unscented)):
+        estimates = tracker.run(scans)
+        # measured 0.22 (PHD) and 0.14 (CPHD) a scan, against 7.7 for no estimates
+        assert np.mean([abs(len(e) - len(x)) for e, x in zip(estimates, scenario.truths)]) < 0.4
+        distances = [ft.metrics.gospa(x[:, [0, 2]], e.means[:, [0, 2]], c=100.0).distance
+                     for e, x in zip(estimates, scenario.truths)]
+        assert np.mean(distances) < 60.0  # measured 44-47 m; 380 m for no estimates

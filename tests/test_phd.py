@@ -147,6 +147,42 @@ def test_a_polar_sensor_updates_each_pair_as_the_extended_kalman_filter(sensor):
                                                   abs=1e-300)
 
 
+@pytest.mark.parametrize("parameters", [(0.5, 2.0, None), (1.0, 0.0, 1.0)])
+def test_the_unscented_form_updates_each_pair_as_the_unscented_kalman_filter(parameters):
+    means, covars, log_weights = _mixture(3, 3)
+    means[2, [0, 2]] = [-40.0, -3.5]  # behind the sensor: bearings near +-pi
+    detections = np.array([RADAR.function(ft.GaussianState(x[:, None], np.eye(4))).ravel()
+                           for x in means - 0.4])
+    got = phd.update(RADAR, means, covars, log_weights, detections, 0.9, 1e-4,
+                     unscented=parameters)
+    alpha, beta, kappa = parameters
+    ukf = ft.UnscentedKalmanUpdater(RADAR, alpha=alpha, beta=beta, kappa=kappa,
+                                    use_joseph_cov=False)
+    w = np.exp(log_weights)
+    for k in np.flatnonzero(got[4] >= 0):
+        i, z = got[3][k], detections[got[4][k]]
+        prior = ft.GaussianState(means[i][:, None], covars[i])
+        want = ukf.update(ft.SingleHypothesis(prior, ft.Detection(z[:, None],
+                                                                  measurement_model=RADAR)))
+        np.testing.assert_allclose(got[0][k], want.state_vector.ravel(), rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(got[1][k], want.covar, rtol=1e-9, atol=1e-9)
+        terms = []
+        for j in range(3):
+            predicted = ukf.predict_measurement(ft.GaussianState(means[j][:, None], covars[j]))
+            innovation = z - predicted.state_vector.ravel()
+            innovation[0] = _wrapped(innovation[0])
+            terms.append(0.9 * w[j] * multivariate_normal.pdf(innovation, np.zeros(2),
+                                                                predicted.covar))
+        assert np.exp(got[2][k]) == pytest.approx(terms[i] / (1e-4 + sum(terms)), rel=1e-9)
+    extended = phd.update(RADAR, means, covars, log_weights, detections, 0.9, 1e-4)
+    assert not np.allclose(extended[1], got[1])  # the two forms differ on a polar sensor
+    with pytest.raises(TypeError, match="unscented must be \\(alpha, beta, kappa\\)"):
+        phd.update(RADAR, means, covars, log_weights, detections, 0.9, 1e-4, unscented=0.5)
+    with pytest.raises(ValueError, match="alpha must be > 0"):
+        phd.update(RADAR, means, covars, log_weights, detections, 0.9, 1e-4,
+                   unscented=(0.0, 2.0, None))
+
+
 def test_a_component_at_the_sensor_and_a_sensor_of_user_functions_are_refused():
     with pytest.raises(ValueError, match=r"means\[1\] lies at the sensor"):
         phd.update(RADAR, [[0.0, 1.0, 0.0, 1.0], [5.0, 0.0, -3.0, 0.0]], [np.eye(4)] * 2,

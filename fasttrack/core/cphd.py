@@ -51,7 +51,7 @@ def predict_cardinality(log_cardinality, prob_survival, birth_mean):
 
 
 def update(model, means, covars, log_weights, log_cardinality, detections, prob_detect,
-           clutter_rate, clutter_intensity, gate_threshold=None):
+           clutter_rate, clutter_intensity, gate_threshold=None, unscented=None):
     """The CPHD posterior of a predicted Gaussian mixture and cardinality given one scan,
     by a linear measurement model.
 
@@ -64,7 +64,7 @@ def update(model, means, covars, log_weights, log_cardinality, detections, prob_
 
     Parameters
     ----------
-    model, means, covars, log_weights, detections, prob_detect, gate_threshold
+    model, means, covars, log_weights, detections, prob_detect, gate_threshold, unscented
         As :func:`fasttrack.core.phd.update`.
     log_cardinality : (N + 1,) array_like
         Log probabilities of 0..N targets (-inf for 0), summing to one.
@@ -91,7 +91,7 @@ def update(model, means, covars, log_weights, log_cardinality, detections, prob_
     log_rate = np.log(_validate.positive(clutter_rate, "clutter_rate"))
     log_clutter = np.log(_validate.positive(clutter_intensity, "clutter_intensity"))
     pairs = _phd.detected_pairs(model, means, covars, log_weights, scan, prob_detect,
-                                gate_threshold)
+                                gate_threshold, unscented)
     m, size = scan.shape[0], log_cardinality.size
     log_total = _numpy.logsumexp(pairs.predicted[2])
     with np.errstate(divide="ignore"):

@@ -303,9 +303,15 @@ def unscented_update(sensor, alpha, beta, kappa, joseph, x, covar, z):
     status = covariance_status(covar, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
     if status != OK:
         return status, x, covar, None, None, None
-    sigma = _sigma(x, covar, alpha, beta, kappa)
-    z_hat, s, cross = _moments(sigma, measure(sensor, sigma[0]), sensor.angles,
-                               sensor.noise_covar)
-    lower = sigma[1]
+    z_hat, s, cross, lower = measurement_moments(sensor, alpha, beta, kappa, x, covar)
     h = np.linalg.solve(lower.T, np.linalg.solve(lower, cross)).T if joseph else None
     return _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross)
+
+
+def measurement_moments(sensor, alpha, beta, kappa, x, covar):
+    """``(z_hat, S, cross, lower)``: the mean (m, 1), covariance (m, m) plus R and cross
+    covariance (d, m) of the sigma points of ``(x, covar)`` measured by a built-in
+    ``sensor``, and the Cholesky factor (d, d) that spread them."""
+    sigma = _sigma(x, covar, alpha, beta, kappa)
+    return (*_moments(sigma, measure(sensor, sigma[0]), sensor.angles, sensor.noise_covar),
+            sigma[1])

@@ -11,6 +11,7 @@ from .. import _validate
 from . import gating as _gating
 from . import mixture as _mixture
 from . import kalman_numpy as _kalman_numpy
+from . import unscented as _unscented
 from .kinds import FUNCTION, SELECT
 
 #: Below this many (component, detection) pairs the gate tests every pair: a grid costs more.
@@ -18,7 +19,7 @@ GRID_FROM_PAIRS = 4096
 
 
 def update(model, means, covars, log_weights, detections, prob_detect, clutter_intensity,
-           gate_threshold=None):
+           gate_threshold=None, unscented=None):
     """The PHD posterior of a predicted Gaussian mixture given one scan.
 
     Component i (mean m_i, covariance P_i, weight w_i) gives a missed component
@@ -27,8 +28,10 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
     P_D w_i N(z; h(m_i), S_i) / (kappa + sum_j P_D w_j N(z; h(m_j), S_j))), the sum over the
     components whose gates hold z, with S_i = H_i P_i H_i^T + R and K_i = P_i H_i^T S_i^-1.
     For a linear sensor H_i = H; for a polar one H_i is the Jacobian at m_i (the extended
-    Kalman filter's linearisation, the GM-PHD filter's EK form), and bearing innovations
-    are wrapped to [-pi, pi). The weights are computed in logs: none underflows.
+    Kalman filter's linearisation, the GM-PHD filter's EK form), or, with ``unscented``,
+    h(m_i), P_i H_i^T and S_i are the moments of m_i's sigma points (the UK form); bearing
+    innovations are wrapped to [-pi, pi). The weights are computed in logs: none
+    underflows.
 
     Parameters
     ----------
@@ -47,6 +50,10 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
     gate_threshold : float, optional
         Squared Mahalanobis distance within which a detection updates a component (default:
         every pair).
+    unscented : (alpha, beta, kappa), optional
+        For a polar sensor, the unscented transform's parameters (the unscented Kalman
+        filter's, e.g. Stone Soup's (0.5, 2, None); kappa None for 3 - d); default: the
+        Jacobian at each component's mean.
 
     Returns
     -------
@@ -67,7 +74,7 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
     scan = detections_of(model, detections)
     log_clutter = np.log(_validate.positive(clutter_intensity, "clutter_intensity"))
     pairs = detected_pairs(model, means, covars, log_weights, scan, prob_detect,
-                           gate_threshold)
+                           gate_threshold, unscented)
     log_detected = pairs.log_detected - np.logaddexp(log_clutter,
                                                      pairs.totals[pairs.detections])
     return pairs.components(_log(1.0 - float(prob_detect)), log_detected)
@@ -113,7 +120,8 @@ class DetectedPairs:
                 np.concatenate((np.full(j, -1), self.detections)))
 
 
-def detected_pairs(model, means, covars, log_weights, scan, prob_detect, gate_threshold=None):
+def detected_pairs(model, means, covars, log_weights, scan, prob_detect, gate_threshold=None,
+                   unscented=None):
     """The :class:`DetectedPairs` of a predicted mixture and a validated scan (arguments
     as :func:`update`'s), validating the mixture, P_D and the threshold."""
     spec = model.spec
@@ -129,7 +137,7 @@ def detected_pairs(model, means, covars, log_weights, scan, prob_detect, gate_th
     if log_weights.shape != (j,) or np.isnan(log_weights).any() or (log_weights == np.inf).any():
         raise ValueError(f"log_weights must be {j} numbers, not NaN or +inf")
     log_detect = _log(_validate.probability(prob_detect, "prob_detect"))
-    z_hats, cross, innovation = _linearised(spec, means, covars)
+    z_hats, cross, innovation = _linearised(spec, means, covars, unscented)
     threshold = np.inf if gate_threshold is None else \
         _validate.positive(gate_threshold, "gate_threshold")
     _validate.symmetric_stack(covars, "covars")
@@ -152,13 +160,24 @@ def detected_pairs(model, means, covars, log_weights, scan, prob_detect, gate_th
                          gate.detections, log_detected, totals)
 
 
-def _linearised(spec, means, covars):
+def _linearised(spec, means, covars, unscented=None):
     """``(z_hats, cross, S)``: each component's predicted measurement (J, m), P H^T
     (J, d, m) and H P H^T + R (J, m, m), H the measurement Jacobian at its mean (the
-    extended Kalman filter's linearisation; exact for a linear sensor)."""
+    extended Kalman filter's linearisation; exact for a linear sensor), or with
+    ``unscented`` (alpha, beta, kappa) the moments of its sigma points."""
     if spec.kind == SELECT:
         cross = covars[:, :, spec.mapping]
         return means[:, spec.mapping], cross, cross[:, spec.mapping, :] + spec.noise_covar
+    if unscented is not None:
+        alpha, beta, kappa = unscented_parameters(unscented)
+        kappa = _unscented.scaling(alpha, kappa, means.shape[1])
+        moments = [_kalman_numpy.measurement_moments(spec, alpha, beta, kappa, mean[:, None],
+                                                     covar)
+                   for mean, covar in zip(means, covars)]
+        j, m, d = means.shape[0], spec.ndim_meas, means.shape[1]
+        return (np.array([z[:, 0] for z, _, _, _ in moments]).reshape(j, m),
+                np.array([c for _, _, c, _ in moments]).reshape(j, d, m),
+                np.array([s for _, s, _, _ in moments]).reshape(j, m, m))
     jacobians = _kalman_numpy.jacobians(spec, means.T)
     undefined = np.flatnonzero(np.isnan(jacobians).any(axis=(1, 2)))
     if undefined.size:
@@ -167,6 +186,16 @@ def _linearised(spec, means, covars):
     cross = covars @ jacobians.transpose(0, 2, 1)
     return (_kalman_numpy.measure(spec, means.T).T, cross,
             jacobians @ cross + spec.noise_covar)
+
+
+def unscented_parameters(unscented):
+    """``unscented`` as a checked ``(alpha, beta, kappa)`` (see
+    :func:`fasttrack.core.unscented.check_parameters`), else an error naming it."""
+    try:
+        alpha, beta, kappa = unscented
+    except (TypeError, ValueError):
+        raise TypeError(f"unscented must be (alpha, beta, kappa), got {unscented!r}") from None
+    return _unscented.check_parameters(alpha, beta, kappa)
 
 
 def _log(value):
