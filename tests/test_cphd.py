@@ -362,3 +362,42 @@ def test_the_trackers_count_and_find_the_targets_through_a_radar(unscented):
         distances = [ft.metrics.gospa(x[:, [0, 2]], e.means[:, [0, 2]], c=100.0).distance
                      for e, x in zip(estimates, scenario.truths)]
         assert np.mean(distances) < 60.0  # measured 44-47 m; 380 m for no estimates
+
+
+_FIRST_SCANS = """
+import json, sys
+import numpy as np
+import fasttrack as ft
+from fasttrack import _jit
+from fasttrack.scenarios import vo_linear, vo_linear_birth
+if sys.argv[1] == "kernels":
+    _jit.kernels_from_now()
+scenario = vo_linear(clutter_rate=30.0, seed=4)
+tracker = ft.CPHDTracker(scenario.transition_model, scenario.measurement_model,
+                         vo_linear_birth(), 0.98, 0.99, scenario.clutter_density, 30.0,
+                         max_targets=30, gate_threshold=13.8)
+before = "numba" in sys.modules
+first = tracker.step(scenario.detections[0], 0.0)
+cardinality = tracker.log_cardinality.tolist()
+rest = tracker.run(scenario.detections[1:12])
+print(json.dumps({"numba_before_update": before, "first": first.means.ravel().tolist(),
+                  "cardinality": cardinality,
+                  "last": [e.means.ravel().tolist() for e in rest[-3:]]}))
+"""
+
+
+def test_a_first_update_in_numpy_equals_the_kernels():
+    import json
+    import subprocess
+    import sys
+    runs = {}
+    for path in ("numpy", "kernels"):
+        done = subprocess.run([sys.executable, "-c", _FIRST_SCANS, path], capture_output=True,
+                              text=True, timeout=600, check=True)
+        runs[path] = json.loads(done.stdout.splitlines()[-1])
+    assert not runs["numpy"]["numba_before_update"]
+    np.testing.assert_allclose(runs["numpy"]["cardinality"], runs["kernels"]["cardinality"],
+                               rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(runs["numpy"]["first"], runs["kernels"]["first"], rtol=1e-10)
+    for a, b in zip(runs["numpy"]["last"], runs["kernels"]["last"]):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9)
