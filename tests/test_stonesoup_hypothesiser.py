@@ -126,3 +126,51 @@ def test_gm_phd_tutorial_tracks_the_same_with_the_drop_ins():
               for name, run in runs.items()}
     assert len(states["fasttrack"]) == len(states["stonesoup"]) > 20
     np.testing.assert_allclose(states["fasttrack"], states["stonesoup"], rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("tagged", [True, False])
+def test_gaussian_mixture_predictions_are_stone_soups(tagged):
+    import datetime
+
+    from stonesoup.hypothesiser.distance import DistanceHypothesiser as SSDistance
+    from stonesoup.hypothesiser.gaussianmixture import GaussianMixtureHypothesiser as SSMixture
+    from stonesoup.measures import Mahalanobis as SSMahalanobis
+    from stonesoup.models.measurement.linear import LinearGaussian
+    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                    ConstantVelocity)
+    from stonesoup.predictor.kalman import KalmanPredictor as SSPredictor
+    from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianState
+    t0 = datetime.datetime(2025, 1, 1)
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
+    sensor = LinearGaussian(4, (0, 2), np.eye(2))
+    rng = np.random.default_rng(1)
+    components = []
+    for i, x in enumerate(rng.uniform(-20, 20, (5, 4))):
+        state = dict(state_vector=x[:, None], covar=np.eye(4) * 3, weight=0.1 * (i + 1),
+                     timestamp=t0)
+        components.append(TaggedWeightedGaussianState(**state, tag="birth" if i == 0 else
+                                                      f"t{i}") if tagged
+                          else WeightedGaussianState(**state))
+    t1 = t0 + datetime.timedelta(seconds=1)
+    scan = {Detection(z[:, None], timestamp=t1, measurement_model=sensor)
+            for z in np.vstack([c.state_vector[[0, 2], 0] for c in components]) + 0.5}
+    made = {}
+    for name, (predictor, distance, mixture, measure) in {
+            "ft": (fss.KalmanPredictor, fss.DistanceHypothesiser,
+                   fss.GaussianMixtureHypothesiser, fss.Mahalanobis),
+            "ss": (SSPredictor, SSDistance, SSMixture, SSMahalanobis)}.items():
+        hypothesiser = mixture(distance(predictor(transition),
+                                        fss.KalmanUpdater(sensor) if name == "ft"
+                                        else ss_kalman_updater.KalmanUpdater(sensor),
+                                        measure(), missed_distance=5), order_by_detection=True)
+        made[name] = hypothesiser.hypothesise(components, scan, t1)
+    pairs = [(a, b) for ma, mb in zip(made["ft"], made["ss"]) for a, b in zip(ma, mb)]
+    assert len(pairs) > len(components)
+    for a, b in pairs:
+        pa, pb = a.prediction, b.prediction
+        assert type(pa) is type(pb) and pa.timestamp == pb.timestamp
+        assert pa.weight == pb.weight and pa.transition_model is pb.transition_model is None
+        np.testing.assert_allclose(pa.state_vector, pb.state_vector, rtol=1e-12)
+        np.testing.assert_allclose(pa.covar, pb.covar, rtol=1e-12)
+        if tagged:
+            assert pa.tag == pb.tag or (len(pa.tag) == len(pb.tag) == 36)  # fresh uuids
