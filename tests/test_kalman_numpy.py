@@ -109,9 +109,11 @@ def test_unscented_steps_match_the_kernels(seed, dt, joseph, alpha, beta):
         assert ours[0] == code
         if code:  # a spread that leaves S indefinite, in both
             continue
+        # the sigma points' weights reach 1 / alpha**2 in size: rounding grows with them
+        amplified = max(1.0, 1e-4 / alpha ** 2)
         for found, expected in zip(ours[1:], theirs):
             np.testing.assert_allclose(found, expected, rtol=1e-7,
-                                       atol=1e-9 * max(np.abs(expected).max(), 1.0))
+                                       atol=1e-9 * amplified * max(np.abs(expected).max(), 1.0))
 
 
 def test_covariance_status_matches_the_kernels_decisions():
