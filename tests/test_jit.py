@@ -141,7 +141,7 @@ def test_every_kernel_has_a_mirror_with_the_same_arguments():
 def test_public_names_are_importable_from_the_package_and_their_module():
     import importlib
     domains = [importlib.import_module(f"fasttrack.{name}") for name in (
-        "batch", "filtering", "kernel", "memory", "metrics", "mixturereducer", "models",
+        "batch", "filtering", "imm", "kernel", "memory", "metrics", "mixturereducer", "models",
         "montecarlo", "phd", "predictor", "random", "resampler", "resampling", "simulate",
         "smoother", "threads", "tracker", "types", "updater")]
     for name in fasttrack.__all__:

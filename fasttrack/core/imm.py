@@ -1,0 +1,142 @@
+"""Interacting multiple models (IMM; Blom and Bar-Shalom 1988) on stacks: K filters, each a
+bank of M Kalman filters of one state dimension, as means (K, M, d), covariances
+(K, M, d, d) and mode probabilities (K, M). ``transition_matrix[i, j]`` is the probability
+of switching from model i to model j; its rows sum to one.
+
+One step mixes each filter's models (the interaction), predicts and updates each model
+through the Kalman stack kernels (:mod:`fasttrack.core.kalman`), and weighs the models by
+their measurement likelihoods in logs: a measurement far from every model leaves finite,
+normalised mode probabilities. A model whose predicted probability is 0 keeps its own
+state through the mixing (there is nothing to mix it from) and its probability stays 0."""
+import numpy as np
+
+from .. import _validate
+from . import kalman as _kalman
+from .kalman_numpy import wrap
+
+#: How far a row of probabilities may sum from one.
+SUM_TOLERANCE = 1e-9
+
+
+def transition_matrix(matrix, models):
+    """A validated (M, M) switching matrix for ``models`` models: finite, >= 0, each row
+    summing to one."""
+    matrix = _validate.finite_array(matrix, "transition_matrix", 2)
+    if matrix.shape != (models, models):
+        raise ValueError(f"transition_matrix must have shape ({models}, {models}) (one row "
+                         f"and column a model), got {matrix.shape}")
+    if (matrix < 0).any():
+        raise ValueError("transition_matrix must have no negative entries")
+    rows = np.flatnonzero(np.abs(matrix.sum(axis=1) - 1.0) > SUM_TOLERANCE)
+    if rows.size:
+        raise ValueError(f"each row of transition_matrix must sum to 1 (the probabilities of "
+                         f"switching from one model); row {rows[0]} sums to "
+                         f"{float(matrix[rows[0]].sum())!r}")
+    return matrix
+
+
+def mode_probabilities(probs, filters, models, name="mode_probs"):
+    """Validated (K, M) mode probabilities: finite, >= 0, each row summing to one."""
+    probs = _validate.finite_array(probs, name, 2)
+    if probs.shape != (filters, models):
+        raise ValueError(f"{name} must have shape ({filters}, {models}), got {probs.shape}")
+    if (probs < 0).any():
+        raise ValueError(f"{name} must have no negative entries")
+    rows = np.flatnonzero(np.abs(probs.sum(axis=1) - 1.0) > SUM_TOLERANCE)
+    if rows.size:
+        raise ValueError(f"each row of {name} must sum to 1; row {rows[0]} sums to "
+                         f"{float(probs[rows[0]].sum())!r}")
+    return probs
+
+
+def mix(means, covars, mode_probs, matrix):
+    """The IMM interaction: ``(means, covars, predicted)``, each model's mixed prior
+    (K, M, d) and (K, M, d, d) and the predicted mode probabilities c_j = sum_i p_ij mu_i
+    (K, M). Model j's prior is the moment match of the models i with weights
+    p_ij mu_i / c_j."""
+    joint = mode_probs[:, :, None] * matrix[None]  # (K, i, j)
+    predicted = joint.sum(axis=1)
+    alive = predicted > 0.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        weights = np.where(alive[:, None, :], joint / predicted[:, None, :],
+                           np.eye(matrix.shape[0])[None])
+    mixed_means = np.einsum("kij,kid->kjd", weights, means)
+    spread = means[:, :, None, :] - mixed_means[:, None, :, :]  # (K, i, j, d)
+    mixed_covars = (np.einsum("kij,kiab->kjab", weights, covars)
+                    + np.einsum("kij,kija,kijb->kjab", weights, spread, spread))
+    return mixed_means, 0.5 * (mixed_covars + mixed_covars.swapaxes(-1, -2)), predicted
+
+
+def combine(means, covars, mode_probs):
+    """The moment match of each filter's models: ``(means, covars)`` (K, d), (K, d, d),
+    ``x = sum_j mu_j x_j`` and ``P = sum_j mu_j (P_j + (x_j - x)(x_j - x)^T)``."""
+    mean = np.einsum("kj,kjd->kd", mode_probs, means)
+    spread = means - mean[:, None, :]
+    covar = (np.einsum("kj,kjab->kab", mode_probs, covars)
+             + np.einsum("kj,kja,kjb->kab", mode_probs, spread, spread))
+    return mean, 0.5 * (covar + covar.swapaxes(-1, -2))
+
+
+def step(transition_models, measurement_model, matrix, means, covars, mode_probs,
+         measurements, intervals):
+    """One IMM step of K filters: mix, predict each model ``intervals`` (K,) seconds ahead,
+    update it with the filter's measurement (K, m), and weigh the models.
+
+    Parameters
+    ----------
+    transition_models : sequence of M linear TransitionModel
+    measurement_model : MeasurementModel
+        A built-in model.
+    matrix : (M, M) ndarray
+        The validated switching matrix (:func:`transition_matrix`).
+    means, covars, mode_probs, measurements, intervals : ndarray
+        Validated (K, M, d), (K, M, d, d), (K, M), (K, m) and (K,) arrays.
+
+    Returns
+    -------
+    means, covars, mode_probs : (K, M, d), (K, M, d, d), (K, M) ndarray
+        Each model's posterior and the posterior mode probabilities.
+
+    Raises
+    ------
+    ValueError
+        If a model's prediction or update is undefined, naming the filter and the model.
+    """
+    mixed_means, mixed_covars, predicted = mix(means, covars, mode_probs, matrix)
+    out_means, out_covars = np.empty_like(means), np.empty_like(covars)
+    log_likelihoods = np.empty(mode_probs.shape)
+    for j, model in enumerate(transition_models):
+        try:
+            prior_means, prior_covars, z_hats, innovation = _kalman.stack_predict(
+                model, measurement_model, intervals, np.ascontiguousarray(mixed_means[:, j]),
+                np.ascontiguousarray(mixed_covars[:, j]), by_interval=True)
+            out_means[:, j], out_covars[:, j] = _kalman.stack_update(
+                measurement_model, prior_means, prior_covars, measurements)
+            log_likelihoods[:, j] = log_gaussian(measurement_model, measurements, z_hats,
+                                                 innovation)
+        except ValueError as error:
+            raise ValueError(f"model {j} ({type(model).__name__}): {error}") from None
+    with np.errstate(divide="ignore"):
+        log_posterior = np.log(predicted) + log_likelihoods
+    top = log_posterior.max(axis=1, keepdims=True)
+    log_posterior -= top + np.log(np.exp(log_posterior - top).sum(axis=1, keepdims=True))
+    return out_means, out_covars, np.exp(log_posterior)
+
+
+def log_gaussian(measurement_model, measurements, z_hats, innovation):
+    """log N(z_k; z_hat_k, S_k) for K measurements (K, m), predictions (K, m) and
+    innovation covariances (K, m, m); bearing innovations wrapped. A ValueError names the
+    first filter whose S is not positive definite."""
+    v = measurements - z_hats
+    angles = measurement_model.spec.angles
+    v[:, angles] = wrap(v[:, angles])
+    try:
+        lower = np.linalg.cholesky(innovation)
+    except np.linalg.LinAlgError:
+        bad = next(k for k in range(innovation.shape[0])
+                   if not np.all(np.linalg.eigvalsh(innovation[k]) > 0))
+        raise ValueError(f"filter {bad}'s innovation covariance is not positive "
+                         f"definite") from None
+    whitened = np.linalg.solve(lower, v[..., None])[..., 0]
+    log_det = np.log(np.diagonal(lower, axis1=1, axis2=2)).sum(axis=1)
+    return -0.5 * (whitened ** 2).sum(axis=1) - log_det - 0.5 * v.shape[1] * np.log(2 * np.pi)

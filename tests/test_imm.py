@@ -1,0 +1,169 @@
+"""IMM on stacks: the closed forms of the interacting multiple model filter (one model is the
+Kalman filter; identical models keep the stationary mode distribution; an absorbing mode
+halves each step), a model that fits winning, a far measurement leaving finite
+probabilities, the batch against a step-by-step evaluation of the formulas, and bad input."""
+import numpy as np
+import pytest
+from scipy.stats import multivariate_normal
+
+import fasttrack as ft
+from fasttrack.core import imm
+
+SENSOR = ft.LinearGaussian(4, (0, 2), np.diag([0.5, 0.5]))
+
+
+def _cv(q):
+    return ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(q)] * 2)
+
+
+def _priors(k, models, seed=0):
+    rng = np.random.default_rng(seed)
+    means = np.repeat(rng.normal(size=(k, 1, 4)) * [10.0, 1.0, 10.0, 1.0], models, axis=1)
+    covars = np.broadcast_to(np.diag([4.0, 1.0, 4.0, 1.0]), (k, models, 4, 4)).copy()
+    return means, covars
+
+
+def test_one_model_is_the_kalman_filter():
+    means, covars = _priors(5, 1)
+    z = np.random.default_rng(1).normal(size=(5, 2)) * 10.0
+    filt = ft.BatchIMMFilter([_cv(0.1)], SENSOR, [[1.0]])
+    got = filt.step(means, covars, np.ones((5, 1)), z, 2.0)
+    batch = ft.BatchExtendedKalmanFilter(_cv(0.1), SENSOR)
+    want = batch.step(means[:, 0], covars[:, 0], z, 2.0)
+    np.testing.assert_allclose(got[0][:, 0], want[0], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(got[1][:, 0], want[1], rtol=1e-12, atol=1e-12)
+    assert (got[2] == 1.0).all()
+
+
+def test_identical_models_keep_the_stationary_mode_probabilities():
+    matrix = np.array([[0.8, 0.2], [0.4, 0.6]])
+    stationary = np.array([2.0, 1.0]) / 3.0  # the left eigenvector of the matrix
+    filt = ft.BatchIMMFilter([_cv(0.1), _cv(0.1)], SENSOR, matrix)
+    kalman = ft.BatchExtendedKalmanFilter(_cv(0.1), SENSOR)
+    means, covars = _priors(3, 2)
+    probs = np.tile(stationary, (3, 1))
+    x, p = means[:, 0], covars[:, 0]
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        z = rng.normal(size=(3, 2)) * 5.0
+        means, covars, probs = filt.step(means, covars, probs, z, 1.0)
+        x, p = kalman.step(x, p, z, 1.0)
+        np.testing.assert_allclose(probs, np.tile(stationary, (3, 1)), rtol=1e-12)
+        for j in range(2):
+            np.testing.assert_allclose(means[:, j], x, rtol=1e-10, atol=1e-10)
+            np.testing.assert_allclose(covars[:, j], p, rtol=1e-10, atol=1e-10)
+
+
+def test_an_absorbing_mode_halves_the_other_each_step():
+    filt = ft.BatchIMMFilter([_cv(0.1), _cv(0.1)], SENSOR, [[0.5, 0.5], [0.0, 1.0]])
+    means, covars = _priors(1, 2)
+    probs = np.array([[0.5, 0.5]])
+    for i in range(1, 30):
+        means, covars, probs = filt.step(means, covars, probs, [[float(i), 0.0]], 1.0)
+        assert probs[0, 0] == pytest.approx(0.5 ** (i + 1), rel=1e-12)
+
+
+def test_the_model_that_fits_wins_and_a_far_measurement_leaves_finite_probabilities():
+    # the truth turns hard; a quiet constant-velocity model cannot follow, a noisy one can
+    filt = ft.BatchIMMFilter([_cv(1e-4), _cv(5.0)], SENSOR, [[0.95, 0.05], [0.05, 0.95]])
+    means, covars = _priors(1, 2)
+    means[:] = 0.0
+    probs = np.array([[0.5, 0.5]])
+    wins = []
+    for t in range(1, 40):
+        z = [[10.0 * np.sin(0.3 * t) * t, 10.0 * np.cos(0.3 * t) * t]]
+        means, covars, probs = filt.step(means, covars, probs, z, 1.0)
+        wins.append(probs[0, 1])
+    assert np.mean(wins[10:]) > 0.95
+    means, covars, probs = filt.step(means, covars, probs, [[1e6, -1e6]], 1.0)  # 1e4 sigma
+    assert np.isfinite(probs).all() and probs.sum() == pytest.approx(1.0, rel=1e-12)
+    assert np.isfinite(means).all() and np.isfinite(covars).all()
+
+
+def _formulas(transition_models, matrix, means, covars, probs, z, dt):
+    """One IMM step of one filter, formula by formula (Bar-Shalom, Li and Kirubarajan)."""
+    m = len(transition_models)
+    cbar = probs @ matrix
+    out_means, out_covars, likelihoods = [], [], []
+    h = np.zeros((2, 4))
+    h[0, 0] = h[1, 2] = 1.0
+    for j, model in enumerate(transition_models):
+        w = matrix[:, j] * probs / cbar[j]
+        x0 = sum(w[i] * means[i] for i in range(m))
+        p0 = sum(w[i] * (covars[i] + np.outer(means[i] - x0, means[i] - x0)) for i in range(m))
+        f, q = model.matrix(dt), model.covar(dt)
+        x, p = f @ x0, f @ p0 @ f.T + q
+        s = h @ p @ h.T + SENSOR.noise_covar
+        k = p @ h.T @ np.linalg.inv(s)
+        out_means.append(x + k @ (z - h @ x))
+        i_kh = np.eye(4) - k @ h
+        out_covars.append(i_kh @ p @ i_kh.T + k @ SENSOR.noise_covar @ k.T)
+        likelihoods.append(multivariate_normal.pdf(z, h @ x, s))
+    mu = cbar * np.array(likelihoods)
+    return np.array(out_means), np.array(out_covars), mu / mu.sum()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_batch_is_the_formulas_filter_by_filter(seed):
+    models = [_cv(0.01), _cv(1.0), _cv(10.0)]
+    rng = np.random.default_rng(seed)
+    matrix = rng.dirichlet(np.ones(3) * 2, size=3)
+    k = 7
+    means = rng.normal(size=(k, 3, 4)) * 5.0
+    a = rng.normal(size=(k, 3, 4, 4))
+    covars = a @ a.swapaxes(-1, -2) + np.eye(4)
+    probs = rng.dirichlet(np.ones(3), size=k)
+    z = rng.normal(size=(k, 2)) * 5.0
+    dt = rng.uniform(0.5, 2.0, k)
+    got = ft.BatchIMMFilter(models, SENSOR, matrix).step(means, covars, probs, z, dt)
+    for f in range(k):
+        want = _formulas(models, matrix, means[f], covars[f], probs[f], z[f], dt[f])
+        for a_, b_ in zip(got, want):
+            np.testing.assert_allclose(a_[f], b_, rtol=1e-9, atol=1e-9)
+    combined = ft.BatchIMMFilter.combine(*got)
+    np.testing.assert_allclose(combined[0], np.einsum("kj,kjd->kd", got[2], got[0]))
+
+
+def test_a_model_that_cannot_be_reached_keeps_its_state_and_probability_zero():
+    filt = ft.BatchIMMFilter([_cv(0.1), _cv(1.0)], SENSOR, [[1.0, 0.0], [0.0, 1.0]])
+    means, covars = _priors(2, 2)
+    means[:, 1] += 3.0
+    mixed = imm.mix(means, covars, np.array([[1.0, 0.0], [1.0, 0.0]]), filt.transition_matrix)
+    np.testing.assert_array_equal(mixed[0], means)  # no mixing between the models
+    out = filt.step(means, covars, [[1.0, 0.0], [1.0, 0.0]], [[0.0, 0.0], [1.0, 1.0]], 1.0)
+    assert (out[2][:, 1] == 0.0).all() and np.isfinite(out[0]).all()
+
+
+@pytest.mark.parametrize("change,error,message", [
+    (dict(transition_matrix=[[0.5, 0.6], [0.5, 0.5]]), ValueError,
+     r"each row of transition_matrix must sum to 1.*row 0 sums to 1.1"),
+    (dict(transition_matrix=[[1.2, -0.2], [0.5, 0.5]]), ValueError, "no negative entries"),
+    (dict(transition_matrix=np.eye(3)), ValueError, r"must have shape \(2, 2\)"),
+    (dict(transition_models=[]), ValueError, "at least one model"),
+    (dict(transition_models=[_cv(1.0), ft.ConstantVelocity(1.0)]), ValueError,
+     "disagree on the state dimension"),
+])
+def test_bad_filters_are_refused_naming_the_argument(change, error, message):
+    arguments = dict(transition_models=[_cv(1.0), _cv(2.0)], measurement_model=SENSOR,
+                     transition_matrix=[[0.9, 0.1], [0.1, 0.9]])
+    arguments.update(change)
+    with pytest.raises(error, match=message):
+        ft.BatchIMMFilter(**arguments)
+
+
+@pytest.mark.parametrize("change,message", [
+    (dict(mode_probs=[[0.5, 0.6]]), r"each row of mode_probs must sum to 1; row 0"),
+    (dict(mode_probs=[[1.5, -0.5]]), "mode_probs must have no negative entries"),
+    (dict(mode_probs=[[0.5, 0.5], [0.5, 0.5]]), r"mode_probs must have shape \(1, 2\)"),
+    (dict(means=np.zeros((1, 3, 4))), r"means must have shape \(K, 2, 4\)"),
+    (dict(measurements=[[0.0, np.nan]]), "measurements contains NaN"),
+    (dict(time_intervals=[1.0, 2.0]), r"time_intervals \(seconds\) must broadcast"),
+])
+def test_bad_steps_are_refused_naming_the_argument(change, message):
+    filt = ft.BatchIMMFilter([_cv(1.0), _cv(2.0)], SENSOR, [[0.9, 0.1], [0.1, 0.9]])
+    means, covars = _priors(1, 2)
+    arguments = dict(means=means, covars=covars, mode_probs=[[0.5, 0.5]],
+                     measurements=[[0.0, 1.0]], time_intervals=1.0)
+    arguments.update(change)
+    with pytest.raises(ValueError, match=message):
+        filt.step(**arguments)
