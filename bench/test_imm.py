@@ -26,3 +26,26 @@ def test_imm_step(benchmark, k):
     imm = _filter()
     out = benchmark(imm.step, means, covars, probs, z, 1.0)
     assert np.allclose(out[2].sum(axis=1), 1.0)
+
+
+def test_imm_step_filterpy(benchmark):
+    """filterpy 2.0.0's ``IMMEstimator`` (predict + update) on the same 3 models, one
+    filter."""
+    kalman = pytest.importorskip("filterpy.kalman")
+    benchmark.group = "imm-step K=1 M=3"
+    imm = _filter()
+    filters = []
+    for model in imm.transition_models:
+        f = kalman.KalmanFilter(dim_x=4, dim_z=2)
+        f.F, f.Q, f.R = model.matrix(1.0), model.covar(1.0), np.eye(2)
+        f.H = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0]])
+        f.x, f.P = np.zeros(4), np.eye(4)
+        filters.append(f)
+    estimator = kalman.IMMEstimator(filters, np.full(3, 1.0 / 3.0), np.array(MATRIX))
+    z = np.array([1.0, -2.0])
+
+    def step():
+        estimator.predict()
+        estimator.update(z)
+
+    benchmark(step)

@@ -167,3 +167,44 @@ def test_bad_steps_are_refused_naming_the_argument(change, message):
     arguments.update(change)
     with pytest.raises(ValueError, match=message):
         filt.step(**arguments)
+
+
+def test_equals_filterpys_imm_estimator_every_step_of_a_manoeuvring_run():
+    kalman = pytest.importorskip("filterpy.kalman")
+    models = [_cv(0.01), _cv(1.0), _cv(20.0)]
+    matrix = np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.05, 0.15, 0.8]])
+    h = np.zeros((2, 4))
+    h[0, 0] = h[1, 2] = 1.0
+    x0, p0 = np.array([0.0, 5.0, 0.0, 0.0]), np.diag([10.0, 2.0, 10.0, 2.0])
+    filters = []
+    for model in models:
+        f = kalman.KalmanFilter(dim_x=4, dim_z=2)
+        f.F, f.Q, f.H, f.R = model.matrix(1.0), model.covar(1.0), h, SENSOR.noise_covar
+        f.x, f.P = x0.copy(), p0.copy()
+        filters.append(f)
+    mu0 = np.array([0.6, 0.3, 0.1])
+    theirs = kalman.IMMEstimator(filters, mu0, matrix)
+    ours = ft.BatchIMMFilter(models, SENSOR, matrix)
+    means, covars = np.tile(x0, (1, 3, 1)), np.tile(p0, (1, 3, 1, 1))
+    probs = mu0[None].copy()
+    rng = np.random.default_rng(4)
+    position, velocity = np.zeros(2), np.array([5.0, 0.0])
+    quiet = []  # the quiet model's probability: high on the straight, low in the turn
+    for t in range(60):
+        if 20 <= t < 35:  # a hard turn
+            velocity = np.array([[np.cos(0.2), -np.sin(0.2)], [np.sin(0.2), np.cos(0.2)]]) \
+                @ velocity
+        position = position + velocity
+        z = position + rng.normal(size=2) * 0.7
+        theirs.predict()
+        theirs.update(z)
+        means, covars, probs = ours.step(means, covars, probs, z[None], 1.0)
+        np.testing.assert_allclose(probs[0], theirs.mu, rtol=1e-9, atol=1e-12)
+        for j, f in enumerate(filters):
+            np.testing.assert_allclose(means[0, j], f.x, rtol=1e-9, atol=1e-9)
+            np.testing.assert_allclose(covars[0, j], f.P, rtol=1e-9, atol=1e-9)
+        x, p = ft.BatchIMMFilter.combine(means, covars, probs)
+        np.testing.assert_allclose(x[0], theirs.x, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(p[0], theirs.P, rtol=1e-9, atol=1e-9)
+        quiet.append(probs[0, 0])
+    assert max(quiet) > 0.9 and min(quiet) < 0.2  # the models switched: not a trivial run
