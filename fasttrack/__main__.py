@@ -62,7 +62,7 @@ def main(argv=None):
     warm.add_argument("--cache-dir", help="the cache directory to fill (default: "
                                           "$FASTTRACK_CACHE_DIR, else the user cache dir)")
     warm.add_argument("--families", nargs="+", metavar="FAMILY",
-                      help="some of: kalman unscented akkf smooth gating assign jpda mixture "
+                      help="some of: kalman unscented akkf smooth gating assign jpda mixture imm "
                            "resample particle (default: all)")
     warm.add_argument("--processes", type=int, default=None,
                       help="worker processes compiling at once (default: the cores)")

@@ -21,6 +21,7 @@ from .core.particle import gather
 from .core.resample import (ess, multinomial, normalise, resampling_points, residual, stratified,
                             systematic)
 from .filtering import run_filter
+from .imm import BatchIMMFilter
 from .kernel import GaussianKernel, QuadraticKernel
 from .mixturereducer import GaussianMixtureReducer
 from .models.measurement import LinearGaussian
@@ -190,6 +191,16 @@ def _mixture():
                     scenario.clutter_density, 2.0, 8, gate).run(scenario.detections)
 
 
+def _imm():
+    models = [CombinedLinearGaussianTransitionModel([ConstantVelocity(q)] * 2)
+              for q in (0.1, 1.0)]
+    imm = BatchIMMFilter(models, LinearGaussian(4, (0, 2), np.eye(2)),
+                         [[0.9, 0.1], [0.1, 0.9]])
+    means = np.zeros((2, 2, 4))
+    covars = np.broadcast_to(np.eye(4), (2, 2, 4, 4)).copy()
+    imm.step(means, covars, np.full((2, 2), 0.5), np.zeros((2, 2)), 1.0)
+
+
 def _jpda():
     weights = association.pda_weights(np.zeros((2, 2)), np.broadcast_to(np.eye(2), (2, 2, 2)),
                                       np.array([[0.1, 0.0], [0.0, 0.2]]),
@@ -201,6 +212,7 @@ def _jpda():
 #: Families, slowest to compile first (so that a pool balances them).
 FAMILIES = {"kalman": _kalman, "unscented": _unscented, "akkf": _akkf, "smooth": _smooth,
             "gating": _gating, "assign": _assign, "jpda": _jpda, "mixture": _mixture,
+            "imm": _imm,
             "resample": _resample, "particle": _particle}
 
 
@@ -243,8 +255,8 @@ def warmup(families=None, processes=1, report=None, load=True):
     ----------
     families : iterable of str, optional
         Some of the family words of :data:`FAMILIES`: 'kalman', 'unscented', 'akkf',
-        'smooth', 'gating', 'assign', 'jpda', 'mixture', 'resample', 'particle' (default:
-        all).
+        'smooth', 'gating', 'assign', 'jpda', 'mixture', 'imm', 'resample', 'particle'
+        (default: all).
     processes : int
         With more than one, compile in that many worker processes at once, which fill the
         shared cache, then load from it: on a first run, up to ``processes`` times faster.

@@ -208,3 +208,58 @@ def test_equals_filterpys_imm_estimator_every_step_of_a_manoeuvring_run():
         np.testing.assert_allclose(p[0], theirs.P, rtol=1e-9, atol=1e-9)
         quiet.append(probs[0, 0])
     assert max(quiet) > 0.9 and min(quiet) < 0.2  # the models switched: not a trivial run
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_kernel_is_its_mirror_and_the_general_path(seed, monkeypatch):
+    from fasttrack._jit import imm as kernels
+    from reference import imm as mirror
+    rng = np.random.default_rng(seed)
+    models = [_cv(0.01), _cv(1.0), _cv(10.0)]
+    matrix = rng.dirichlet(np.ones(3) * 2, size=3)
+    matrix[1:, 0] = 0.0  # model 0 is reached from itself only
+    matrix /= matrix.sum(axis=1, keepdims=True)
+    k = 9
+    means = rng.normal(size=(k, 3, 4)) * 5.0
+    a = rng.normal(size=(k, 3, 4, 4))
+    covars = a @ a.swapaxes(-1, -2) + np.eye(4)
+    probs = rng.dirichlet(np.ones(3), size=k)
+    probs[0] = [0.0, 0.0, 1.0]  # nothing switches into model 0 for filter 0
+    z = rng.normal(size=(k, 2)) * 5.0
+    arguments = (np.array([m.matrix(1.5) for m in models]),
+                 np.array([m.covar(1.5) for m in models]), SENSOR.spec.mapping,
+                 SENSOR.noise_covar, matrix, means, covars, probs, z)
+    got = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
+           np.zeros(k, dtype=np.int64)]
+    want = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
+            np.zeros(k, dtype=np.int64)]
+    kernels.imm_linear_step(*arguments, *got)
+    mirror.imm_linear_step(*arguments, *want)
+    assert (got[3] == 0).all() and (want[3] == 0).all()
+    for a_, b_ in zip(got[:3], want[:3]):
+        np.testing.assert_allclose(a_, b_, rtol=1e-9, atol=1e-9)
+    assert got[2][0, 0] == 0.0
+    filt = ft.BatchIMMFilter(models, SENSOR, matrix)
+    fused = filt.step(means, covars, probs, z, 1.5)  # the kernel: one interval, a selection
+    general = imm.general_step(models, SENSOR, matrix, means, covars, probs, z,
+                               np.full(k, 1.5))
+    for a_, b_, c_ in zip(fused, general, got):
+        np.testing.assert_allclose(a_, b_, rtol=1e-9, atol=1e-9)
+        np.testing.assert_array_equal(a_, c_)
+
+
+def test_a_changed_noise_rate_changes_the_step():
+    quiet, loud = ft.ConstantVelocity(0.1), ft.ConstantVelocity(0.1)
+    models = [ft.CombinedLinearGaussianTransitionModel([quiet] * 2),
+              ft.CombinedLinearGaussianTransitionModel([loud] * 2)]
+    filt = ft.BatchIMMFilter(models, SENSOR, [[0.9, 0.1], [0.1, 0.9]])
+    means, covars = _priors(1, 2)
+    before = filt.step(means, covars, [[0.5, 0.5]], [[3.0, -2.0]], 1.0)
+    loud.noise_diff_coeff = 5.0  # the step's F and Q are remembered by interval and rates
+    after = filt.step(means, covars, [[0.5, 0.5]], [[3.0, -2.0]], 1.0)
+    np.testing.assert_array_equal(after[0][:, 0], before[0][:, 0])
+    assert not np.allclose(after[1][:, 1], before[1][:, 1])
+    want = imm.general_step(models, SENSOR, filt.transition_matrix, means, covars,
+                            np.array([[0.5, 0.5]]), np.array([[3.0, -2.0]]), np.array([1.0]))
+    for a_, b_ in zip(after, want):  # the general path builds F and Q afresh
+        np.testing.assert_allclose(a_, b_, rtol=1e-9, atol=1e-12)

@@ -10,9 +10,12 @@ normalised mode probabilities. A model whose predicted probability is 0 keeps it
 state through the mixing (there is nothing to mix it from) and its probability stays 0."""
 import numpy as np
 
-from .. import _validate
+from .. import _jit, _validate
 from . import kalman as _kalman
 from .kalman_numpy import wrap
+from .kinds import CV, SELECT
+
+_imm = _jit.lazy("imm")
 
 #: How far a row of probabilities may sum from one.
 SUM_TOLERANCE = 1e-9
@@ -102,6 +105,18 @@ def step(transition_models, measurement_model, matrix, means, covars, mode_probs
     ValueError
         If a model's prediction or update is undefined, naming the filter and the model.
     """
+    fused = _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
+                   measurements, intervals)
+    if fused is not None:
+        return fused
+    return general_step(transition_models, measurement_model, matrix, means, covars,
+                        mode_probs, measurements, intervals)
+
+
+def general_step(transition_models, measurement_model, matrix, means, covars, mode_probs,
+                 measurements, intervals):
+    """:func:`step` for any models and intervals: mixing, weighing and combining on
+    arrays, each model's prediction and update through the Kalman stack kernels."""
     mixed_means, mixed_covars, predicted = mix(means, covars, mode_probs, matrix)
     out_means, out_covars = np.empty_like(means), np.empty_like(covars)
     log_likelihoods = np.empty(mode_probs.shape)
@@ -121,6 +136,47 @@ def step(transition_models, measurement_model, matrix, means, covars, mode_probs
     top = log_posterior.max(axis=1, keepdims=True)
     log_posterior -= top + np.log(np.exp(log_posterior - top).sum(axis=1, keepdims=True))
     return out_means, out_covars, np.exp(log_posterior)
+
+
+def _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
+           measurements, intervals):
+    """:func:`step` in one kernel call (:func:`fasttrack._jit.imm.imm_linear_step`) for a
+    sensor that selects state components and one interval for every filter, once the
+    process runs kernels; None where it does not apply or a filter's step is undefined
+    (the general path then names the filter and the model)."""
+    sensor = measurement_model.spec
+    k = means.shape[0]
+    if sensor.kind != SELECT or np.any(sensor.angles) or np.any(intervals != intervals[0]) \
+            or _jit.numpy_first(k * len(transition_models)):
+        return None
+    transitions, noises = zip(*(_transition(model.spec(float(intervals[0])))
+                                for model in transition_models))
+    arrays = [np.require(a, np.float64, ["C", "W"])
+              for a in (means, covars, mode_probs, measurements)]
+    out = np.empty_like(arrays[0]), np.empty_like(arrays[1]), np.empty_like(arrays[2])
+    status = np.empty(k, dtype=np.int64)
+    _imm.imm_linear_step(np.array(transitions), np.array(noises), sensor.mapping,
+                         sensor.noise_covar, matrix, *arrays, *out, status)
+    return out if not status.any() else None
+
+
+#: F and Q of constant-velocity specs, by interval and noise rates (a filter steps at few
+#: intervals; building Q costs more than the step).
+_CV_MATRICES = {}
+
+
+def _transition(spec):
+    """``(F, Q)`` of a linear transition spec, remembered for constant-velocity blocks,
+    which the interval and the noise rates determine."""
+    if spec.kind != CV:
+        return spec.matrix, spec.noise
+    key = (spec.dt, spec.rates.tobytes())
+    found = _CV_MATRICES.get(key)
+    if found is None:
+        if len(_CV_MATRICES) >= 64:
+            _CV_MATRICES.clear()
+        found = _CV_MATRICES[key] = (spec.matrix, spec.noise)
+    return found
 
 
 def log_gaussian(measurement_model, measurements, z_hats, innovation):

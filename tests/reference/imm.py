@@ -1,0 +1,42 @@
+"""Mirror of ``fasttrack._jit.imm``: the IMM step of linear models, filter by filter and
+model by model, with NumPy's linear algebra."""
+import numpy as np
+
+from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD
+
+
+def imm_linear_step(transitions, noises, mapping, noise, matrix, means, covars, probs, z,
+                    out_means, out_covars, out_probs, status):
+    models, d = means.shape[1:]
+    h = np.zeros((mapping.size, d))
+    h[np.arange(mapping.size), mapping] = 1.0
+    for k in range(means.shape[0]):
+        predicted = probs[k] @ matrix
+        log_posterior = np.full(models, -np.inf)
+        status[k] = OK
+        for j in range(models):
+            w = matrix[:, j] * probs[k] / predicted[j] if predicted[j] > 0 else np.eye(models)[j]
+            x0 = w @ means[k]
+            spread = means[k] - x0
+            p0 = np.einsum("i,iab->ab", w, covars[k]) + np.einsum("i,ia,ib->ab", w, spread,
+                                                                  spread)
+            if np.linalg.eigvalsh(0.5 * (p0 + p0.T)).min() < -1e-9 * max(p0.max(), 0.0):
+                status[k] = PRIOR_NOT_PSD
+                break
+            f, q = transitions[j], noises[j]
+            x, p = f @ x0, f @ p0 @ f.T + q
+            s = h @ p @ h.T + noise
+            if np.linalg.eigvalsh(s).min() <= 0:
+                status[k] = INNOVATION_NOT_PD
+                break
+            gain = p @ h.T @ np.linalg.inv(s)
+            v = z[k] - h @ x
+            out_means[k, j] = x + gain @ v
+            a = np.eye(d) - gain @ h
+            out_covars[k, j] = a @ p @ a.T + gain @ noise @ gain.T
+            if predicted[j] > 0:
+                log_posterior[j] = (np.log(predicted[j]) - 0.5 * v @ np.linalg.solve(s, v)
+                                    - 0.5 * np.linalg.slogdet(2 * np.pi * s)[1])
+        if status[k] == OK:
+            weights = np.exp(log_posterior - log_posterior.max())
+            out_probs[k] = weights / weights.sum()
