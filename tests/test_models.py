@@ -54,6 +54,45 @@ def test_transition_matrices_and_covariances_match(dt):
 
 
 @against_stonesoup
+@pytest.mark.parametrize("dt", [1.0, 0.25, 7.5, -2.0])
+@pytest.mark.parametrize("rate", [0.01, -0.02634, 1.5])
+def test_known_turn_rate_matches_stone_soup(dt, rate):
+    ours = ft.KnownTurnRate([0.1, 0.3], rate)
+    theirs = ss_linear.KnownTurnRate(turn_noise_diff_coeffs=np.array([0.1, 0.3]),
+                                     turn_rate=rate)
+    np.testing.assert_allclose(ours.matrix(dt), theirs.matrix(time_interval=_td(dt)),
+                               rtol=RTOL, atol=1e-15)
+    np.testing.assert_allclose(ours.covar(dt), theirs.covar(time_interval=_td(dt)), rtol=RTOL)
+    x = np.random.default_rng(1).normal(size=(4, 3))
+    np.testing.assert_allclose(ours.function(x, time_interval=dt),
+                               theirs.function(_ss_states(x), time_interval=_td(dt)),
+                               rtol=RTOL, atol=1e-12)
+
+
+def test_known_turn_rate_turns_and_its_zero_rate_is_constant_velocity():
+    quarter = ft.KnownTurnRate([0.0, 0.0], np.pi / 2)  # a quarter turn a second
+    np.testing.assert_allclose(quarter.matrix(1.0) @ [0.0, 1.0, 0.0, 0.0],
+                               [2 / np.pi, 0.0, 2 / np.pi, 1.0], atol=1e-15)
+    straight = ft.KnownTurnRate([0.1, 0.2], 0.0)  # the limit, not Stone Soup's 0 / 0
+    cv = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.1),
+                                                   ft.ConstantVelocity(0.2)])
+    np.testing.assert_array_equal(straight.matrix(2.5), cv.matrix(2.5))
+    np.testing.assert_allclose(straight.covar(2.5), cv.covar(2.5), rtol=1e-15)
+    with pytest.raises(ValueError, match="turn_noise_diff_coeffs must be two numbers >= 0"):
+        ft.KnownTurnRate([0.1, -1.0], 0.1)
+    with pytest.raises(ValueError, match="turn_rate must be finite"):
+        ft.KnownTurnRate([0.1, 0.1], np.inf)
+    with pytest.raises(TypeError, match="turn_rate must be a real number"):
+        ft.KnownTurnRate([0.1, 0.1], "fast")
+    straight.turn_rate = np.pi / 2  # F follows the new rate (not a remembered one)
+    np.testing.assert_allclose(straight.matrix(1.0), quarter.matrix(1.0), atol=1e-15)
+    prior = ft.GaussianState([0.0, 1.0, 0.0, 0.0], np.eye(4), timestamp=0.0)
+    predicted = ft.KalmanPredictor(quarter).predict(prior, timestamp=1.0)
+    np.testing.assert_allclose(predicted.state_vector.ravel(),
+                               [2 / np.pi, 0.0, 2 / np.pi, 1.0], atol=1e-15)
+
+
+@against_stonesoup
 def test_transition_function_and_logpdf_match():
     ours, theirs = _cv_pair()
     rng = np.random.default_rng(0)

@@ -2,11 +2,12 @@
 from .measurement import (Cartesian2DToBearing, CartesianToBearingRange, LinearGaussian,
                           MeasurementModel, NonlinearGaussianMeasurement)
 from .transition import (CombinedLinearGaussianTransitionModel, ConstantVelocity,
-                         LinearGaussianTransitionModel, NonlinearGaussianTransitionModel,
-                         TransitionModel)
+                         KnownTurnRate, LinearGaussianTransitionModel,
+                         NonlinearGaussianTransitionModel, TransitionModel)
 
 __all__ = [
     "Cartesian2DToBearing", "CartesianToBearingRange", "CombinedLinearGaussianTransitionModel",
-    "ConstantVelocity", "LinearGaussian", "LinearGaussianTransitionModel", "MeasurementModel",
-    "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel", "TransitionModel",
+    "ConstantVelocity", "KnownTurnRate", "LinearGaussian", "LinearGaussianTransitionModel",
+    "MeasurementModel", "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel",
+    "TransitionModel",
 ]

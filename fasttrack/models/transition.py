@@ -20,7 +20,7 @@ from .spec import CV, FIXED, FUNCTION, TransitionSpec
 
 __all__ = [
     "TransitionModel", "LinearGaussianTransitionModel", "ConstantVelocity",
-    "CombinedLinearGaussianTransitionModel", "NonlinearGaussianTransitionModel",
+    "CombinedLinearGaussianTransitionModel", "KnownTurnRate", "NonlinearGaussianTransitionModel",
 ]
 
 
@@ -347,16 +347,97 @@ class ConstantVelocity(_LinearGaussian):
         time_interval : datetime.timedelta or float seconds
             dt (may be negative).
         """
-        t = np.float64(abs(self._seconds(time_interval)))
-        with np.errstate(over="ignore"):
-            q = self.noise_diff_coeff * np.array([[t**3 / 3, t**2 / 2], [t**2 / 2, t]])
-        if not np.isfinite(q).all():
-            raise ValueError(f"time_interval of {t:g} s overflows Q(dt) (q t^3 / 3 with "
-                             f"q = {self.noise_diff_coeff:g})")
-        return q
+        return _velocity_noise(self.noise_diff_coeff, self._seconds(time_interval))
 
     def _cv_rates(self):
         return (self._q,)
+
+
+def _velocity_noise(q, dt):
+    """``q [[t^3/3, t^2/2], [t^2/2, t]]`` with ``t = |dt|``: the noise of a nearly constant
+    velocity over dt seconds; a ValueError if it overflows."""
+    t = np.float64(abs(dt))
+    with np.errstate(over="ignore"):
+        noise = q * np.array([[t**3 / 3, t**2 / 2], [t**2 / 2, t]])
+    if not np.isfinite(noise).all():
+        raise ValueError(f"time_interval of {t:g} s overflows Q(dt) (q t^3 / 3 with "
+                         f"q = {q:g})")
+    return noise
+
+
+class KnownTurnRate(_LinearGaussian):
+    """A nearly constant turn at a known rate w in the plane, state (x, vx, y, vy) (Stone
+    Soup's ``KnownTurnRate``).
+
+    With ``s = sin(w dt)`` and ``c = cos(w dt)``, ``F(dt) = [[1, s/w, 0, -(1 - c)/w],
+    [0, c, 0, -s], [0, (1 - c)/w, 1, s/w], [0, s, 0, c]]`` turns the velocity by w dt and
+    moves the position along the arc (w = 0 is its limit, constant velocity); Q is a
+    constant-velocity noise per axis, ``q_i [[t^3/3, t^2/2], [t^2/2, t]]`` with
+    ``t = |dt|``.
+
+    Parameters
+    ----------
+    turn_noise_diff_coeffs : (2,) array_like
+        q1 (along x) and q2 (along y), >= 0, in (state units)^2 / s^3.
+    turn_rate : float
+        w in rad/s, positive anticlockwise.
+    """
+
+    ndim_state = property(lambda self: 4, doc="Number of state dimensions (4).")
+
+    def __init__(self, turn_noise_diff_coeffs, turn_rate):
+        self.turn_noise_diff_coeffs = turn_noise_diff_coeffs
+        self.turn_rate = turn_rate
+
+    @property
+    def turn_noise_diff_coeffs(self):
+        """(q1, q2), each >= 0 (a read-only array)."""
+        return read_only(self._qs)
+
+    @turn_noise_diff_coeffs.setter
+    def turn_noise_diff_coeffs(self, value):
+        qs = _validate.finite_array(value, "turn_noise_diff_coeffs", 1)
+        if qs.shape != (2,) or (qs < 0).any():
+            raise ValueError(f"turn_noise_diff_coeffs must be two numbers >= 0, got "
+                             f"{qs.tolist()}")
+        self._qs = qs.copy()
+
+    @property
+    def turn_rate(self):
+        """w, rad/s."""
+        return self._turn_rate
+
+    @turn_rate.setter
+    def turn_rate(self, value):
+        self._turn_rate = _validate.real(value, "turn_rate")
+
+    def _parameters(self):
+        return self._turn_rate
+
+    def matrix(self, time_interval):
+        """F(dt) (4, 4).
+
+        Parameters
+        ----------
+        time_interval : datetime.timedelta or float seconds
+            dt (may be negative).
+        """
+        dt, w = self._seconds(time_interval), self._turn_rate
+        s, c = np.sin(w * dt), np.cos(w * dt)
+        along, across = (s / w, (1.0 - c) / w) if w != 0.0 else (dt, 0.0)
+        return np.array([[1.0, along, 0.0, -across], [0.0, c, 0.0, -s],
+                         [0.0, across, 1.0, along], [0.0, s, 0.0, c]])
+
+    def covar(self, time_interval):
+        """Q(dt) (4, 4): a constant-velocity noise per axis.
+
+        Parameters
+        ----------
+        time_interval : datetime.timedelta or float seconds
+            dt (may be negative).
+        """
+        dt = self._seconds(time_interval)
+        return _block_diag([_velocity_noise(q, dt) for q in self._qs])
 
 
 class CombinedLinearGaussianTransitionModel(_LinearGaussian):
