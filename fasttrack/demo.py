@@ -11,8 +11,8 @@ import fasttrack as ft
 from fasttrack._jit import cache
 from fasttrack.metrics import gospa_over_time, position_rmse
 from fasttrack.scenarios import (adaptive_kernel_tutorial, extended_kalman_tutorial,
-                                 grid_targets, particle_filter_tutorial, vo_linear,
-                                 vo_linear_birth)
+                                 grid_targets, manoeuvring_target, particle_filter_tutorial,
+                                 vo_linear, vo_linear_birth)
 
 TUTORIAL_WEIGHTS = np.array([1, 5, 1.5, 0.5, 2]) / 10
 AKKF_KERNELS = {"quadratic": lambda: ft.QuadraticKernel(c=1, ialpha=1),
@@ -256,6 +256,46 @@ def random_finite_sets(table, plots, clutter_rates, repeats):
                        f"Number of targets, GM-PHD and GM-CPHD: clutter {rate} a scan")
 
 
+#: The IMM's models in the manoeuvring scenario: turns at +0.02 and -0.02 rad/s and
+#: straight flight, and its switching matrix.
+IMM_TURN_RATES = {"turn +0.02 rad/s": 0.02, "straight": 0.0, "turn -0.02 rad/s": -0.02}
+IMM_MATRIX = np.full((3, 3), 0.05) + 0.85 * np.eye(3)
+
+
+def multiple_models(table, plots):
+    """An IMM filter of three turn models (:data:`IMM_TURN_RATES`) on the manoeuvring
+    target of Stone Soup's multiple-model tutorial (600 scans)."""
+    _progress("IMM filter, manoeuvring target")
+    scenario = manoeuvring_target(seed=1)
+    models = [ft.KnownTurnRate([1e-3, 1e-3], rate) for rate in IMM_TURN_RATES.values()]
+    imm = ft.BatchIMMFilter(models, scenario.measurement_model, IMM_MATRIX)
+    first = scenario.measurements[0]
+    start = (np.tile([first[0], -30.0, first[1], -30.0], (1, 3, 1)),
+             np.tile(np.diag([1.0, 25.0, 1.0, 25.0]), (1, 3, 1, 1)), np.full((1, 3), 1 / 3))
+
+    def run():
+        means, covars, probs = start
+        estimates, history = [], []
+        for z in scenario.measurements[1:]:
+            means, covars, probs = imm.step(means, covars, probs, z[None], 1.0)
+            estimates.append(ft.BatchIMMFilter.combine(means, covars, probs)[0][0])
+            history.append(probs[0])
+        return np.array(estimates), np.array(history)
+
+    (estimates, history), seconds = _timed_track(run, 3, len(scenario.measurements) - 1)
+    errors = estimates[:, [0, 2]] - scenario.truths[1:, [0, 2]]
+    table.add("IMM, 3 turn models", 1, float(np.sqrt((errors ** 2).sum(axis=1).mean())),
+              seconds)
+    if plots:
+        ax = plots.plotting.plot_mode_probabilities(history, list(IMM_TURN_RATES),
+                                                    scenario.turn_rates[1:])
+        plots.save(ax, "imm-mode-probabilities.png",
+                   "IMM mode probabilities over a manoeuvring flight")
+        ax = plots.plotting.plot_paths({"ground truth": scenario.truths[:, [0, 2]],
+                                        "IMM estimate": estimates[:, [0, 2]]})
+        plots.save(ax, "imm-track.png", "IMM track of the manoeuvring target")
+
+
 class Plots:
     """PNG plots of the demo, written to ``out``."""
 
@@ -290,7 +330,7 @@ def run(quick=False, out="fasttrack-demo"):
                                             if shipped else
                                             "compiling kernels (cached after the first run)..."),
           flush=True)
-    families = ["kalman", "akkf", "gating", "assign", "jpda", "mixture", "resample",
+    families = ["kalman", "akkf", "gating", "assign", "jpda", "mixture", "imm", "resample",
                 "particle"]
     if not quick:
         families.append("unscented")
@@ -319,6 +359,7 @@ def run(quick=False, out="fasttrack-demo"):
     multi_target(table, plots, [50] if quick else [50, 1000], stonesoup_sizes=[50],
                  steps=10 if quick else 100)
     random_finite_sets(table, plots, [30] if quick else [10, 30, 60], repeats=1 if quick else 3)
+    multiple_models(table, plots)
     print(" " * 80, end="\r")
     print("\nTime per step (resamplers: per call; tracker: per scan), medians; RMSE: position "
           "error against the truth (tracker: of the tracks matched to targets)\n")

@@ -178,6 +178,56 @@ def plot_target_count(scenario, estimated, ax=None):
     return ax
 
 
+def plot_paths(paths, ax=None, units="m"):
+    """Paths in the plane, the first dashed black (a truth), the others in colour.
+
+    Parameters
+    ----------
+    paths : dict of str to (n, 2) array_like
+        Label: positions (x, y) in order.
+    ax : matplotlib.axes.Axes, optional
+    units : str
+        Position units, for the axis labels.
+    """
+    ax = _axes(ax)
+    for k, (label, xy) in enumerate(paths.items()):
+        xy = np.asarray(xy, dtype=np.float64)
+        style = {"linestyle": "--", "color": "k", "linewidth": 0.8} if k == 0 else \
+            {"linewidth": 1.0}
+        ax.plot(xy[:, 0], xy[:, 1], label=label, **style)
+    ax.set_xlabel(f"x ({units})")
+    ax.set_ylabel(f"y ({units})")
+    return ax
+
+
+def plot_mode_probabilities(mode_probs, labels, turn_rates=None, ax=None):
+    """A multiple-model filter's mode probabilities over the scans, a line a model, over
+    the manoeuvres flown (grey where the target turned).
+
+    Parameters
+    ----------
+    mode_probs : (T, M) array_like
+    labels : sequence of M str
+        The models' names.
+    turn_rates : (T,) array_like, optional
+        The turn rate flown into each scan (e.g. ``ManoeuvringScenario.turn_rates``).
+    ax : matplotlib.axes.Axes, optional
+    """
+    ax = _axes(ax)
+    probs = np.asarray(mode_probs, dtype=np.float64)
+    scans = np.arange(probs.shape[0])
+    if turn_rates is not None:
+        turning = np.asarray(turn_rates)[:probs.shape[0]] != 0
+        ax.fill_between(scans, 0, 1, where=turning, color="tab:gray", alpha=0.2,
+                        step="mid", label="turning")
+    for column, label in zip(probs.T, labels):
+        ax.plot(scans, column, linewidth=1.0, label=label)
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("scan")
+    ax.set_ylabel("mode probability")
+    return ax
+
+
 def plot_resampling(weights, points=None, offspring=None, ax=None):
     """The resampling picture of the resampler tutorial: each particle's weight as a bar of
     the cumulative weights on [0, 1], and either the uniform ``points`` a scheme drew (each

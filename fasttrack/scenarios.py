@@ -255,3 +255,66 @@ def vo_linear_birth():
                       [-200.0, 0, 800, 0]])
     return GaussianMixture(means, np.broadcast_to(np.eye(4) * 100.0, (4, 4, 4)),
                            np.log(np.full(4, 0.03)))
+
+
+#: The manoeuvres of :func:`manoeuvring_target`: (steps, turn rate in rad/s; 0 for straight).
+MANOEUVRES = ((150, 0.0), (200, -0.01634), (40, 0.0), (165, 0.0232), (45, 0.0))
+
+
+@dataclass
+class ManoeuvringScenario:
+    """One target that flies straight and turns, seen by a position sensor every second.
+
+    Attributes
+    ----------
+    truths : (T, 4) float64 ndarray
+        The states (x, vx, y, vy) at each scan, m and m/s.
+    measurements : (T, 2) float64 ndarray
+        The positions measured, m.
+    turn_rates : (T,) float64 ndarray
+        The turn rate flown into each scan, rad/s (0: straight).
+    measurement_model : LinearGaussian
+    time_interval : float
+        Seconds between scans.
+    """
+
+    truths: np.ndarray
+    measurements: np.ndarray
+    turn_rates: np.ndarray
+    measurement_model: object
+    time_interval: float = 1.0
+
+
+def manoeuvring_target(seed=None):
+    """The multiple-model scenario of Stone Soup's multiple-model tutorial (its pull
+    request 1257): 600 scans a second apart of one target starting at (3700, -30, 1700,
+    -30), straight for 150 s, turning at -0.01634 rad/s for 200 s, straight for 40 s, at
+    +0.0232 rad/s for 165 s and straight for 45 s (:data:`MANOEUVRES`), with a process
+    noise of q = 0.01 m^2/s^3 per axis; positions measured with R = diag(0.725, 0.7025) m^2.
+
+    Parameters
+    ----------
+    seed : None, int, numpy.random.SeedSequence or numpy.random.Generator
+        Fixes the process and measurement noise.
+
+    Returns
+    -------
+    ManoeuvringScenario
+    """
+    from .models import KnownTurnRate
+    rng = _generator(seed)
+    sensor = LinearGaussian(4, (0, 2), np.diag([0.725, 0.7025]))
+    state = np.array([3700.0, -30.0, 1700.0, -30.0])
+    truths, rates = [], []
+    for steps, rate in MANOEUVRES:
+        model = KnownTurnRate([0.01, 0.01], rate)
+        f, q = model.matrix(1.0), model.covar(1.0)
+        noise = np.linalg.cholesky(q)
+        for _ in range(steps):
+            state = f @ state + noise @ rng.standard_normal(4)
+            truths.append(state)
+            rates.append(rate)
+    truths = np.array(truths)
+    measurements = truths[:, [0, 2]] + rng.standard_normal((len(truths), 2)) \
+        * np.sqrt([0.725, 0.7025])
+    return ManoeuvringScenario(truths, measurements, np.array(rates), sensor)

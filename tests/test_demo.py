@@ -23,11 +23,12 @@ def test_quick_demo_runs_and_writes_plots(tmp_path):
     assert "Resampler tutorial" in out and "offspring" in out
     for row in ("resample systematic", "resample residual", "particle filter",
                 "extended Kalman filter", "AKKF quadratic", "AKKF gaussian", "GM-PHD",
-                "GM-CPHD"):
+                "GM-CPHD", "IMM, 3 turn models"):
         assert row in out
     assert "speed-up" in out and "Demo finished" in out
     pngs = sorted(tmp_path.glob("*.png"))
-    assert len(pngs) >= 7 and {"cphd-vo-linear-30.png", "target-count-30.png"} <= {
+    assert len(pngs) >= 7 and {"cphd-vo-linear-30.png", "target-count-30.png",
+                               "imm-mode-probabilities.png", "imm-track.png"} <= {
         png.name for png in pngs}
     for png in pngs:
         _assert_drawn(png)
@@ -124,6 +125,19 @@ def test_phd_estimates_and_the_number_of_targets_are_drawn():
     truth, line = ax.get_lines()
     assert truth.get_ydata().tolist() == [len(x) for x in scenario.truths]
     assert line.get_ydata().tolist() == counts and ax.get_ylabel() == "number of targets"
+
+
+def test_mode_probabilities_and_paths_are_drawn():
+    probs = np.array([[0.2, 0.8], [0.6, 0.4], [0.9, 0.1]])
+    ax = plotting.plot_mode_probabilities(probs, ["turn", "straight"], [0.0, 0.01, 0.01])
+    lines = ax.get_lines()
+    assert [line.get_label() for line in lines] == ["turn", "straight"]
+    np.testing.assert_array_equal(lines[1].get_ydata(), probs[:, 1])
+    assert "turning" in ax.get_legend_handles_labels()[1]  # the turns shaded
+    ax = plotting.plot_paths({"truth": [[0, 0], [1, 1]], "estimate": [[0, 0.1], [1, 1.1]]})
+    truth, estimate = ax.get_lines()
+    assert truth.get_linestyle() == "--" and estimate.get_label() == "estimate"
+    np.testing.assert_array_equal(estimate.get_ydata(), [0.1, 1.1])
 
 
 def test_plotting_errors():

@@ -95,6 +95,15 @@ def test_guide_cphd_tracker_runs():
     assert len(namespace["estimates"][-1]) == namespace["tracker"].most_probable_number == 10
 
 
+def test_guide_imm_runs():
+    import re
+    guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()
+    code = re.search(r"```python\n([^`]*?ft\.BatchIMMFilter[^`]*?)```", guide, re.S).group(1)
+    namespace = {}
+    exec(compile(code, "guide imm", "exec"), namespace)
+    assert namespace["probs"][0].argmax() == 2  # turning right: the -0.02 rad/s model
+
+
 def test_guide_multi_target_runs():
     import re
     guide = (EXAMPLES[0].parents[1] / "guide.md").read_text()
