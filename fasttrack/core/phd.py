@@ -1,10 +1,11 @@
 """The Gaussian-mixture PHD update (Vo and Ma 2006) on arrays, in log weights, for linear
-and (linearised, as the extended Kalman filter) polar sensors: a mixture of J predicted
-components, (J, d) means, (J, d, d) covariances and (J,) log weights, and a scan of M
-detections (M, m) give the posterior mixture of the missed components and the detected
-(component, detection) pairs. The innovation covariance, gain and updated covariance are
-computed once per component and shared by its detections; the detections each component's
-gate holds come from :func:`fasttrack.core.gating.gate`."""
+sensors and for polar ones linearised per component (as the extended or the unscented
+Kalman filter linearises them): a mixture of J predicted components, (J, d) means,
+(J, d, d) covariances and (J,) log weights, and a scan of M detections (M, m) give the
+posterior mixture of the missed components and the detected (component, detection) pairs.
+The innovation covariance, gain and updated covariance are computed once per component and
+shared by its detections; the detections each component's gate holds come from
+:func:`fasttrack.core.gating.gate`."""
 import numpy as np
 
 from .. import _validate
