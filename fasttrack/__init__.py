@@ -10,7 +10,7 @@ from ._version import __version__
 #: The public names, by the module that defines them.
 _MODULES = {
     "batch": ["BatchExtendedKalmanFilter", "BatchUnscentedKalmanFilter"],
-    "imm": ["BatchIMMFilter"],
+    "imm": ["BatchIMMFilter", "IMMPredictor", "IMMUpdater"],
     "filtering": ["run_filter"],
     "kernel": ["GaussianKernel", "Kernel", "LinearKernel", "PolynomialKernel",
                "QuadraticKernel", "QuarticKernel"],
@@ -42,7 +42,7 @@ _MODULES = {
               "KernelParticleStateMeasurementPrediction", "KernelParticleStatePrediction",
               "KernelParticleStateUpdate", "Particle", "ParticleState",
               "ParticleStatePrediction", "ParticleStateUpdate", "SingleHypothesis", "State",
-              "Track"],
+              "Track", "WeightedGaussianState"],
     "updater": ["AdaptiveKernelKalmanUpdater", "ExtendedKalmanUpdater", "KalmanUpdater",
                 "ParticleUpdater", "UnscentedKalmanUpdater"],
     "_warmup": ["warmup"],

@@ -1,12 +1,151 @@
-"""Interacting multiple models (IMM) on stacks of filters: :class:`BatchIMMFilter` (see
-:mod:`fasttrack.core.imm`)."""
+"""Interacting multiple models (IMM): :class:`IMMPredictor` and :class:`IMMUpdater` on a
+:class:`~fasttrack.types.GaussianMixture` of one component a model, with any Kalman-type
+predictors and updaters as the models, and :class:`BatchIMMFilter` on stacks of filters
+(see :mod:`fasttrack.core.imm`)."""
 import numpy as np
 
 from . import _validate
 from .batch import check_models
 from .core import imm as _imm
+from .types.gaussian import GaussianState
+from .types.mixture import GaussianMixture
+from .types.tracks import SingleHypothesis
 
-__all__ = ["BatchIMMFilter"]
+__all__ = ["BatchIMMFilter", "IMMPredictor", "IMMUpdater"]
+
+
+class _Models:
+    """A list of per-model predictors or updaters and the switching matrix."""
+
+    def __init__(self, models, transition_matrix, name):
+        self._models = list(models)
+        if not self._models:
+            raise ValueError(f"{name} must hold at least one model's")
+        self.transition_matrix = _imm.transition_matrix(transition_matrix, len(self._models))
+
+    def _mixture(self, mixture, name):
+        """``mixture`` checked: a GaussianMixture of one component a model; its mode
+        probabilities (the weights, summing to one)."""
+        if not isinstance(mixture, GaussianMixture):
+            raise TypeError(f"{name} must be a GaussianMixture (one component a model), got "
+                            f"{type(mixture).__name__}")
+        if len(mixture) != len(self._models):
+            raise ValueError(f"{name} must have {len(self._models)} components (one a model), "
+                             f"got {len(mixture)}")
+        with np.errstate(under="ignore"):
+            probs = np.exp(mixture.log_weights)
+        return _imm.mode_probabilities(probs[None], 1, len(self._models),
+                                       f"{name}'s weights")[0]
+
+
+class IMMPredictor(_Models):
+    """The IMM's prediction: each model's prior mixed from all models' (the interaction),
+    then predicted by that model's predictor.
+
+    Parameters
+    ----------
+    predictors : sequence of M predictors
+        E.g. ``[KalmanPredictor(model) for model in transition_models]`` (Kalman, extended
+        or unscented), one a model.
+    transition_matrix : (M, M) array_like
+        ``transition_matrix[i, j]``: the probability of switching from model i to model j;
+        rows sum to one.
+    """
+
+    def __init__(self, predictors, transition_matrix):
+        super().__init__(predictors, transition_matrix, "predictors")
+        self.predictors = self._models
+
+    def predict(self, prior, timestamp):
+        """The models' predictions.
+
+        Parameters
+        ----------
+        prior : GaussianMixture
+            One component a model, its weight the model's probability (weights summing to
+            one), e.g. ``GaussianMixture([WeightedGaussianState(x, P, weight=mu, timestamp=t),
+            ...])``.
+        timestamp : datetime.datetime or float
+            The time to predict to.
+
+        Returns
+        -------
+        GaussianMixture
+            Each model's prediction, weighted by its predicted probability
+            ``c_j = sum_i p_ij mu_i``.
+        """
+        probs = self._mixture(prior, "prior")
+        means, covars, predicted = _imm.mix(prior.means[None], prior.covars[None], probs[None],
+                                            self.transition_matrix)
+        states = [predictor.predict(GaussianState(means[0, j], covars[0, j],
+                                                  timestamp=prior.timestamp),
+                                    timestamp=timestamp)
+                  for j, predictor in enumerate(self.predictors)]
+        return _stacked(states, predicted[0], timestamp)
+
+
+class IMMUpdater(_Models):
+    """The IMM's update: each model's prediction updated by its updater, and the models
+    reweighed by their measurement likelihoods (in logs).
+
+    Parameters
+    ----------
+    updaters : sequence of M updaters
+        E.g. ``[KalmanUpdater(measurement_model)] * M`` (Kalman, extended or unscented),
+        one a model.
+    transition_matrix : (M, M) array_like
+        The predictor's (checked: one row a model).
+    """
+
+    def __init__(self, updaters, transition_matrix):
+        super().__init__(updaters, transition_matrix, "updaters")
+        self.updaters = self._models
+
+    def update(self, hypothesis):
+        """The posterior mixture.
+
+        Parameters
+        ----------
+        hypothesis : SingleHypothesis
+            An :meth:`IMMPredictor.predict` result and a :class:`~fasttrack.Detection`.
+
+        Returns
+        -------
+        GaussianMixture
+            Each model's posterior, weighted by its posterior probability; ``mean`` and
+            ``covar`` are the combined estimate.
+        """
+        if not isinstance(hypothesis, SingleHypothesis):
+            raise TypeError(f"hypothesis must be a SingleHypothesis, got "
+                            f"{type(hypothesis).__name__}")
+        predicted = self._mixture(hypothesis.prediction, "hypothesis.prediction")
+        detection = hypothesis.measurement
+        if detection is None:
+            raise ValueError("hypothesis.measurement is None: an IMM update needs a detection")
+        prediction = hypothesis.prediction
+        states, log_likelihoods = [], np.empty(len(self.updaters))
+        for j, updater in enumerate(self.updaters):
+            single = SingleHypothesis(GaussianState(prediction.means[j], prediction.covars[j],
+                                                    timestamp=prediction.timestamp), detection)
+            states.append(updater.update(single))
+            model = detection.measurement_model or updater.measurement_model
+            z_hat = single.measurement_prediction
+            log_likelihoods[j] = _imm.log_gaussian(
+                model, detection.state_vector.T, z_hat.state_vector.T, z_hat.covar[None])[0]
+        with np.errstate(divide="ignore"):
+            log_posterior = np.log(predicted) + log_likelihoods
+        log_posterior -= log_posterior.max()
+        posterior = np.exp(log_posterior) / np.exp(log_posterior).sum()
+        return _stacked(states, posterior, detection.timestamp)
+
+
+def _stacked(states, weights, timestamp):
+    """A GaussianMixture of Gaussian ``states`` with ``weights`` at ``timestamp``."""
+    with np.errstate(divide="ignore"):
+        log_weights = np.log(weights)
+    return GaussianMixture._made(np.array([s.state_vector[:, 0] for s in states]),
+                                 np.array([s.covar for s in states]), log_weights,
+                                 np.zeros(len(states), dtype=np.int64), timestamp)
 
 
 class BatchIMMFilter:

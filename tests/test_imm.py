@@ -289,3 +289,78 @@ def test_three_turn_models_follow_the_manoeuvres():
         turning = flown == rate
         assert history[turning, model].mean() > 0.6
     assert np.sqrt(np.mean(np.square(errors))) < 1.5  # measured 1.17 m (noise 0.85 m)
+
+
+def test_the_predictor_and_updater_pair_equals_the_batch_filter():
+    models = [_cv(0.01), _cv(1.0), _cv(10.0)]
+    matrix = np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.05, 0.15, 0.8]])
+    predictor = ft.IMMPredictor([ft.KalmanPredictor(m) for m in models], transition_matrix=matrix)
+    updater = ft.IMMUpdater([ft.KalmanUpdater(SENSOR) for _ in models], transition_matrix=matrix)
+    batch = ft.BatchIMMFilter(models, SENSOR, matrix)
+    x0, p0, mu0 = np.array([0.0, 5.0, 0.0, 0.0]), np.diag([10.0, 2.0, 10.0, 2.0]), (0.6, 0.3, 0.1)
+    state = ft.GaussianMixture([ft.WeightedGaussianState(x0, p0, weight=mu, timestamp=0.0)
+                                for mu in mu0])
+    means, covars, probs = np.tile(x0, (1, 3, 1)), np.tile(p0, (1, 3, 1, 1)), np.array([mu0])
+    rng = np.random.default_rng(6)
+    for t in range(1, 25):
+        z = np.array([5.0 * t, 0.3 * t * t]) + rng.normal(size=2)
+        prediction = predictor.predict(state, timestamp=float(t))
+        assert prediction.timestamp == float(t)
+        state = updater.update(ft.SingleHypothesis(prediction, ft.Detection(
+            z, timestamp=float(t), measurement_model=SENSOR)))
+        means, covars, probs = batch.step(means, covars, probs, z[None], 1.0)
+        np.testing.assert_allclose([c.weight for c in state.components], probs[0], rtol=1e-9)
+        for j, component in enumerate(state.components):
+            np.testing.assert_allclose(component.state_vector.ravel(), means[0, j], rtol=1e-9,
+                                       atol=1e-9)
+            np.testing.assert_allclose(component.covar, covars[0, j], rtol=1e-9, atol=1e-9)
+        x, p = ft.BatchIMMFilter.combine(means, covars, probs)
+        np.testing.assert_allclose(state.mean.ravel(), x[0], rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(state.covar, p[0], rtol=1e-9, atol=1e-9)
+
+
+def test_the_pair_takes_extended_kalman_models_of_a_radar():
+    radar = ft.CartesianToBearingRange(4, (0, 2), np.diag([1e-4, 1.0]),
+                                       translation_offset=[0.0, -100.0])
+    models = [_cv(0.01), _cv(5.0)]
+    predictor = ft.IMMPredictor([ft.ExtendedKalmanPredictor(m) for m in models],
+                                [[0.95, 0.05], [0.05, 0.95]])
+    updater = ft.IMMUpdater([ft.ExtendedKalmanUpdater(radar)] * 2, [[0.95, 0.05], [0.05, 0.95]])
+    state = ft.GaussianMixture([ft.WeightedGaussianState([0.0, 1.0, 0.0, 0.0], np.eye(4),
+                                                         weight=0.5, timestamp=0.0)] * 2)
+    for t in range(1, 20):
+        truth = ft.GaussianState([1.0 * t, 1.0, 3.0 * np.sin(t), 0.0], np.eye(4))
+        z = radar.function(truth)
+        state = updater.update(ft.SingleHypothesis(predictor.predict(state, float(t)),
+                                                   ft.Detection(z, timestamp=float(t))))
+    assert np.isfinite(state.mean).all() and abs(sum(c.weight for c in state.components) - 1) \
+        < 1e-12
+    assert state.components[1].weight > 0.5  # the weaving target: the noisier model
+
+
+def test_mixtures_and_the_pair_refuse_what_they_cannot_use():
+    component = ft.WeightedGaussianState([0.0, 1.0, 0.0, 1.0], np.eye(4), weight=0.5,
+                                         timestamp=0.0)
+    with pytest.raises(ValueError, match="weight must be finite and >= 0"):
+        ft.WeightedGaussianState([0.0], [[1.0]], weight=-0.1)
+    with pytest.raises(TypeError, match="non-empty list of WeightedGaussianState"):
+        ft.GaussianMixture([])
+    with pytest.raises(ValueError, match="same timestamp"):
+        ft.GaussianMixture([component, ft.WeightedGaussianState([0.0] * 4, np.eye(4),
+                                                                timestamp=1.0)])
+    predictor = ft.IMMPredictor([ft.KalmanPredictor(_cv(1.0))] * 2, [[0.9, 0.1], [0.1, 0.9]])
+    with pytest.raises(ValueError, match=r"prior must have 2 components \(one a model\)"):
+        predictor.predict(ft.GaussianMixture([component]), 1.0)
+    heavy = ft.WeightedGaussianState([0.0] * 4, np.eye(4), weight=0.9, timestamp=0.0)
+    with pytest.raises(ValueError, match="each row of prior's weights must sum to 1"):
+        predictor.predict(ft.GaussianMixture([component, heavy]), 1.0)  # 0.5 + 0.9
+    with pytest.raises(TypeError, match="prior must be a GaussianMixture"):
+        predictor.predict(component, 1.0)
+    with pytest.raises(ValueError, match="predictors must hold at least one"):
+        ft.IMMPredictor([], [[1.0]])
+    updater = ft.IMMUpdater([ft.KalmanUpdater(SENSOR)] * 2, [[0.9, 0.1], [0.1, 0.9]])
+    prediction = predictor.predict(ft.GaussianMixture([component, component]), 1.0)
+    with pytest.raises(ValueError, match="hypothesis.measurement is None"):
+        updater.update(ft.SingleHypothesis(prediction, None))
+    with pytest.raises(TypeError, match="hypothesis must be a SingleHypothesis"):
+        updater.update(prediction)

@@ -20,7 +20,7 @@ indexed parent a resampler makes (which has no links of its own), are held stron
 from .base import Link, check_timestamp, seconds, time_interval, weak
 from .gaussian import (Detection, GaussianMeasurementPrediction, GaussianState,
                        GaussianStatePrediction, GaussianStateUpdate, GroundTruthState, State,
-                       column_vector)
+                       WeightedGaussianState, column_vector)
 from .mixture import GaussianMixture, TrackSet
 from .kernel import (KernelParticleState, KernelParticleStateMeasurementPrediction,
                      KernelParticleStatePrediction, KernelParticleStateUpdate,
@@ -35,6 +35,7 @@ __all__ = [
     "KernelParticleStateMeasurementPrediction", "KernelParticleStatePrediction",
     "KernelParticleStateUpdate", "Link", "Particle", "ParticleState", "ParticleStatePrediction",
     "ParticleStateUpdate", "SingleHypothesis", "State", "StateSequence", "Track", "TrackSet",
+    "WeightedGaussianState",
     "as_particle_state", "check_timestamp", "column_vector", "dense_kernel_covar",
     "factor_kernel_covar", "isotropic_factors", "seconds", "time_interval", "weak",
 ]

@@ -3,8 +3,8 @@ from .. import _validate
 from .base import Link, check_timestamp
 
 __all__ = [
-    "State", "GaussianState", "GaussianStatePrediction", "GaussianMeasurementPrediction",
-    "GaussianStateUpdate", "GroundTruthState", "Detection",
+    "State", "GaussianState", "WeightedGaussianState", "GaussianStatePrediction",
+    "GaussianMeasurementPrediction", "GaussianStateUpdate", "GroundTruthState", "Detection",
 ]
 
 
@@ -77,6 +77,24 @@ class GaussianState(State):
         attributes["timestamp"] = timestamp
         state.__dict__ = attributes
         return state
+
+
+class WeightedGaussianState(GaussianState):
+    """A Gaussian state with a weight, a component of a
+    :class:`~fasttrack.types.GaussianMixture`.
+
+    Parameters
+    ----------
+    state_vector : (d,) or (d, 1) array_like
+    covar : (d, d) array_like
+    weight : float
+        Finite, >= 0 (e.g. a mode probability).
+    timestamp : datetime.datetime or float, optional
+    """
+
+    def __init__(self, state_vector, covar, weight=1.0, timestamp=None):
+        super().__init__(state_vector, covar, timestamp)
+        self.weight = _validate.non_negative(weight, "weight")
 
 
 class GaussianStatePrediction(GaussianState):

@@ -5,6 +5,7 @@ import dataclasses
 import numpy as np
 
 from .. import _validate
+from ..core import imm as _imm
 from ..core import mixture as _mixture
 
 __all__ = ["GaussianMixture", "TrackSet"]
@@ -14,9 +15,13 @@ __all__ = ["GaussianMixture", "TrackSet"]
 class GaussianMixture:
     """K weighted Gaussian components.
 
+    Also built from a list of :class:`~fasttrack.types.WeightedGaussianState` components
+    of one time (``GaussianMixture(components)``): their means, covariances, the logs of
+    their weights, and their time as :attr:`timestamp`.
+
     Parameters
     ----------
-    means : (K, d) array_like
+    means : (K, d) array_like, or a list of WeightedGaussianState
     covars : (K, d, d) array_like
         Symmetric positive semi-definite (not checked: a mixture carries what it is given).
     log_weights : (K,) array_like, optional
@@ -26,11 +31,19 @@ class GaussianMixture:
     """
 
     means: np.ndarray
-    covars: np.ndarray
+    covars: np.ndarray = None
     log_weights: np.ndarray = None
     labels: np.ndarray = None
 
     def __post_init__(self):
+        timestamp = None
+        if self.covars is None:
+            components, timestamp = _components(self.means)
+            for name, value in (("means", np.array([c.state_vector[:, 0] for c in components])),
+                                ("covars", np.array([c.covar for c in components])),
+                                ("log_weights", _log([c.weight for c in components]))):
+                object.__setattr__(self, name, value)
+        object.__setattr__(self, "_timestamp", timestamp)
         means = _validate.finite_array(self.means, "means", 2)
         k, d = means.shape
         covars = _validate.finite_array(self.covars, "covars", 3)
@@ -51,17 +64,51 @@ class GaussianMixture:
             object.__setattr__(self, name, value)
 
     @classmethod
-    def _made(cls, means, covars, log_weights, labels):
+    def _made(cls, means, covars, log_weights, labels, timestamp=None):
         """A mixture of arrays fasttrack made: C-contiguous float64 (K, d), (K, d, d), (K,)
         and int64 (K,) labels, not checked again."""
         out = object.__new__(cls)
         for name, value in (("means", means), ("covars", covars), ("log_weights", log_weights),
-                            ("labels", labels)):
+                            ("labels", labels), ("_timestamp", timestamp)):
             object.__setattr__(out, name, value)
         return out
 
     def __len__(self):
         return self.means.shape[0]
+
+    @property
+    def timestamp(self):
+        """The components' time (None for a mixture built from arrays)."""
+        return self._timestamp
+
+    @property
+    def components(self):
+        """The components as :class:`~fasttrack.types.WeightedGaussianState` (new objects)."""
+        from .gaussian import WeightedGaussianState
+        with np.errstate(under="ignore"):
+            weights = np.exp(self.log_weights)
+        return [WeightedGaussianState(m, p, float(w), self._timestamp)
+                for m, p, w in zip(self.means, self.covars, weights)]
+
+    @property
+    def mean(self):
+        """The moment-matched mean (d, 1): the components' weighted mean (the weights
+        normalised)."""
+        return self._matched()[0][:, None]
+
+    @property
+    def covar(self):
+        """The moment-matched covariance (d, d): the weighted covariances plus the spread
+        of the means."""
+        return self._matched()[1]
+
+    def _matched(self):
+        if len(self) == 0:
+            raise ValueError("an empty mixture has no mean or covariance")
+        weights = np.exp(self.log_weights - self.log_weights.max())
+        mean, covar = _imm.combine(self.means[None], self.covars[None],
+                                   (weights / weights.sum())[None])
+        return mean[0], covar[0]
 
     def reduce(self):
         """The mixture with each label's components merged into one Gaussian of the same
@@ -69,6 +116,27 @@ class GaussianMixture:
         :func:`fasttrack.core.mixture.moment_match`)."""
         return GaussianMixture(*_mixture.moment_match(self.means, self.covars,
                                                       self.log_weights, self.labels))
+
+
+def _components(components):
+    """``(components, timestamp)`` of a list of weighted Gaussian states of one time and
+    dimension, else an error naming ``components``."""
+    from .gaussian import WeightedGaussianState
+    components = list(components) if isinstance(components, (list, tuple)) else None
+    if not components or not all(isinstance(c, WeightedGaussianState) for c in components):
+        raise TypeError("a GaussianMixture is built from arrays (means, covars) or from a "
+                        "non-empty list of WeightedGaussianState components")
+    if len({c.ndim for c in components}) > 1:
+        raise ValueError("the components must all have the same dimension")
+    times = {c.timestamp for c in components}
+    if len(times) > 1:
+        raise ValueError(f"the components must all have the same timestamp, got {len(times)}")
+    return components, times.pop()
+
+
+def _log(weights):
+    with np.errstate(divide="ignore"):
+        return np.log(np.asarray(weights, dtype=np.float64))
 
 
 @dataclasses.dataclass
