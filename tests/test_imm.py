@@ -345,6 +345,8 @@ def test_mixtures_and_the_pair_refuse_what_they_cannot_use():
         ft.WeightedGaussianState([0.0], [[1.0]], weight=-0.1)
     with pytest.raises(TypeError, match="non-empty list of WeightedGaussianState"):
         ft.GaussianMixture([])
+    with pytest.raises(ValueError, match="of zero weight has no mean"):
+        _ = ft.GaussianMixture([ft.WeightedGaussianState([0.0], [[1.0]], weight=0.0)]).mean
     with pytest.raises(ValueError, match="same timestamp"):
         ft.GaussianMixture([component, ft.WeightedGaussianState([0.0] * 4, np.eye(4),
                                                                 timestamp=1.0)])

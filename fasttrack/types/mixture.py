@@ -103,8 +103,9 @@ class GaussianMixture:
         return self._matched()[1]
 
     def _matched(self):
-        if len(self) == 0:
-            raise ValueError("an empty mixture has no mean or covariance")
+        if len(self) == 0 or self.log_weights.max() == -np.inf:
+            raise ValueError("a mixture of no components or of zero weight has no mean or "
+                             "covariance")
         weights = np.exp(self.log_weights - self.log_weights.max())
         mean, covar = _imm.combine(self.means[None], self.covars[None],
                                    (weights / weights.sum())[None])
