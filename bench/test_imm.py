@@ -1,6 +1,6 @@
 """IMM steps on stacks: one filter and 10^4 filters of 3 constant-velocity models (noise
 0.01, 1 and 10; d = 4, a position sensor), one mix + predict + update + weigh per call of
-``BatchIMMFilter.step``."""
+``BatchIMMFilter.step``; the smoother over 1 and 100 tracks of 1000 steps."""
 import numpy as np
 import pytest
 
@@ -49,3 +49,16 @@ def test_imm_step_filterpy(benchmark):
         estimator.update(z)
 
     benchmark(step)
+
+
+@pytest.mark.parametrize("k", [1, 100])
+def test_imm_smooth(benchmark, k):
+    """The fixed-interval smoother over K tracks of 1000 filtered steps of the 3 models."""
+    benchmark.group = f"imm-smooth K={k} T=1000 M=3"
+    rng = np.random.default_rng(0)
+    means = rng.normal(size=(k, 1000, 3, 4))
+    a = rng.normal(size=(k, 1000, 3, 4, 4))
+    covars = a @ a.swapaxes(-1, -2) + np.eye(4)
+    probs = rng.dirichlet(np.ones(3), size=(k, 1000))
+    out = benchmark(_filter().smooth, means, covars, probs, 1.0)
+    assert np.allclose(out[2].sum(axis=-1), 1.0)

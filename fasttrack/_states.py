@@ -4,7 +4,7 @@ import datetime
 
 import numpy as np
 
-from .types import time_interval
+from .types import seconds, time_interval
 
 _MICROSECOND = datetime.timedelta(microseconds=1)
 
@@ -16,6 +16,28 @@ def check_finite(values, name, offset=0):
     if not finite.all():
         raise ValueError(f"{name.format(offset + np.argmin(finite))} contains NaN or "
                          f"infinite values")
+
+
+def step_intervals(time_intervals, n):
+    """(n - 1,) float seconds between n steps from ``time_intervals``: a scalar or a
+    timedelta (every step), or a sequence of either; a ValueError for one < 0."""
+    if np.ndim(time_intervals) == 0:
+        if isinstance(time_intervals, np.ndarray):
+            time_intervals = time_intervals.item()
+        value = seconds(time_intervals, "time_intervals")
+        if value < 0:
+            raise ValueError(f"time_intervals must be >= 0 seconds, got {value}")
+        return np.full(n - 1, value)
+    values = list(time_intervals)
+    if len(values) != n - 1:
+        raise ValueError(f"time_intervals must hold T - 1 = {n - 1} intervals, "
+                         f"got {len(values)}")
+    out = np.array([seconds(v, f"time_intervals[{k}]") for k, v in enumerate(values)],
+                   dtype=np.float64)
+    if (out < 0).any():
+        k = int(np.argmax(out < 0))
+        raise ValueError(f"time_intervals[{k}] must be >= 0 seconds, got {out[k]}")
+    return out
 
 
 def track_intervals(states, offset, name="track", strict=False):

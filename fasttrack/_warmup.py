@@ -198,7 +198,9 @@ def _imm():
                          [[0.9, 0.1], [0.1, 0.9]])
     means = np.zeros((2, 2, 4))
     covars = np.broadcast_to(np.eye(4), (2, 2, 4, 4)).copy()
-    imm.step(means, covars, np.full((2, 2), 0.5), np.zeros((2, 2)), 1.0)
+    means, covars, probs = imm.step(means, covars, np.full((2, 2), 0.5), np.zeros((2, 2)), 1.0)
+    imm.smooth(np.stack([means] * 2, axis=1), np.stack([covars] * 2, axis=1),
+               np.stack([probs] * 2, axis=1), 1.0)
 
 
 def _jpda():

@@ -5,6 +5,7 @@ predictors and updaters as the models, and :class:`BatchIMMFilter` on stacks of 
 import numpy as np
 
 from . import _validate
+from ._states import step_intervals
 from .batch import check_models
 from .core import imm as _imm
 from .types.gaussian import GaussianState
@@ -34,8 +35,7 @@ class _Models:
                              f"got {len(mixture)}")
         with np.errstate(under="ignore"):
             probs = np.exp(mixture.log_weights)
-        return _imm.mode_probabilities(probs[None], 1, len(self._models),
-                                       f"{name}'s weights")[0]
+        return _imm.mode_probabilities(probs, probs.shape, f"{name}'s weights")
 
 
 class IMMPredictor(_Models):
@@ -148,6 +148,13 @@ def _stacked(states, weights, timestamp):
                                  np.zeros(len(states), dtype=np.int64), timestamp)
 
 
+def _linear(model):
+    """A TypeError unless ``model`` is a linear transition model (with ``matrix``)."""
+    if not hasattr(model, "matrix"):
+        raise TypeError(f"smoothing needs linear transition models (with matrix), got "
+                        f"{type(model).__name__}")
+
+
 class BatchIMMFilter:
     """K independent IMM filters, each a bank of M Kalman filters (one a transition model)
     sharing a measurement model: mix, predict and update each model, weigh the models by
@@ -213,16 +220,8 @@ class BatchIMMFilter:
             For arrays of the wrong shape or values, or a step that is undefined (naming
             the filter and the model).
         """
-        models, d = len(self.transition_models), self.measurement_model.ndim_state
-        means = _validate.finite_array(means, "means", 3)
+        means, covars, mode_probs = self._stacks(means, covars, mode_probs, "(K, ")
         k = means.shape[0]
-        if means.shape[1:] != (models, d):
-            raise ValueError(f"means must have shape (K, {models}, {d}), got {means.shape}")
-        covars = _validate.finite_array(covars, "covars", 4)
-        if covars.shape != (k, models, d, d):
-            raise ValueError(f"covars must have shape ({k}, {models}, {d}, {d}), got "
-                             f"{covars.shape}")
-        mode_probs = _imm.mode_probabilities(mode_probs, k, models)
         m = self.measurement_model.ndim_meas
         measurements = _validate.finite_array(measurements, "measurements", 2)
         if measurements.shape != (k, m):
@@ -240,24 +239,113 @@ class BatchIMMFilter:
                          self.transition_matrix, means, covars, mode_probs, measurements,
                          intervals)
 
+    def smooth(self, means, covars, mode_probs, time_intervals):
+        """The fixed-interval IMM smoother of Kim (1994): each track's states and mode
+        probabilities given all its measurements, from the filtered ones (:meth:`step`'s
+        outputs, in time order).
+
+        Backwards from the last step, with ``c_j = sum_i p_ij mu_i(t)`` the predicted
+        probability of model j at t + 1, model i's smoothed probability at t is
+        ``mu_i(t|T) = mu_i(t) sum_j p_ij mu_j(t+1|T) / c_j``, and its smoothed state the
+        moment match over j (weights proportional to ``p_ij mu_j(t+1|T) / c_j``) of one
+        Rauch-Tung-Striebel step from model i's filtered state through model j's dynamics
+        to model j's smoothed state. With one model (or identical models) this is the RTS
+        smoother.
+
+        The smoother takes the model at t + 1 to be independent of the state at t given the
+        models' probabilities, so a model's smoothed state follows that model's dynamics
+        back over the runs the switching matrix makes likely. With process noise well below
+        the motion's (q = 1e-3 for a target of q = 1e-2), unlikely turn models then drift
+        and the smoothed estimate can be worse than the filtered one; with the motion's own
+        noise it is better (0.59 m against 0.90 m on the manoeuvring scenario).
+
+        Parameters
+        ----------
+        means : (T, M, d) or (K, T, M, d) array_like
+            Filtered model means of one track, or of K tracks on the same time steps.
+        covars : (T, M, d, d) or (K, T, M, d, d) array_like
+            Filtered covariances, symmetric positive semi-definite.
+        mode_probs : (T, M) or (K, T, M) array_like
+            Filtered mode probabilities (rows sum to one).
+        time_intervals : float, datetime.timedelta or (T - 1,) sequence
+            Seconds from each step to the next.
+
+        Returns
+        -------
+        means, covars, mode_probs : ndarray
+            The smoothed arrays, of the inputs' shapes (combine them with :meth:`combine`).
+
+        Raises
+        ------
+        ValueError
+            For arrays of the wrong shape or values, or a step that cannot be smoothed
+            (naming the track, the time and the model).
+        """
+        single = np.ndim(means) == 3
+        means, covars, mode_probs = self._stacks(means, covars, mode_probs,
+                                                 "(T, " if single else "(K, T, ")
+        if single:
+            means, covars, mode_probs = means[None], covars[None], mode_probs[None]
+        n = means.shape[1]
+        if n == 0:
+            raise ValueError("means must hold at least one time step, got T = 0")
+        intervals = step_intervals(time_intervals, n)
+        for model in self.transition_models:
+            _linear(model)
+        out_means, out_covars, out_probs, status = _imm.smooth(
+            self.transition_models, self.transition_matrix, means, covars, mode_probs,
+            intervals)
+        failed = np.flatnonzero(status)
+        if failed.size:
+            track, code = failed[0], status[failed[0]]
+            where = "" if single else f"{track}, "
+            if code < 0:
+                t, i = divmod(-code - 1, len(self.transition_models))
+                raise ValueError(f"covars[{where}{t}, {i}] is not symmetric positive "
+                                 f"semi-definite")
+            raise ValueError(f"the prediction from step {where}{code - 1} to the next (from "
+                             f"one model through another) is not positive definite: cannot "
+                             f"form the smoothing gain")
+        if single:
+            return out_means[0], out_covars[0], out_probs[0]
+        return out_means, out_covars, out_probs
+
+    def _stacks(self, means, covars, mode_probs, lead):
+        """``(means, covars, mode_probs)`` validated: (..., M, d), (..., M, d, d) and
+        (..., M) of equal leading shape; ``lead`` names it ('(K, ' or '(K, T, ')."""
+        models, d = len(self.transition_models), self.measurement_model.ndim_state
+        ndim = lead.count(",") + 2
+        means = _validate.finite_array(means, "means", ndim)
+        head = means.shape[:-2]
+        if means.shape[-2:] != (models, d):
+            raise ValueError(f"means must have shape {lead}{models}, {d}), got {means.shape}")
+        covars = _validate.finite_array(covars, "covars", ndim + 1)
+        if covars.shape != head + (models, d, d):
+            raise ValueError(f"covars must have shape {head + (models, d, d)}, got "
+                             f"{covars.shape}")
+        return means, covars, _imm.mode_probabilities(mode_probs, head + (models,))
+
     @staticmethod
     def combine(means, covars, mode_probs):
         """Each filter's combined estimate, the moment match of its models.
 
         Parameters
         ----------
-        means : (K, M, d) array_like
-        covars : (K, M, d, d) array_like
-        mode_probs : (K, M) array_like
+        means : (..., M, d) array_like
+            E.g. (K, M, d) from :meth:`step` or (K, T, M, d) from :meth:`smooth`.
+        covars : (..., M, d, d) array_like
+        mode_probs : (..., M) array_like
 
         Returns
         -------
-        means, covars : (K, d), (K, d, d) ndarray
+        means, covars : (..., d), (..., d, d) ndarray
         """
-        means = _validate.finite_array(means, "means", 3)
-        covars = _validate.finite_array(covars, "covars", 4)
+        means = _validate.finite_array(means, "means")
+        if means.ndim < 2:
+            raise ValueError(f"means must have shape (..., M, d), got {means.shape}")
+        covars = _validate.finite_array(covars, "covars")
         if covars.shape != means.shape + means.shape[-1:]:
             raise ValueError(f"covars must have shape {means.shape + means.shape[-1:]}, got "
                              f"{covars.shape}")
-        mode_probs = _imm.mode_probabilities(mode_probs, *means.shape[:2])
+        mode_probs = _imm.mode_probabilities(mode_probs, means.shape[:-1])
         return _imm.combine(means, covars, mode_probs)

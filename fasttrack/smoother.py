@@ -18,14 +18,14 @@ from the exact smoother's); ``predictions="stonesoup"`` reproduces that.
 import numpy as np
 
 from . import _validate
-from ._states import check_finite, stack, track_intervals
+from ._states import check_finite, stack, step_intervals, track_intervals
 from .core import kalman as _kalman
 from .core import smooth as _smooth
 from .core import unscented as _unscented
 from .models.base import check_model
 from .models.transition import TransitionModel
 from .types import (GaussianState, GaussianStatePrediction, GaussianStateUpdate,
-                    StateSequence, seconds)
+                    StateSequence)
 
 __all__ = ["KalmanSmoother", "ExtendedKalmanSmoother", "UnscentedKalmanSmoother", "ffbs"]
 
@@ -325,7 +325,7 @@ class KalmanSmoother:
                                  f"{shape + (d,)}, got {covar_pred.shape}")
             x_pred, covar_pred = x_pred.reshape(x.shape), covar_pred.reshape(covar.shape)
             recompute = np.zeros(n, dtype=np.uint8)
-        intervals = self._intervals(time_intervals, n)
+        intervals = step_intervals(time_intervals, n)
         x_out, covar_out, status = _smooth.rts_linear(model, x, covar, x_pred, covar_pred,
                                                       recompute, intervals)
         if status:
@@ -340,27 +340,6 @@ class KalmanSmoother:
         if single:
             return x_out[0], covar_out[0]
         return x_out, covar_out
-
-    @staticmethod
-    def _intervals(time_intervals, n):
-        """(n - 1,) float seconds from a scalar, a timedelta or a sequence of either."""
-        if np.ndim(time_intervals) == 0:
-            if isinstance(time_intervals, np.ndarray):
-                time_intervals = time_intervals.item()
-            value = seconds(time_intervals, "time_intervals")
-            if value < 0:
-                raise ValueError(f"time_intervals must be >= 0 seconds, got {value}")
-            return np.full(n - 1, value)
-        values = list(time_intervals)
-        if len(values) != n - 1:
-            raise ValueError(f"time_intervals must hold T - 1 = {n - 1} intervals, "
-                             f"got {len(values)}")
-        out = np.array([seconds(v, f"time_intervals[{k}]") for k, v in enumerate(values)],
-                       dtype=np.float64)
-        if (out < 0).any():
-            k = int(np.argmax(out < 0))
-            raise ValueError(f"time_intervals[{k}] must be >= 0 seconds, got {out[k]}")
-        return out
 
 
 class ExtendedKalmanSmoother(KalmanSmoother):

@@ -221,7 +221,8 @@ def _uncompiled(func, strict):
     return run
 
 
-def jit(parallel=False, strict=False, size=None, serial_below=SERIAL_BELOW_LIGHT):
+def jit(parallel=False, strict=False, size=None, serial_below=SERIAL_BELOW_LIGHT,
+        inline=False):
     """Return the decorator that compiles a fasttrack kernel.
 
     Parameters
@@ -236,11 +237,17 @@ def jit(parallel=False, strict=False, size=None, serial_below=SERIAL_BELOW_LIGHT
         the argument whose ``size`` measures its work (a :class:`ThreadedKernel`).
     serial_below : int
         With ``size``: the work below which a call runs on one thread.
+    inline : bool
+        Inline the kernel into each caller's code (compiled anew in each), so that a
+        caller's compile-time constants, such as a dimension it is built for, reach its
+        loops.
     """
     def decorate(func):
         fastmath = False if strict else set(FASTMATH)
         options = {"nopython": True, "parallel": parallel, "fastmath": fastmath,
                    "nogil": OPTIONS["nogil"], "error_model": OPTIONS["error_model"]}
+        if inline:
+            options["inline"] = "always"
         kind = Kernel if size is None else ThreadedKernel
         if func.__name__.startswith("_"):
             options.update(KERNEL_ONLY)

@@ -1,47 +1,42 @@
-"""The IMM step of K filters of M linear models and a sensor that selects state components
-(:mod:`fasttrack.core.imm`), one filter a thread: mix, predict (F, Q a model), update in the
-Joseph form, weigh the models in logs. A filter whose step is undefined gets a status code
-and the array layer reports it."""
+"""Interacting multiple models (:mod:`fasttrack.core.imm`) over K filters of M linear models,
+one filter a thread: the step for a sensor that selects state components (mix, predict with
+each model's F and Q, update in the Joseph form, weigh the models in logs) and the
+fixed-interval smoother. A filter whose step is undefined gets a status code and the array
+layer reports it."""
 import math
 
 import numpy as np
 from numba import prange
 
-from .dispatch import jit
+from .dispatch import jit, with_constant
 from .linalg import _covariance_code
+from .mixture import _moment_match_group
 from .numeric import cholesky
+from .smooth import _rts_prediction, _rts_smoothed
 from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
+from .tunables import UNROLLED_DIMENSIONS
 
 #: log(2 pi) / 2
 HALF_LOG_TWO_PI = 0.9189385332046727
 
 
 @jit()
-def _mixed(matrix, probs, means, covars, j, predicted, x0, p0):
+def _mixed(matrix, probs, means, covars, j, predicted, weights, models, x0, p0):
     """Model j's mixed prior of one filter into ``x0`` (d,) and ``p0`` (d, d), its
-    predicted probability ``predicted`` (a model of probability 0 keeps its own state)."""
-    models, d = means.shape
-    for a in range(d):
-        x0[a] = 0.0
-        for b in range(d):
-            p0[a, b] = 0.0
-    for i in range(models):
-        w = (i == j) * 1.0 if predicted <= 0.0 else matrix[i, j] * probs[i] / predicted
-        if w == 0.0:
-            continue
-        for a in range(d):
-            x0[a] += w * means[i, a]
-    for i in range(models):
-        w = (i == j) * 1.0 if predicted <= 0.0 else matrix[i, j] * probs[i] / predicted
-        if w == 0.0:
-            continue
-        for a in range(d):
-            da = means[i, a] - x0[a]
-            for b in range(d):
-                p0[a, b] += w * (covars[i, a, b] + da * (means[i, b] - x0[b]))
-    for a in range(d):
+    predicted probability ``predicted`` (a model of probability 0 keeps its own state).
+    ``weights`` (M,) is scratch; ``models`` is ``arange(M)``."""
+    for i in range(models.size):
+        weights[i] = matrix[i, j] * probs[i] if predicted > 0.0 else (i == j) * 1.0
+    _moment_match_group(means, covars, weights, models, models.size, x0, p0)
+    _symmetrise(p0)
+
+
+@jit()
+def _symmetrise(p):
+    """``p`` (d, d) replaced by ``(p + p^T) / 2``."""
+    for a in range(p.shape[0]):
         for b in range(a):
-            p0[a, b] = p0[b, a] = 0.5 * (p0[a, b] + p0[b, a])
+            p[a, b] = p[b, a] = 0.5 * (p[a, b] + p[b, a])
 
 
 @jit()
@@ -137,13 +132,13 @@ def _filter_step(transitions, noises, mapping, noise, matrix, means, covars, pro
     x0, p0 = np.empty(d), np.empty((d, d))
     x, p, work = np.empty(d), np.empty((d, d)), np.empty((d, d))
     lower, gain, scratch = np.empty((m, m)), np.empty((d, m)), np.empty((d, d))
-    log_posterior = np.empty(models)
+    log_posterior, weights, everyone = np.empty(models), np.empty(models), np.arange(models)
     top = -np.inf
     for j in range(models):
         predicted = 0.0
         for i in range(models):
             predicted += matrix[i, j] * probs[i]
-        _mixed(matrix, probs, means, covars, j, predicted, x0, p0)
+        _mixed(matrix, probs, means, covars, j, predicted, weights, everyone, x0, p0)
         code = _covariance_code(p0, scratch, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
         if code != OK:
             return code
@@ -186,3 +181,105 @@ def imm_linear_step(transitions, noises, mapping, noise, matrix, means, covars, 
         status[k] = _filter_step(transitions, noises, mapping, noise, matrix, means[k],
                                  covars[k], probs[k], z[k], out_means[k], out_covars[k],
                                  out_probs[k])
+
+
+#: The state dimension :func:`imm_smooth` is compiled for; 0: any (read from the arrays).
+_DIMENSION = 0
+
+
+def imm_smooth_kernel(d):
+    """:func:`imm_smooth` compiled for states of dimension ``d`` (an int): its own build for
+    those in :data:`UNROLLED_DIMENSIONS`, else the build for any dimension."""
+    return with_constant(imm_smooth, "_DIMENSION", d) if d in UNROLLED_DIMENSIONS \
+        else imm_smooth
+
+
+@jit(inline=True)
+def _smooth_track(d, transitions, noises, step, matrix, means, covars, probs, out_means,
+                  out_covars, out_probs):
+    """One track's backward pass (see :func:`imm_smooth`) for states of dimension ``d``;
+    returns its status."""
+    n_times, models = means.shape[:2]
+    cross, pp, chol = np.empty((d, d)), np.empty((d, d)), np.empty((d, d))
+    gain, work = np.empty((d, d)), np.empty((d, d))
+    for t in range(n_times):
+        for i in range(models):
+            if _covariance_code(covars[t, i], chol, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD) != OK:
+                return -(1 + t * models + i)
+    xp, inverse, diff = np.empty(d), np.empty(d), np.empty(d)
+    pair_means, pair_covars = np.empty((models, d)), np.empty((models, d, d))
+    ratio, weights, everyone = np.empty(models), np.empty(models), np.arange(models)
+    out_means[-1] = means[-1]
+    out_covars[-1] = covars[-1]
+    out_probs[-1] = probs[-1]
+    for t in range(n_times - 2, -1, -1):
+        u = step[t]
+        for j in range(models):  # smoothed over predicted probability of model j at t + 1
+            predicted = 0.0
+            for i in range(models):
+                predicted += matrix[i, j] * probs[t, i]
+            ratio[j] = out_probs[t + 1, j] / predicted if predicted > 0.0 else 0.0
+        norm = 0.0
+        for i in range(models):
+            total = 0.0
+            for j in range(models):
+                weights[j] = matrix[i, j] * ratio[j]
+                total += weights[j]
+            out_probs[t, i] = probs[t, i] * total
+            norm += out_probs[t, i]
+            if not total > 0.0:  # no future reached from model i: its filtered state stays
+                out_means[t, i] = means[t, i]
+                out_covars[t, i] = covars[t, i]
+                continue
+            for j in range(models):
+                if weights[j] == 0.0:
+                    continue
+                _rts_prediction(d, transitions[u, j], noises[u, j], means[t, i], covars[t, i],
+                                cross, xp, pp)
+                if not _rts_smoothed(d, means[t, i], covars[t, i], cross, xp, pp,
+                                     out_means[t + 1, j], out_covars[t + 1, j], chol, inverse,
+                                     diff, gain, work, pair_means[j], pair_covars[j]):
+                    return 1 + t
+            _moment_match_group(pair_means, pair_covars, weights, everyone, models,
+                                out_means[t, i], out_covars[t, i])
+            _symmetrise(out_covars[t, i])
+        for i in range(models):
+            out_probs[t, i] /= norm
+    return 0
+
+
+@jit(parallel=True, size=4)
+def imm_smooth(transitions, noises, step, matrix, means, covars, probs, out_means,
+               out_covars, out_probs, status):
+    """The fixed-interval IMM smoother of Kim (1994) over K tracks of T filtered IMM states
+    of M linear models, one track a thread.
+
+    Backwards from the last time, with ``c_j = sum_i p_ij mu_i(t)`` the predicted
+    probability of model j at t + 1: the smoothed probability of model i at t is
+    ``mu_i(t|T) = mu_i(t) sum_j p_ij mu_j(t+1|T) / c_j``; its smoothed state is the
+    moment match over j, with weights ``p_ij mu_j(t+1|T) / c_j``, of one RTS step from
+    model i's filtered state through model j's (F, Q) to model j's smoothed state at t + 1.
+
+    Parameters
+    ----------
+    transitions, noises : (U, M, d, d) float64
+        Each model's F and Q over each distinct interval.
+    step : (T,) int64
+        ``step[t]``: the interval index of the step from t to t + 1 (the last unused).
+    matrix : (M, M) float64
+        ``matrix[i, j]``: the probability of switching from model i to model j.
+    means, covars, probs : (K, T, M, d), (K, T, M, d, d), (K, T, M) float64
+        The filtered states and mode probabilities.
+    out_means, out_covars, out_probs : arrays of the shapes of the inputs
+    status : (K,) int64
+        0; ``1 + t`` for the first time t of the track whose prediction to t + 1 (from one
+        model through another) is not positive definite; ``-(1 + t M + i)`` for the first
+        filtered covariance (time t, model i) that is not symmetric positive semi-definite.
+        The outputs of a track of non-zero status are partly written.
+    """
+    d = means.shape[3] if _DIMENSION == 0 else _DIMENSION
+    if means.shape[3] != d:
+        raise ValueError("imm_smooth: the states must have this build's dimension")
+    for k in prange(means.shape[0]):
+        status[k] = _smooth_track(d, transitions, noises, step, matrix, means[k], covars[k],
+                                  probs[k], out_means[k], out_covars[k], out_probs[k])

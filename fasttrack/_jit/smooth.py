@@ -63,95 +63,111 @@ def rts(x, covar, x_pred, covar_pred, recompute, matrix, noise, step, x_out, cov
                 covar_out[k, last, i, j] = covar[k, last, i, j]
         for t in range(n_times - 2, -1, -1):
             u = step[t]
-            f = matrix[u]
-            q = noise[u]
-            p = covar[k, t]
-            xt = x[k, t]
             xs = x_out[k, t + 1]
             ps = covar_out[k, t + 1]
-            # cross = P F^T (the gain's numerator; F cross + Q is the prediction)
-            for i in range(d):
-                for j in range(d):
-                    acc = 0.0
-                    for l in range(d):
-                        acc += p[i, l] * f[j, l]
-                    cross[i, j] = acc
-            # the prediction at t + 1
             if recompute[t + 1] == 1:
-                for i in range(d):
-                    acc = 0.0
-                    for l in range(d):
-                        acc += f[i, l] * xt[l]
-                    xp[i] = acc
-                for i in range(d):
-                    for j in range(d):
-                        acc = 0.0
-                        for l in range(d):
-                            acc += f[i, l] * cross[l, j]
-                        pp[i, j] = acc + q[i, j]
-            elif recompute[t + 1] == 2:
-                for i in range(d):
-                    xp[i] = xs[i]
-                    for j in range(d):
-                        pp[i, j] = ps[i, j]
+                _rts_prediction(d, matrix[u], noise[u], x[k, t], covar[k, t], cross, xp, pp)
             else:
+                _cross_covariance(d, covar[k, t], matrix[u], cross)
+                source_x = xs if recompute[t + 1] == 2 else x_pred[k, t + 1]
+                source_p = ps if recompute[t + 1] == 2 else covar_pred[k, t + 1]
                 for i in range(d):
-                    xp[i] = x_pred[k, t + 1, i]
+                    xp[i] = source_x[i]
                     for j in range(d):
-                        pp[i, j] = covar_pred[k, t + 1, i, j]
-            # Cholesky factor of the predicted covariance (lower triangle of chol)
-            for j in range(d):
-                s = pp[j, j]
-                for l in range(j):
-                    s -= chol[j, l] * chol[j, l]
-                if not s > 0.0:
-                    return 1 + k * n_times + t + 1
-                chol[j, j] = np.sqrt(s)
-                inverse[j] = 1.0 / chol[j, j]
-                for i in range(j + 1, d):
-                    s = pp[i, j]
-                    for l in range(j):
-                        s -= chol[i, l] * chol[j, l]
-                    chol[i, j] = s * inverse[j]
-            # gain rows: solve pp g = (P F^T)[r, :] for each row r
-            for r in range(d):
-                for j in range(d):
-                    diff[j] = cross[r, j]
-                for j in range(d):  # forward substitution L y = b
-                    s = diff[j]
-                    for l in range(j):
-                        s -= chol[j, l] * diff[l]
-                    diff[j] = s * inverse[j]
-                for j in range(d - 1, -1, -1):  # back substitution L^T g = y
-                    s = diff[j]
-                    for l in range(j + 1, d):
-                        s -= chol[l, j] * diff[l]
-                    diff[j] = s * inverse[j]
-                for j in range(d):
-                    gain[r, j] = diff[j]
-            # smoothed mean
-            for j in range(d):
-                diff[j] = xs[j] - xp[j]
-            for i in range(d):
-                acc = xt[i]
-                for l in range(d):
-                    acc += gain[i, l] * diff[l]
-                x_out[k, t, i] = acc
-            # smoothed covariance P + G (Ps - Pp) G^T, symmetric by construction
-            for i in range(d):
-                for j in range(d):
-                    acc = 0.0
-                    for l in range(d):
-                        acc += gain[i, l] * (ps[l, j] - pp[l, j])
-                    work[i, j] = acc
-            for i in range(d):
-                for j in range(i, d):
-                    acc = p[i, j]
-                    for l in range(d):
-                        acc += work[i, l] * gain[j, l]
-                    covar_out[k, t, i, j] = acc
-                    covar_out[k, t, j, i] = acc
+                        pp[i, j] = source_p[i, j]
+            if not _rts_smoothed(d, x[k, t], covar[k, t], cross, xp, pp, xs, ps, chol, inverse,
+                                diff, gain, work, x_out[k, t], covar_out[k, t]):
+                return 1 + k * n_times + t + 1
     return 0
+
+
+@jit(inline=True)
+def _cross_covariance(d, p, f, cross):
+    """``cross = P F^T`` (d, d): the covariance of the state and its prediction."""
+    for i in range(d):
+        for j in range(d):
+            acc = 0.0
+            for l in range(d):
+                acc += p[i, l] * f[j, l]
+            cross[i, j] = acc
+
+
+@jit(inline=True)
+def _rts_prediction(d, f, q, x, p, cross, xp, pp):
+    """The one-step prediction of ``(x, P)`` through ``(F, Q)``: ``cross = P F^T``,
+    ``xp = F x`` and ``pp = F P F^T + Q``."""
+    _cross_covariance(d, p, f, cross)
+    for i in range(d):
+        acc = 0.0
+        for l in range(d):
+            acc += f[i, l] * x[l]
+        xp[i] = acc
+    for i in range(d):
+        for j in range(d):
+            acc = 0.0
+            for l in range(d):
+                acc += f[i, l] * cross[l, j]
+            pp[i, j] = acc + q[i, j]
+
+
+@jit(inline=True)
+def _rts_smoothed(d, x, p, cross, xp, pp, xs, ps, chol, inverse, diff, gain, work, x_out,
+                 p_out):
+    """One RTS step: the filtered ``(x, P)`` with cross covariance ``cross = P F^T``,
+    prediction ``(xp, pp)`` and smoothed successor ``(xs, ps)`` give the smoothed
+    ``x_out = x + G (xs - xp)`` and ``p_out = P + G (ps - pp) G^T`` (symmetric), with
+    ``G = cross pp^{-1}``. Returns False, writing nothing, if ``pp`` is not positive
+    definite. ``chol``, ``gain``, ``work`` (d, d), ``inverse`` and ``diff`` (d,) are
+    scratch."""
+    for j in range(d):  # Cholesky of pp into chol, inline: a build's constant d unrolls it
+        s = pp[j, j]
+        for l in range(j):
+            s -= chol[j, l] * chol[j, l]
+        if not s > 0.0:
+            return False
+        chol[j, j] = np.sqrt(s)
+        inverse[j] = 1.0 / chol[j, j]
+        for i in range(j + 1, d):
+            s = pp[i, j]
+            for l in range(j):
+                s -= chol[i, l] * chol[j, l]
+            chol[i, j] = s * inverse[j]
+    for r in range(d):  # gain rows: solve pp g = cross[r, :]
+        for j in range(d):
+            diff[j] = cross[r, j]
+        for j in range(d):  # forward substitution L y = b
+            s = diff[j]
+            for l in range(j):
+                s -= chol[j, l] * diff[l]
+            diff[j] = s * inverse[j]
+        for j in range(d - 1, -1, -1):  # back substitution L^T g = y
+            s = diff[j]
+            for l in range(j + 1, d):
+                s -= chol[l, j] * diff[l]
+            diff[j] = s * inverse[j]
+        for j in range(d):
+            gain[r, j] = diff[j]
+    for j in range(d):
+        diff[j] = xs[j] - xp[j]
+    for i in range(d):
+        acc = x[i]
+        for l in range(d):
+            acc += gain[i, l] * diff[l]
+        x_out[i] = acc
+    for i in range(d):
+        for j in range(d):
+            acc = 0.0
+            for l in range(d):
+                acc += gain[i, l] * (ps[l, j] - pp[l, j])
+            work[i, j] = acc
+    for i in range(d):
+        for j in range(i, d):
+            acc = p[i, j]
+            for l in range(d):
+                acc += work[i, l] * gain[j, l]
+            p_out[i, j] = acc
+            p_out[j, i] = acc
+    return True
 
 
 #: Below this, a sum of weights taken relative to a bound of their maximum may have lost

@@ -7,7 +7,10 @@ One step mixes each filter's models (the interaction), predicts and updates each
 through the Kalman stack kernels (:mod:`fasttrack.core.kalman`), and weighs the models by
 their measurement likelihoods in logs: a measurement far from every model leaves finite,
 normalised mode probabilities. A model whose predicted probability is 0 keeps its own
-state through the mixing (there is nothing to mix it from) and its probability stays 0."""
+state through the mixing (there is nothing to mix it from) and its probability stays 0.
+
+:func:`smooth` is the fixed-interval smoother of Kim (1994) over the filtered states of K
+tracks of T steps."""
 import numpy as np
 
 from .. import _jit, _validate
@@ -42,17 +45,21 @@ def transition_matrix(matrix, models):
     return matrix
 
 
-def mode_probabilities(probs, filters, models, name="mode_probs"):
-    """Validated (K, M) mode probabilities: finite, >= 0, each row summing to one."""
-    probs = _validate.finite_array(probs, name, 2)
-    if probs.shape != (filters, models):
-        raise ValueError(f"{name} must have shape ({filters}, {models}), got {probs.shape}")
+def mode_probabilities(probs, shape, name="mode_probs"):
+    """Validated mode probabilities of ``shape`` (..., M): finite, >= 0, each row summing
+    to one."""
+    probs = _validate.finite_array(probs, name, len(shape))
+    if probs.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {probs.shape}")
     if (probs < 0).any():
         raise ValueError(f"{name} must have no negative entries")
-    rows = np.flatnonzero(np.abs(probs.sum(axis=1) - 1.0) > SUM_TOLERANCE)
-    if rows.size:
-        raise ValueError(f"each row of {name} must sum to 1; row {rows[0]} sums to "
-                         f"{float(probs[rows[0]].sum())!r}")
+    sums = probs.sum(axis=-1)
+    bad = np.abs(sums - 1.0) > SUM_TOLERANCE
+    if bad.any():
+        row = np.unravel_index(np.argmax(bad), bad.shape)
+        raise ValueError(f"each row of {name} must sum to 1; row "
+                         f"{', '.join(str(int(r)) for r in row)} sums to "
+                         f"{float(sums[row])!r}")
     return probs
 
 
@@ -75,12 +82,13 @@ def mix(means, covars, mode_probs, matrix):
 
 
 def combine(means, covars, mode_probs):
-    """The moment match of each filter's models: ``(means, covars)`` (K, d), (K, d, d),
-    ``x = sum_j mu_j x_j`` and ``P = sum_j mu_j (P_j + (x_j - x)(x_j - x)^T)``."""
-    mean = np.einsum("kj,kjd->kd", mode_probs, means)
-    spread = means - mean[:, None, :]
-    covar = (np.einsum("kj,kjab->kab", mode_probs, covars)
-             + np.einsum("kj,kja,kjb->kab", mode_probs, spread, spread))
+    """The moment match of each filter's models: ``(means, covars)`` (..., d) and
+    (..., d, d) of means (..., M, d), covariances (..., M, d, d) and mode probabilities
+    (..., M): ``x = sum_j mu_j x_j`` and ``P = sum_j mu_j (P_j + (x_j - x)(x_j - x)^T)``."""
+    mean = np.einsum("...j,...jd->...d", mode_probs, means)
+    spread = means - mean[..., None, :]
+    covar = (np.einsum("...j,...jab->...ab", mode_probs, covars)
+             + np.einsum("...j,...ja,...jb->...ab", mode_probs, spread, spread))
     return mean, 0.5 * (covar + covar.swapaxes(-1, -2))
 
 
@@ -181,6 +189,41 @@ def _transition(spec):
             _CV_MATRICES.clear()
         found = _CV_MATRICES[key] = (spec.matrix, spec.noise)
     return found
+
+
+def smooth(transition_models, matrix, means, covars, mode_probs, intervals):
+    """The IMM fixed-interval smoother of K tracks of T filtered steps (see
+    :func:`fasttrack._jit.imm.imm_smooth`).
+
+    Parameters
+    ----------
+    transition_models : sequence of M linear TransitionModel
+    matrix : (M, M) ndarray
+        The validated switching matrix (:func:`transition_matrix`).
+    means, covars, mode_probs : ndarray
+        Validated filtered (K, T, M, d), (K, T, M, d, d) and (K, T, M) arrays.
+    intervals : (T - 1,) ndarray
+        Seconds from each step to the next, >= 0.
+
+    Returns
+    -------
+    means, covars, mode_probs, status : ndarray
+        The smoothed arrays (shapes of the inputs) and each track's (K,) status (0, or
+        where the pass failed: see :func:`fasttrack._jit.imm.imm_smooth`).
+    """
+    values, step = np.unique(intervals, return_inverse=True)
+    values = values if values.size else np.zeros(1)
+    pairs = [[_transition(model.spec(float(dt))) for model in transition_models]
+             for dt in values]
+    transitions = np.array([[f for f, _ in row] for row in pairs], dtype=np.float64)
+    noises = np.array([[q for _, q in row] for row in pairs], dtype=np.float64)
+    step = np.ascontiguousarray(np.append(step, 0), dtype=np.int64)
+    arrays = [np.require(a, np.float64, ["C"]) for a in (means, covars, mode_probs)]
+    out = [np.empty_like(a) for a in arrays]
+    status = np.empty(means.shape[0], dtype=np.int64)
+    _imm.imm_smooth_kernel(means.shape[-1])(transitions, noises, step, matrix, *arrays, *out,
+                                            status)
+    return (*out, status)
 
 
 def log_gaussian(measurement_model, measurements, z_hats, innovation):

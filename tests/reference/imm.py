@@ -40,3 +40,44 @@ def imm_linear_step(transitions, noises, mapping, noise, matrix, means, covars, 
         if status[k] == OK:
             weights = np.exp(log_posterior - log_posterior.max())
             out_probs[k] = weights / weights.sum()
+
+
+def imm_smooth(transitions, noises, step, matrix, means, covars, probs, out_means,
+               out_covars, out_probs, status):
+    """Kim's smoother track by track, pair by pair, with explicit inverses."""
+    n_tracks, n_times, models, d = means.shape
+    for k in range(n_tracks):
+        status[k] = 0
+        x, p, mu = means[k], covars[k], probs[k]
+        xs, ps, mus = out_means[k], out_covars[k], out_probs[k]
+        xs[-1], ps[-1], mus[-1] = x[-1], p[-1], mu[-1]
+        for t in range(n_times - 2, -1, -1):
+            f, q = transitions[step[t]], noises[step[t]]
+            predicted = mu[t] @ matrix
+            ratio = np.divide(mus[t + 1], predicted, out=np.zeros(models),
+                              where=predicted > 0)
+            joint = mu[t][:, None] * matrix * ratio[None]  # P(model i at t, j at t + 1)
+            mus[t] = joint.sum(axis=1) / joint.sum()
+            for i in range(models):
+                towards = matrix[i] * ratio
+                if towards.sum() <= 0:
+                    xs[t, i], ps[t, i] = x[t, i], p[t, i]
+                    continue
+                w = towards / towards.sum()
+                pair_x, pair_p = np.zeros((models, d)), np.zeros((models, d, d))
+                for j in np.flatnonzero(w):
+                    pp = f[j] @ p[t, i] @ f[j].T + q[j]
+                    if np.linalg.eigvalsh(pp).min() <= 0:
+                        status[k] = 1 + t
+                        break
+                    gain = p[t, i] @ f[j].T @ np.linalg.inv(pp)
+                    pair_x[j] = x[t, i] + gain @ (xs[t + 1, j] - f[j] @ x[t, i])
+                    pair_p[j] = p[t, i] + gain @ (ps[t + 1, j] - pp) @ gain.T
+                if status[k]:
+                    break
+                xs[t, i] = w @ pair_x
+                spread = pair_x - xs[t, i]
+                ps[t, i] = (np.einsum("j,jab->ab", w, pair_p)
+                            + np.einsum("j,ja,jb->ab", w, spread, spread))
+            if status[k]:
+                break
