@@ -1,6 +1,7 @@
-"""IMM steps on stacks: one filter and 10^4 filters of 3 constant-velocity models (noise
-0.01, 1 and 10; d = 4, a position sensor), one mix + predict + update + weigh per call of
-``BatchIMMFilter.step``; the smoother over 1 and 100 tracks of 1000 steps."""
+"""Multiple-model steps on stacks: one filter and 10^4 filters of 3 constant-velocity models
+(noise 0.01, 1 and 10; d = 4, a position sensor), one step of the IMM (order 0), GPB1 or
+GPB2 (order 1, 2) per call of ``step``; the IMM smoother over 1 and 100 tracks of 1000
+steps."""
 import numpy as np
 import pytest
 
@@ -9,22 +10,26 @@ import fasttrack as ft
 MATRIX = [[0.9, 0.05, 0.05], [0.05, 0.9, 0.05], [0.05, 0.05, 0.9]]
 
 
-def _filter():
+def _filter(order=0):
+    """The IMM filter (order 0), or the GPB filter of that order."""
     models = [ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(q)] * 2)
               for q in (0.01, 1.0, 10.0)]
-    return ft.BatchIMMFilter(models, ft.LinearGaussian(4, (0, 2), np.eye(2)), MATRIX)
+    sensor = ft.LinearGaussian(4, (0, 2), np.eye(2))
+    if order:
+        return ft.BatchGPBFilter(models, sensor, MATRIX, order=order)
+    return ft.BatchIMMFilter(models, sensor, MATRIX)
 
 
+@pytest.mark.parametrize("order", [0, 1, 2])
 @pytest.mark.parametrize("k", [1, 10_000])
-def test_imm_step(benchmark, k):
+def test_imm_step(benchmark, k, order):
     benchmark.group = f"imm-step K={k} M=3"
     rng = np.random.default_rng(0)
     means = np.repeat(rng.normal(size=(k, 1, 4)) * 10.0, 3, axis=1)
     covars = np.broadcast_to(np.eye(4), (k, 3, 4, 4)).copy()
     probs = np.full((k, 3), 1.0 / 3.0)
     z = rng.normal(size=(k, 2)) * 10.0
-    imm = _filter()
-    out = benchmark(imm.step, means, covars, probs, z, 1.0)
+    out = benchmark(_filter(order).step, means, covars, probs, z, 1.0)
     assert np.allclose(out[2].sum(axis=1), 1.0)
 
 

@@ -10,7 +10,7 @@ from ._version import __version__
 #: The public names, by the module that defines them.
 _MODULES = {
     "batch": ["BatchExtendedKalmanFilter", "BatchUnscentedKalmanFilter"],
-    "imm": ["BatchIMMFilter", "IMMPredictor", "IMMUpdater"],
+    "imm": ["BatchGPBFilter", "BatchIMMFilter", "IMMPredictor", "IMMUpdater"],
     "filtering": ["run_filter"],
     "kernel": ["GaussianKernel", "Kernel", "LinearKernel", "PolynomialKernel",
                "QuadraticKernel", "QuarticKernel"],

@@ -12,7 +12,7 @@ from .types.gaussian import GaussianState
 from .types.mixture import GaussianMixture
 from .types.tracks import SingleHypothesis
 
-__all__ = ["BatchIMMFilter", "IMMPredictor", "IMMUpdater"]
+__all__ = ["BatchGPBFilter", "BatchIMMFilter", "IMMPredictor", "IMMUpdater"]
 
 
 class _Models:
@@ -184,6 +184,9 @@ class BatchIMMFilter:
     (1, 2)
     """
 
+    #: The multiple-model algorithm of :meth:`step` (one of ``core.imm.ALGORITHMS``).
+    algorithm = "imm"
+
     def __init__(self, transition_models, measurement_model, transition_matrix):
         models = list(transition_models)
         if not models:
@@ -237,7 +240,7 @@ class BatchIMMFilter:
             return means.copy(), covars.copy(), mode_probs.copy()
         return _imm.step(self.transition_models, self.measurement_model,
                          self.transition_matrix, means, covars, mode_probs, measurements,
-                         intervals)
+                         intervals, self.algorithm)
 
     def smooth(self, means, covars, mode_probs, time_intervals):
         """The fixed-interval IMM smoother of Kim (1994): each track's states and mode
@@ -349,3 +352,32 @@ class BatchIMMFilter:
                              f"{covars.shape}")
         mode_probs = _imm.mode_probabilities(mode_probs, means.shape[:-1])
         return _imm.combine(means, covars, mode_probs)
+
+
+class BatchGPBFilter(BatchIMMFilter):
+    """K independent generalised pseudo-Bayesian (GPB) filters, each a bank of M Kalman
+    filters (one a transition model) sharing a measurement model: :class:`BatchIMMFilter`'s
+    arrays and methods, with another prior for each model.
+
+    - ``order=1`` (GPB1): every model starts from the moment match of all the filter's
+      models (one Gaussian), then is predicted, updated and weighed.
+    - ``order=2`` (GPB2): every model j predicts and updates every model i's posterior
+      (M^2 Kalman steps a filter); model j's posterior is the moment match of the M pairs,
+      weighted by ``p_ij mu_i`` times their measurement likelihoods, which sum to its
+      probability (in logs). A model that nothing switches into (``p_ij mu_i = 0`` for
+      every i) keeps its own posterior, updated, and probability 0.
+
+    Parameters
+    ----------
+    transition_models, measurement_model, transition_matrix
+        As :class:`BatchIMMFilter`'s.
+    order : {1, 2}
+        The length of the model histories kept before merging.
+    """
+
+    def __init__(self, transition_models, measurement_model, transition_matrix, order=2):
+        if order not in (1, 2) or isinstance(order, bool):
+            raise ValueError(f"order must be 1 or 2 (GPB1 or GPB2), got {order!r}")
+        super().__init__(transition_models, measurement_model, transition_matrix)
+        self.order = order
+        self.algorithm = f"gpb{order}"

@@ -210,8 +210,9 @@ def test_equals_filterpys_imm_estimator_every_step_of_a_manoeuvring_run():
     assert max(quiet) > 0.9 and min(quiet) < 0.2  # the models switched: not a trivial run
 
 
+@pytest.mark.parametrize("algorithm", imm.ALGORITHMS)
 @pytest.mark.parametrize("seed", range(3))
-def test_the_kernel_is_its_mirror_and_the_general_path(seed, monkeypatch):
+def test_the_kernel_is_its_mirror_and_the_general_path(seed, algorithm):
     from fasttrack._jit import imm as kernels
     from reference import imm as mirror
     rng = np.random.default_rng(seed)
@@ -226,7 +227,7 @@ def test_the_kernel_is_its_mirror_and_the_general_path(seed, monkeypatch):
     probs = rng.dirichlet(np.ones(3), size=k)
     probs[0] = [0.0, 0.0, 1.0]  # nothing switches into model 0 for filter 0
     z = rng.normal(size=(k, 2)) * 5.0
-    arguments = (np.array([m.matrix(1.5) for m in models]),
+    arguments = (imm.ALGORITHMS.index(algorithm), np.array([m.matrix(1.5) for m in models]),
                  np.array([m.covar(1.5) for m in models]), SENSOR.spec.mapping,
                  SENSOR.noise_covar, matrix, means, covars, probs, z)
     got = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
@@ -238,11 +239,12 @@ def test_the_kernel_is_its_mirror_and_the_general_path(seed, monkeypatch):
     assert (got[3] == 0).all() and (want[3] == 0).all()
     for a_, b_ in zip(got[:3], want[:3]):
         np.testing.assert_allclose(a_, b_, rtol=1e-9, atol=1e-9)
-    assert got[2][0, 0] == 0.0
-    filt = ft.BatchIMMFilter(models, SENSOR, matrix)
+    assert got[2][0, 0] == 0.0  # nothing switches into model 0 of filter 0
+    filt = (ft.BatchIMMFilter(models, SENSOR, matrix) if algorithm == "imm"
+            else ft.BatchGPBFilter(models, SENSOR, matrix, order=int(algorithm[-1])))
     fused = filt.step(means, covars, probs, z, 1.5)  # the kernel: one interval, a selection
     general = imm.general_step(models, SENSOR, matrix, means, covars, probs, z,
-                               np.full(k, 1.5))
+                               np.full(k, 1.5), algorithm)
     for a_, b_, c_ in zip(fused, general, got):
         np.testing.assert_allclose(a_, b_, rtol=1e-9, atol=1e-9)
         np.testing.assert_array_equal(a_, c_)

@@ -1,8 +1,8 @@
-"""Interacting multiple models (:mod:`fasttrack.core.imm`) over K filters of M linear models,
-one filter a thread: the step for a sensor that selects state components (mix, predict with
-each model's F and Q, update in the Joseph form, weigh the models in logs) and the
-fixed-interval smoother. A filter whose step is undefined gets a status code and the array
-layer reports it."""
+"""Multiple-model filtering (:mod:`fasttrack.core.imm`) over K filters of M linear models,
+one filter a thread: the IMM, GPB1 and GPB2 steps for a sensor that selects state components
+(each model's prior, predicted with its F and Q and updated in the Joseph form, the models
+weighed in logs) and the fixed-interval smoother. A filter whose step is undefined gets a
+status code and the array layer reports it."""
 import math
 
 import numpy as np
@@ -11,7 +11,7 @@ from numba import prange
 from .dispatch import jit, with_constant
 from .linalg import _covariance_code
 from .mixture import _moment_match_group
-from .numeric import cholesky
+from .numeric import cholesky, chunk_bounds
 from .smooth import _rts_prediction, _rts_smoothed
 from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
 from .tunables import UNROLLED_DIMENSIONS
@@ -20,13 +20,22 @@ from .tunables import UNROLLED_DIMENSIONS
 HALF_LOG_TWO_PI = 0.9189385332046727
 
 
+#: :func:`imm_linear_step`'s algorithms: the interacting multiple model filter, and the
+#: generalised pseudo-Bayesian filters of first and second order.
+IMM, GPB1, GPB2 = 0, 1, 2
+
+
 @jit()
-def _mixed(matrix, probs, means, covars, j, predicted, weights, models, x0, p0):
-    """Model j's mixed prior of one filter into ``x0`` (d,) and ``p0`` (d, d), its
-    predicted probability ``predicted`` (a model of probability 0 keeps its own state).
-    ``weights`` (M,) is scratch; ``models`` is ``arange(M)``."""
+def _mixed(algorithm, matrix, probs, means, covars, j, predicted, weights, models, x0, p0):
+    """Model j's prior of one filter into ``x0`` (d,) and ``p0`` (d, d): for the IMM the
+    models mixed by ``p_ij mu_i`` (``predicted`` their sum; a model of predicted probability
+    0 keeps its own state), for GPB1 all models merged by ``mu_i``. ``weights`` (M,) is
+    scratch; ``models`` is ``arange(M)``."""
     for i in range(models.size):
-        weights[i] = matrix[i, j] * probs[i] if predicted > 0.0 else (i == j) * 1.0
+        if algorithm == GPB1:
+            weights[i] = probs[i]
+        else:
+            weights[i] = matrix[i, j] * probs[i] if predicted > 0.0 else (i == j) * 1.0
     _moment_match_group(means, covars, weights, models, models.size, x0, p0)
     _symmetrise(p0)
 
@@ -62,20 +71,43 @@ def _predict(f, q, x0, p0, x, p, work):
             p[b, a] = s
 
 
+#: :func:`imm_linear_step` runs its filters in at most this many chunks, each with its own
+#: scratch arrays.
+_CHUNKS = 256
+
+
 @jit()
-def _update(mapping, noise, x, p, z, x_out, p_out, lower, gain, work):
-    """The Joseph-form update of ``(x, p)`` with ``z`` by the sensor selecting ``mapping``
-    (noise R) into ``(x_out, p_out)``; returns the measurement's log likelihood, or NaN if
-    the innovation covariance is not positive definite. ``lower`` (m, m), ``gain`` (d, m)
-    and ``work`` (d, d) are scratch."""
+def _scratch(d, m):
+    """The work arrays of :func:`_model_step` for states of dimension d and measurements
+    of dimension m."""
+    return (np.empty(d), np.empty((d, d)), np.empty((d, d)), np.empty((m, m)),
+            np.empty((m, m)), np.empty((d, m)), np.empty(m), np.empty(m))
+
+
+@jit()
+def _workspace(d, m, models):
+    """The scratch of a filter's step: :func:`_scratch`'s, a prior (d,) and (d, d), a
+    (d, d) matrix, three (M,) vectors, ``arange(M)``, M pairs' means and covariances, and
+    an (M,) int64 index."""
+    return (_scratch(d, m), np.empty(d), np.empty((d, d)), np.empty((d, d)), np.empty(models),
+            np.empty(models), np.empty(models), np.arange(models), np.empty((models, d)),
+            np.empty((models, d, d)), np.empty(models, dtype=np.int64))
+
+
+@jit()
+def _model_step(f, q, mapping, noise, x0, p0, z, x_out, p_out, scratch):
+    """One model's Kalman step: ``(x0, p0)`` predicted through ``(F, Q)``, then updated in
+    the Joseph form with ``z`` by the sensor selecting ``mapping`` (noise R) into
+    ``(x_out, p_out)``. Returns the measurement's log likelihood, or NaN if the innovation
+    covariance is not positive definite. ``scratch`` is :func:`_scratch`'s."""
+    x, p, work, s, lower, gain, innovation, v = scratch
+    _predict(f, q, x0, p0, x, p, work)
     d, m = x.size, mapping.size
-    s = np.empty((m, m))
     for r in range(m):
         for c in range(m):
             s[r, c] = p[mapping[r], mapping[c]] + noise[r, c]
     if not cholesky(s, lower):
         return np.nan
-    innovation, v = np.empty(m), np.empty(m)
     for r in range(m):  # v = L^-1 (z - H x)
         innovation[r] = z[r] - x[mapping[r]]
         t = innovation[r]
@@ -85,8 +117,8 @@ def _update(mapping, noise, x, p, z, x_out, p_out, lower, gain, work):
     log_likelihood = -m * HALF_LOG_TWO_PI
     for r in range(m):
         log_likelihood -= 0.5 * v[r] * v[r] + math.log(lower[r, r])
+    row = v
     for a in range(d):  # K = P H^T S^-1: solve L (L^T K^T) = H P for each row a of K
-        row = np.empty(m)
         for r in range(m):
             t = p[a, mapping[r]]
             for c in range(r):
@@ -124,47 +156,100 @@ def _update(mapping, noise, x, p, z, x_out, p_out, lower, gain, work):
 
 
 @jit()
-def _filter_step(transitions, noises, mapping, noise, matrix, means, covars, probs, z,
-                 out_means, out_covars, out_probs):
-    """One filter's IMM step (see :func:`imm_linear_step`); returns its status."""
-    models, d = means.shape
-    m = mapping.size
-    x0, p0 = np.empty(d), np.empty((d, d))
-    x, p, work = np.empty(d), np.empty((d, d)), np.empty((d, d))
-    lower, gain, scratch = np.empty((m, m)), np.empty((d, m)), np.empty((d, d))
-    log_posterior, weights, everyone = np.empty(models), np.empty(models), np.arange(models)
+def _normalised(log_weights, out):
+    """``out = exp(log_weights)`` normalised to sum to one (the largest finite)."""
     top = -np.inf
+    for j in range(log_weights.size):
+        top = max(top, log_weights[j])
+    total = 0.0
+    for j in range(log_weights.size):
+        total += math.exp(log_weights[j] - top)
+    for j in range(log_weights.size):
+        out[j] = math.exp(log_weights[j] - top) / total
+
+
+@jit()
+def _mixing_step(algorithm, transitions, noises, mapping, noise, matrix, means, covars, probs,
+                 z, out_means, out_covars, out_probs, space):
+    """One filter's IMM or GPB1 step (see :func:`imm_linear_step`); returns its status.
+    ``space`` is :func:`_workspace`'s."""
+    scratch, x0, p0, check, log_posterior, weights, _, everyone = space[:8]
+    models = means.shape[0]
     for j in range(models):
         predicted = 0.0
         for i in range(models):
             predicted += matrix[i, j] * probs[i]
-        _mixed(matrix, probs, means, covars, j, predicted, weights, everyone, x0, p0)
-        code = _covariance_code(p0, scratch, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+        _mixed(algorithm, matrix, probs, means, covars, j, predicted, weights, everyone, x0,
+               p0)
+        code = _covariance_code(p0, check, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
         if code != OK:
             return code
-        _predict(transitions[j], noises[j], x0, p0, x, p, work)
-        log_likelihood = _update(mapping, noise, x, p, z, out_means[j], out_covars[j], lower,
-                                 gain, work)
+        log_likelihood = _model_step(transitions[j], noises[j], mapping, noise, x0, p0, z,
+                                     out_means[j], out_covars[j], scratch)
         if log_likelihood != log_likelihood:
             return INNOVATION_NOT_PD
         log_posterior[j] = (math.log(predicted) + log_likelihood) if predicted > 0.0 \
             else -np.inf
-        top = max(top, log_posterior[j])
-    total = 0.0
-    for j in range(models):
-        total += math.exp(log_posterior[j] - top)
-    for j in range(models):
-        out_probs[j] = math.exp(log_posterior[j] - top) / total
+    _normalised(log_posterior, out_probs)
     return OK
 
 
-@jit(parallel=True, size=5)
-def imm_linear_step(transitions, noises, mapping, noise, matrix, means, covars, probs, z,
-                    out_means, out_covars, out_probs, status):
-    """One IMM step of K filters of M linear models sharing one interval.
+@jit()
+def _gpb2_step(transitions, noises, mapping, noise, matrix, means, covars, probs, z,
+               out_means, out_covars, out_probs, space):
+    """One filter's GPB2 step (see :func:`imm_linear_step`); returns its status.
+    ``space`` is :func:`_workspace`'s."""
+    scratch, check, log_posterior, weights, log_pair = space[0], *space[3:7]
+    pair_means, pair_covars, reached = space[8:]
+    models = means.shape[0]
+    for i in range(models):
+        code = _covariance_code(covars[i], check, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+        if code != OK:
+            return code
+    for j in range(models):
+        count, top = 0, -np.inf
+        for i in range(models):
+            prior = matrix[i, j] * probs[i]
+            if prior <= 0.0 and i != j:
+                continue
+            log_likelihood = _model_step(transitions[j], noises[j], mapping, noise, means[i],
+                                         covars[i], z, pair_means[i], pair_covars[i], scratch)
+            if log_likelihood != log_likelihood:
+                return INNOVATION_NOT_PD
+            if prior > 0.0:
+                log_pair[i] = math.log(prior) + log_likelihood
+                top = max(top, log_pair[i])
+                reached[count] = i
+                count += 1
+        if count == 0:  # nothing switches into model j: its own state, updated
+            out_means[j] = pair_means[j]
+            out_covars[j] = pair_covars[j]
+            log_posterior[j] = -np.inf
+            continue
+        for g in range(count):
+            weights[reached[g]] = math.exp(log_pair[reached[g]] - top)
+        total = _moment_match_group(pair_means, pair_covars, weights, reached, count,
+                                    out_means[j], out_covars[j])
+        _symmetrise(out_covars[j])
+        log_posterior[j] = top + math.log(total)
+    _normalised(log_posterior, out_probs)
+    return OK
+
+
+@jit(parallel=True, size=6)
+def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, means, covars,
+                    probs, z, out_means, out_covars, out_probs, status):
+    """One step of K multiple-model filters of M linear models sharing one interval.
+
+    IMM: each model's prior is mixed from all models' posteriors by ``p_ij mu_i``. GPB1:
+    every model starts from the moment match of all. GPB2: each model j updates every
+    model i's posterior (the pairs reached, ``p_ij mu_i > 0``) and merges them by
+    ``p_ij mu_i`` times their likelihoods. Mode probabilities are weighed in logs.
 
     Parameters
     ----------
+    algorithm : int
+        :data:`IMM`, :data:`GPB1` or :data:`GPB2`.
     transitions, noises : (M, d, d) float64
         Each model's F and Q over the interval.
     mapping : (m,) int64
@@ -177,10 +262,20 @@ def imm_linear_step(transitions, noises, mapping, noise, matrix, means, covars, 
     status : (K,) int64
         OK, or why the filter's step is undefined (its outputs are then partly written).
     """
-    for k in prange(means.shape[0]):
-        status[k] = _filter_step(transitions, noises, mapping, noise, matrix, means[k],
-                                 covars[k], probs[k], z[k], out_means[k], out_covars[k],
-                                 out_probs[k])
+    filters, models, d = means.shape
+    chunks = min(filters, _CHUNKS)
+    for c in prange(chunks):
+        space = _workspace(d, mapping.size, models)
+        lo, hi = chunk_bounds(c, chunks, filters)
+        for k in range(lo, hi):
+            if algorithm == GPB2:
+                status[k] = _gpb2_step(transitions, noises, mapping, noise, matrix, means[k],
+                                       covars[k], probs[k], z[k], out_means[k],
+                                       out_covars[k], out_probs[k], space)
+            else:
+                status[k] = _mixing_step(algorithm, transitions, noises, mapping, noise,
+                                         matrix, means[k], covars[k], probs[k], z[k],
+                                         out_means[k], out_covars[k], out_probs[k], space)
 
 
 #: The state dimension :func:`imm_smooth` is compiled for; 0: any (read from the arrays).

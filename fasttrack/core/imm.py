@@ -24,6 +24,11 @@ _imm = _jit.lazy("imm")
 #: path: about 280 us in NumPy, some eight one-filter Kalman steps.
 NUMPY_WORK_PER_MODEL = 8
 
+#: The multiple-model algorithms, in the order of :mod:`fasttrack._jit.imm`'s codes: the
+#: interacting multiple model filter, and the generalised pseudo-Bayesian filters of first
+#: and second order.
+ALGORITHMS = ("imm", "gpb1", "gpb2")
+
 #: How far a row of probabilities may sum from one.
 SUM_TOLERANCE = 1e-9
 
@@ -93,9 +98,10 @@ def combine(means, covars, mode_probs):
 
 
 def step(transition_models, measurement_model, matrix, means, covars, mode_probs,
-         measurements, intervals):
-    """One IMM step of K filters: mix, predict each model ``intervals`` (K,) seconds ahead,
-    update it with the filter's measurement (K, m), and weigh the models.
+         measurements, intervals, algorithm="imm"):
+    """One multiple-model step of K filters: each model's prior (by ``algorithm``),
+    predicted ``intervals`` (K,) seconds ahead and updated with the filter's measurement
+    (K, m), and the models weighed.
 
     Parameters
     ----------
@@ -106,6 +112,8 @@ def step(transition_models, measurement_model, matrix, means, covars, mode_probs
         The validated switching matrix (:func:`transition_matrix`).
     means, covars, mode_probs, measurements, intervals : ndarray
         Validated (K, M, d), (K, M, d, d), (K, M), (K, m) and (K,) arrays.
+    algorithm : {'imm', 'gpb1', 'gpb2'}
+        One of :data:`ALGORITHMS`.
 
     Returns
     -------
@@ -118,48 +126,101 @@ def step(transition_models, measurement_model, matrix, means, covars, mode_probs
         If a model's prediction or update is undefined, naming the filter and the model.
     """
     fused = _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
-                   measurements, intervals)
+                   measurements, intervals, algorithm)
     if fused is not None:
         return fused
     return general_step(transition_models, measurement_model, matrix, means, covars,
-                        mode_probs, measurements, intervals)
+                        mode_probs, measurements, intervals, algorithm)
 
 
 def general_step(transition_models, measurement_model, matrix, means, covars, mode_probs,
-                 measurements, intervals):
-    """:func:`step` for any models and intervals: mixing, weighing and combining on
-    arrays, each model's prediction and update through the Kalman stack kernels."""
-    mixed_means, mixed_covars, predicted = mix(means, covars, mode_probs, matrix)
+                 measurements, intervals, algorithm="imm"):
+    """:func:`step` for any models and intervals: priors, weighing and merging on arrays,
+    each model's prediction and update through the Kalman stack kernels."""
+    if algorithm == "gpb2":
+        return _gpb2_step(transition_models, measurement_model, matrix, means, covars,
+                          mode_probs, measurements, intervals)
+    models = mode_probs.shape[1]
+    predicted = mode_probs @ matrix
+    if algorithm == "gpb1":
+        mean, covar = combine(means, covars, mode_probs)
+        priors = (np.repeat(mean[:, None], models, axis=1),
+                  np.repeat(covar[:, None], models, axis=1))
+    else:
+        priors = mix(means, covars, mode_probs, matrix)[:2]
     out_means, out_covars = np.empty_like(means), np.empty_like(covars)
-    log_likelihoods = np.empty(mode_probs.shape)
+    log_posterior = np.empty(mode_probs.shape)
     for j, model in enumerate(transition_models):
-        try:
-            prior_means, prior_covars, z_hats, innovation = _kalman.stack_predict(
-                model, measurement_model, intervals, np.ascontiguousarray(mixed_means[:, j]),
-                np.ascontiguousarray(mixed_covars[:, j]), by_interval=True)
-            out_means[:, j], out_covars[:, j] = _kalman.stack_update(
-                measurement_model, prior_means, prior_covars, measurements)
-            log_likelihoods[:, j] = log_gaussian(measurement_model, measurements, z_hats,
-                                                 innovation)
-        except ValueError as error:
-            raise ValueError(f"model {j} ({type(model).__name__}): {error}") from None
+        out_means[:, j], out_covars[:, j], log_likelihood = _model_step(
+            j, model, measurement_model, priors[0][:, j], priors[1][:, j], measurements,
+            intervals)
+        with np.errstate(divide="ignore"):
+            log_posterior[:, j] = np.log(predicted[:, j]) + log_likelihood
+    return out_means, out_covars, _normalised(log_posterior)
+
+
+def _gpb2_step(transition_models, measurement_model, matrix, means, covars, mode_probs,
+               measurements, intervals):
+    """:func:`general_step` of GPB2: every model j updates every model i's posterior;
+    the pairs are merged by ``p_ij mu_i`` times their likelihoods (a model that nothing
+    switches into keeps its own posterior, updated, and probability 0)."""
+    k, models, d = means.shape
+    sources = means.reshape(k * models, d), covars.reshape(k * models, d, d)
+    pair_z, pair_intervals = (np.repeat(measurements, models, axis=0),
+                              np.repeat(intervals, models))
     with np.errstate(divide="ignore"):
-        log_posterior = np.log(predicted) + log_likelihoods
-    top = log_posterior.max(axis=1, keepdims=True)
-    log_posterior -= top + np.log(np.exp(log_posterior - top).sum(axis=1, keepdims=True))
-    return out_means, out_covars, np.exp(log_posterior)
+        log_prior = np.log(mode_probs[:, :, None] * matrix[None])  # (K, i, j)
+    out_means, out_covars = np.empty_like(means), np.empty_like(covars)
+    log_posterior = np.empty(mode_probs.shape)
+    for j, model in enumerate(transition_models):
+        pair_means, pair_covars, log_likelihood = _model_step(
+            j, model, measurement_model, *sources, pair_z, pair_intervals)
+        log_pair = log_prior[:, :, j] + log_likelihood.reshape(k, models)
+        top = log_pair.max(axis=1)
+        reached = np.isfinite(top)
+        shift = np.where(reached, top, 0.0)[:, None]
+        weights = np.where(reached[:, None], np.exp(log_pair - shift), np.eye(models)[j])
+        total = weights.sum(axis=1)
+        out_means[:, j], out_covars[:, j] = combine(pair_means.reshape(k, models, d),
+                                                    pair_covars.reshape(k, models, d, d),
+                                                    weights / total[:, None])
+        log_posterior[:, j] = np.where(reached, top + np.log(total), -np.inf)
+    return out_means, out_covars, _normalised(log_posterior)
+
+
+def _model_step(j, model, measurement_model, means, covars, measurements, intervals):
+    """Model j's prediction and update of the stacked priors (n, d), (n, d, d):
+    ``(means, covars, log_likelihoods)``; a ValueError names the model."""
+    try:
+        prior_means, prior_covars, z_hats, innovation = _kalman.stack_predict(
+            model, measurement_model, intervals, np.ascontiguousarray(means),
+            np.ascontiguousarray(covars), by_interval=True)
+        out_means, out_covars = _kalman.stack_update(measurement_model, prior_means,
+                                                     prior_covars, measurements)
+        return out_means, out_covars, log_gaussian(measurement_model, measurements, z_hats,
+                                                   innovation)
+    except ValueError as error:
+        raise ValueError(f"model {j} ({type(model).__name__}): {error}") from None
+
+
+def _normalised(log_weights):
+    """(K, M) probabilities from log weights, each row's largest finite."""
+    top = log_weights.max(axis=1, keepdims=True)
+    weights = np.exp(log_weights - top)
+    return weights / weights.sum(axis=1, keepdims=True)
 
 
 def _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
-           measurements, intervals):
+           measurements, intervals, algorithm):
     """:func:`step` in one kernel call (:func:`fasttrack._jit.imm.imm_linear_step`) for a
     sensor that selects state components and one interval for every filter, once the
     process runs kernels; None where it does not apply or a filter's step is undefined
     (the general path then names the filter and the model)."""
     sensor = measurement_model.spec
-    k = means.shape[0]
+    k, models = mode_probs.shape
+    pairs = models if algorithm == "gpb2" else 1
     if sensor.kind != SELECT or np.any(sensor.angles) or np.any(intervals != intervals[0]) \
-            or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * len(transition_models)):
+            or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models * pairs):
         return None
     transitions, noises = zip(*(_transition(model.spec(float(intervals[0])))
                                 for model in transition_models))
@@ -167,8 +228,8 @@ def _fused(transition_models, measurement_model, matrix, means, covars, mode_pro
               for a in (means, covars, mode_probs, measurements)]
     out = np.empty_like(arrays[0]), np.empty_like(arrays[1]), np.empty_like(arrays[2])
     status = np.empty(k, dtype=np.int64)
-    _imm.imm_linear_step(np.array(transitions), np.array(noises), sensor.mapping,
-                         sensor.noise_covar, matrix, *arrays, *out, status)
+    _imm.imm_linear_step(ALGORITHMS.index(algorithm), np.array(transitions), np.array(noises),
+                         sensor.mapping, sensor.noise_covar, matrix, *arrays, *out, status)
     return out if not status.any() else None
 
 

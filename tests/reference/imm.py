@@ -5,8 +5,28 @@ import numpy as np
 from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD
 
 
-def imm_linear_step(transitions, noises, mapping, noise, matrix, means, covars, probs, z,
-                    out_means, out_covars, out_probs, status):
+def _kalman(f, q, h, noise, x0, p0, z):
+    """One Kalman step and its log likelihood (None if S is not positive definite)."""
+    x, p = f @ x0, f @ p0 @ f.T + q
+    s = h @ p @ h.T + noise
+    if np.linalg.eigvalsh(s).min() <= 0:
+        return None
+    gain = p @ h.T @ np.linalg.inv(s)
+    v = z - h @ x
+    a = np.eye(x.size) - gain @ h
+    log_likelihood = -0.5 * v @ np.linalg.solve(s, v) - 0.5 * np.linalg.slogdet(2 * np.pi * s)[1]
+    return x + gain @ v, a @ p @ a.T + gain @ noise @ gain.T, log_likelihood
+
+
+def _merged(w, means, covars):
+    w = w / w.sum()
+    x = w @ means
+    spread = means - x
+    return x, np.einsum("i,iab->ab", w, covars) + np.einsum("i,ia,ib->ab", w, spread, spread)
+
+
+def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, means, covars,
+                    probs, z, out_means, out_covars, out_probs, status):
     models, d = means.shape[1:]
     h = np.zeros((mapping.size, d))
     h[np.arange(mapping.size), mapping] = 1.0
@@ -15,28 +35,42 @@ def imm_linear_step(transitions, noises, mapping, noise, matrix, means, covars, 
         log_posterior = np.full(models, -np.inf)
         status[k] = OK
         for j in range(models):
-            w = matrix[:, j] * probs[k] / predicted[j] if predicted[j] > 0 else np.eye(models)[j]
-            x0 = w @ means[k]
-            spread = means[k] - x0
-            p0 = np.einsum("i,iab->ab", w, covars[k]) + np.einsum("i,ia,ib->ab", w, spread,
-                                                                  spread)
+            if algorithm == 2:  # GPB2: model j from every model i's posterior
+                pairs, log_w = [], np.full(models, -np.inf)
+                for i in range(models):
+                    step = _kalman(transitions[j], noises[j], h, noise, means[k, i],
+                                   covars[k, i], z[k])
+                    if step is None:
+                        status[k] = INNOVATION_NOT_PD
+                        break
+                    pairs.append(step)
+                    if matrix[i, j] * probs[k, i] > 0:
+                        log_w[i] = np.log(matrix[i, j] * probs[k, i]) + step[2]
+                if status[k]:
+                    break
+                if np.isfinite(log_w).any():
+                    w = np.exp(log_w - log_w.max())
+                    out_means[k, j], out_covars[k, j] = _merged(
+                        w, np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
+                    log_posterior[j] = log_w.max() + np.log(w.sum())
+                else:
+                    out_means[k, j], out_covars[k, j] = pairs[j][:2]
+                continue
+            if algorithm == 1:  # GPB1: all models merged
+                w = probs[k]
+            else:
+                w = matrix[:, j] * probs[k] if predicted[j] > 0 else np.eye(models)[j]
+            x0, p0 = _merged(w, means[k], covars[k])
             if np.linalg.eigvalsh(0.5 * (p0 + p0.T)).min() < -1e-9 * max(p0.max(), 0.0):
                 status[k] = PRIOR_NOT_PSD
                 break
-            f, q = transitions[j], noises[j]
-            x, p = f @ x0, f @ p0 @ f.T + q
-            s = h @ p @ h.T + noise
-            if np.linalg.eigvalsh(s).min() <= 0:
+            step = _kalman(transitions[j], noises[j], h, noise, x0, p0, z[k])
+            if step is None:
                 status[k] = INNOVATION_NOT_PD
                 break
-            gain = p @ h.T @ np.linalg.inv(s)
-            v = z[k] - h @ x
-            out_means[k, j] = x + gain @ v
-            a = np.eye(d) - gain @ h
-            out_covars[k, j] = a @ p @ a.T + gain @ noise @ gain.T
+            out_means[k, j], out_covars[k, j] = step[:2]
             if predicted[j] > 0:
-                log_posterior[j] = (np.log(predicted[j]) - 0.5 * v @ np.linalg.solve(s, v)
-                                    - 0.5 * np.linalg.slogdet(2 * np.pi * s)[1])
+                log_posterior[j] = np.log(predicted[j]) + step[2]
         if status[k] == OK:
             weights = np.exp(log_posterior - log_posterior.max())
             out_probs[k] = weights / weights.sum()
