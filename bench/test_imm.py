@@ -1,7 +1,7 @@
 """Multiple-model steps on stacks: one filter and 10^4 filters of 3 constant-velocity models
 (noise 0.01, 1 and 10; d = 4, a position sensor), one step of the IMM (order 0), GPB1 or
-GPB2 (order 1, 2) per call of ``step``; the IMM smoother over 1 and 100 tracks of 1000
-steps."""
+GPB2 (order 1, 2) per call of ``step``; one IMM step through the predictor and updater
+classes; the IMM smoother over 1 and 100 tracks of 1000 steps."""
 import numpy as np
 import pytest
 
@@ -31,6 +31,25 @@ def test_imm_step(benchmark, k, order):
     z = rng.normal(size=(k, 2)) * 10.0
     out = benchmark(_filter(order).step, means, covars, probs, z, 1.0)
     assert np.allclose(out[2].sum(axis=1), 1.0)
+
+
+def test_imm_class_step(benchmark):
+    """``IMMPredictor.predict`` + ``IMMUpdater.update`` on a GaussianMixture of the same 3
+    models, one filter (Kalman predictors and updaters)."""
+    benchmark.group = "imm-step K=1 M=3"
+    imm = _filter()
+    predictor = ft.IMMPredictor([ft.KalmanPredictor(m) for m in imm.transition_models], MATRIX)
+    updater = ft.IMMUpdater([ft.KalmanUpdater(imm.measurement_model)] * 3, MATRIX)
+    prior = ft.GaussianMixture([ft.WeightedGaussianState(np.zeros(4), np.eye(4), weight=1 / 3,
+                                                         timestamp=0.0)] * 3)
+    detection = ft.Detection([1.0, -2.0], timestamp=1.0, measurement_model=imm.measurement_model)
+
+    def step():
+        prediction = predictor.predict(prior, timestamp=1.0)
+        return updater.update(ft.SingleHypothesis(prediction, detection))
+
+    out = benchmark(step)
+    assert abs(sum(c.weight for c in out.components) - 1.0) < 1e-12
 
 
 def test_imm_step_filterpy(benchmark):

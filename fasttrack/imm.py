@@ -8,9 +8,13 @@ from . import _validate
 from ._states import step_intervals
 from .batch import check_models
 from .core import imm as _imm
+from .models.measurement import LinearGaussian
+from .predictor.base import Predictor
+from .predictor.kalman import KalmanPredictor
 from .types.gaussian import GaussianState
 from .types.mixture import GaussianMixture
 from .types.tracks import SingleHypothesis
+from .updater.kalman import KalmanUpdater
 
 __all__ = ["BatchGPBFilter", "BatchIMMFilter", "IMMPredictor", "IMMUpdater"]
 
@@ -33,8 +37,9 @@ class _Models:
         if len(mixture) != len(self._models):
             raise ValueError(f"{name} must have {len(self._models)} components (one a model), "
                              f"got {len(mixture)}")
-        with np.errstate(under="ignore"):
-            probs = np.exp(mixture.log_weights)
+        probs = np.exp(mixture.log_weights)
+        if abs(probs.sum() - 1.0) <= _imm.SUM_TOLERANCE:  # >= 0 and finite: exp of a mixture's
+            return probs
         return _imm.mode_probabilities(probs, probs.shape, f"{name}'s weights")
 
 
@@ -75,6 +80,9 @@ class IMMPredictor(_Models):
             ``c_j = sum_i p_ij mu_i``.
         """
         probs = self._mixture(prior, "prior")
+        fast = self._kernel_prediction(prior, probs, timestamp)
+        if fast is not None:
+            return fast
         means, covars, predicted = _imm.mix(prior.means[None], prior.covars[None], probs[None],
                                             self.transition_matrix)
         states = [predictor.predict(GaussianState(means[0, j], covars[0, j],
@@ -82,6 +90,19 @@ class IMMPredictor(_Models):
                                     timestamp=timestamp)
                   for j, predictor in enumerate(self.predictors)]
         return _stacked(states, predicted[0], timestamp)
+
+    def _kernel_prediction(self, prior, probs, timestamp):
+        """:meth:`predict` in one kernel call where every predictor is a
+        :class:`~fasttrack.KalmanPredictor` of the prior's dimension; else None."""
+        models = [p.transition_model for p in self.predictors]
+        if any(type(p) is not KalmanPredictor for p in self.predictors) \
+                or any(m.ndim_state != prior.means.shape[1] for m in models):
+            return None
+        dt = Predictor._interval(prior, timestamp)
+        out = _imm.predict(models, self.transition_matrix, prior.means[None],
+                           prior.covars[None], probs[None], dt)
+        return None if out is None else _stacked_arrays(out[0][0], out[1][0], out[2][0],
+                                                        timestamp)
 
 
 class IMMUpdater(_Models):
@@ -123,6 +144,9 @@ class IMMUpdater(_Models):
         if detection is None:
             raise ValueError("hypothesis.measurement is None: an IMM update needs a detection")
         prediction = hypothesis.prediction
+        fast = self._kernel_update(prediction, predicted, detection)
+        if fast is not None:
+            return fast
         states, log_likelihoods = [], np.empty(len(self.updaters))
         for j, updater in enumerate(self.updaters):
             single = SingleHypothesis(GaussianState(prediction.means[j], prediction.covars[j],
@@ -139,13 +163,43 @@ class IMMUpdater(_Models):
         return _stacked(states, posterior, detection.timestamp)
 
 
+    def _kernel_update(self, prediction, predicted, detection):
+        """:meth:`update` in one kernel call where every updater is a Joseph-form
+        :class:`~fasttrack.KalmanUpdater` and all use one measurement model of the
+        prediction's dimension; else None."""
+        if any(type(u) is not KalmanUpdater or not u.use_joseph_cov for u in self.updaters):
+            return None
+        models = {id(detection.measurement_model or u.measurement_model): u
+                  for u in self.updaters}
+        if len(models) != 1:
+            return None
+        model = detection.measurement_model or self.updaters[0].measurement_model
+        if not isinstance(model, LinearGaussian) \
+                or model.ndim_state != prediction.means.shape[1]:
+            return None
+        z = model.measurement_column(detection, "hypothesis.measurement")
+        out = _imm.update(model, prediction.means[None], prediction.covars[None],
+                          predicted[None], z.T)
+        return None if out is None else _stacked_arrays(out[0][0], out[1][0], out[2][0],
+                                                        detection.timestamp)
+
+
 def _stacked(states, weights, timestamp):
     """A GaussianMixture of Gaussian ``states`` with ``weights`` at ``timestamp``."""
-    with np.errstate(divide="ignore"):
+    return _stacked_arrays(np.array([s.state_vector[:, 0] for s in states]),
+                           np.array([s.covar for s in states]), weights, timestamp)
+
+
+def _stacked_arrays(means, covars, weights, timestamp):
+    """A GaussianMixture of means (M, d), covariances (M, d, d) and ``weights`` (M,) at
+    ``timestamp``."""
+    if weights.min() > 0.0:
         log_weights = np.log(weights)
-    return GaussianMixture._made(np.array([s.state_vector[:, 0] for s in states]),
-                                 np.array([s.covar for s in states]), log_weights,
-                                 np.zeros(len(states), dtype=np.int64), timestamp)
+    else:
+        with np.errstate(divide="ignore"):
+            log_weights = np.log(weights)
+    return GaussianMixture._made(means, covars, log_weights,
+                                 np.zeros(len(weights), dtype=np.int64), timestamp)
 
 
 def _linear(model):
@@ -369,7 +423,11 @@ class BatchGPBFilter(BatchIMMFilter):
 
     Parameters
     ----------
-    transition_models, measurement_model, transition_matrix
+    transition_models : sequence of TransitionModel
+        As :class:`BatchIMMFilter`'s.
+    measurement_model : MeasurementModel
+        As :class:`BatchIMMFilter`'s.
+    transition_matrix : (M, M) array_like
         As :class:`BatchIMMFilter`'s.
     order : {1, 2}
         The length of the model histories kept before merging.

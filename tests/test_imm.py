@@ -293,11 +293,15 @@ def test_three_turn_models_follow_the_manoeuvres():
     assert np.sqrt(np.mean(np.square(errors))) < 1.5  # measured 1.17 m (noise 0.85 m)
 
 
-def test_the_predictor_and_updater_pair_equals_the_batch_filter():
+@pytest.mark.parametrize("predictor_class,updater_class", [
+    (ft.KalmanPredictor, ft.KalmanUpdater),  # one kernel call each
+    (ft.ExtendedKalmanPredictor, ft.ExtendedKalmanUpdater),  # each model's own
+])
+def test_the_predictor_and_updater_pair_equals_the_batch_filter(predictor_class, updater_class):
     models = [_cv(0.01), _cv(1.0), _cv(10.0)]
     matrix = np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.05, 0.15, 0.8]])
-    predictor = ft.IMMPredictor([ft.KalmanPredictor(m) for m in models], transition_matrix=matrix)
-    updater = ft.IMMUpdater([ft.KalmanUpdater(SENSOR) for _ in models], transition_matrix=matrix)
+    predictor = ft.IMMPredictor([predictor_class(m) for m in models], transition_matrix=matrix)
+    updater = ft.IMMUpdater([updater_class(SENSOR) for _ in models], transition_matrix=matrix)
     batch = ft.BatchIMMFilter(models, SENSOR, matrix)
     x0, p0, mu0 = np.array([0.0, 5.0, 0.0, 0.0]), np.diag([10.0, 2.0, 10.0, 2.0]), (0.6, 0.3, 0.1)
     state = ft.GaussianMixture([ft.WeightedGaussianState(x0, p0, weight=mu, timestamp=0.0)
@@ -356,7 +360,7 @@ def test_mixtures_and_the_pair_refuse_what_they_cannot_use():
     with pytest.raises(ValueError, match=r"prior must have 2 components \(one a model\)"):
         predictor.predict(ft.GaussianMixture([component]), 1.0)
     heavy = ft.WeightedGaussianState([0.0] * 4, np.eye(4), weight=0.9, timestamp=0.0)
-    with pytest.raises(ValueError, match="each row of prior's weights must sum to 1"):
+    with pytest.raises(ValueError, match="prior's weights must sum to 1; they sum to 1.4"):
         predictor.predict(ft.GaussianMixture([component, heavy]), 1.0)  # 0.5 + 0.9
     with pytest.raises(TypeError, match="prior must be a GaussianMixture"):
         predictor.predict(component, 1.0)
@@ -368,3 +372,39 @@ def test_mixtures_and_the_pair_refuse_what_they_cannot_use():
         updater.update(ft.SingleHypothesis(prediction, None))
     with pytest.raises(TypeError, match="hypothesis must be a SingleHypothesis"):
         updater.update(prediction)
+
+
+def test_the_prediction_and_update_kernels_are_their_mirrors():
+    from fasttrack._jit import imm as kernels
+    from reference import imm as mirror
+    rng = np.random.default_rng(8)
+    models = [_cv(0.01), _cv(1.0), _cv(10.0)]
+    matrix = np.array([[0.9, 0.05, 0.05], [0.0, 0.8, 0.2], [0.0, 0.15, 0.85]])
+    k = 5
+    means = rng.normal(size=(k, 3, 4)) * 5.0
+    a = rng.normal(size=(k, 3, 4, 4))
+    covars = a @ a.swapaxes(-1, -2) + np.eye(4)
+    probs = rng.dirichlet(np.ones(3), size=k)
+    probs[0] = [0.0, 0.4, 0.6]  # nothing switches into model 0
+    transitions = np.array([m.matrix(2.0) for m in models])
+    noises = np.array([m.covar(2.0) for m in models])
+    results = []
+    for module in (kernels, mirror):
+        predicted = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
+                     np.ones(k, dtype=np.int64)]
+        module.imm_predict(transitions, noises, matrix, means, covars, probs, *predicted)
+        updated = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
+                   np.ones(k, dtype=np.int64)]
+        z = rng.normal(size=(k, 2)) * 5.0 if not results else results[0][1]
+        module.imm_update(SENSOR.spec.mapping, SENSOR.noise_covar, *predicted[:3], z, *updated)
+        assert not predicted[3].any() and not updated[3].any()
+        results.append((predicted[:3] + updated[:3], z))
+    for a_, b_ in zip(results[0][0], results[1][0]):
+        np.testing.assert_allclose(a_, b_, rtol=1e-9, atol=1e-9)
+    assert results[0][0][5][0, 0] == 0.0
+    step = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
+            np.ones(k, dtype=np.int64)]
+    kernels.imm_linear_step(0, transitions, noises, SENSOR.spec.mapping, SENSOR.noise_covar,
+                            matrix, means, covars, probs, results[0][1], *step)
+    for a_, b_ in zip(step[:3], results[0][0][3:]):  # the two halves are the step
+        np.testing.assert_array_equal(a_, b_)

@@ -25,7 +25,7 @@ HALF_LOG_TWO_PI = 0.9189385332046727
 IMM, GPB1, GPB2 = 0, 1, 2
 
 
-@jit()
+@jit(inline=True)
 def _mixed(algorithm, matrix, probs, means, covars, j, predicted, weights, models, x0, p0):
     """Model j's prior of one filter into ``x0`` (d,) and ``p0`` (d, d): for the IMM the
     models mixed by ``p_ij mu_i`` (``predicted`` their sum; a model of predicted probability
@@ -40,6 +40,19 @@ def _mixed(algorithm, matrix, probs, means, covars, j, predicted, weights, model
     _symmetrise(p0)
 
 
+@jit(inline=True)
+def _prior(algorithm, matrix, probs, means, covars, j, space):
+    """``(c_j, status)``: model j's prior of one filter (:func:`_mixed`) into ``space``'s
+    prior arrays, its predicted probability ``c_j = sum_i p_ij mu_i``, and OK or why the
+    prior is not a covariance. ``space`` is :func:`_workspace`'s."""
+    predicted = 0.0
+    for i in range(means.shape[0]):
+        predicted += matrix[i, j] * probs[i]
+    x0, p0, check, weights, everyone = space[1], space[2], space[3], space[5], space[7]
+    _mixed(algorithm, matrix, probs, means, covars, j, predicted, weights, everyone, x0, p0)
+    return predicted, _covariance_code(p0, check, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+
+
 @jit()
 def _symmetrise(p):
     """``p`` (d, d) replaced by ``(p + p^T) / 2``."""
@@ -48,7 +61,7 @@ def _symmetrise(p):
             p[a, b] = p[b, a] = 0.5 * (p[a, b] + p[b, a])
 
 
-@jit()
+@jit(inline=True)
 def _predict(f, q, x0, p0, x, p, work):
     """``x = F x0`` and ``p = F p0 F^T + Q`` (symmetric); ``work`` (d, d) is scratch."""
     d = x0.size
@@ -94,14 +107,23 @@ def _workspace(d, m, models):
             np.empty((models, d, d)), np.empty(models, dtype=np.int64))
 
 
-@jit()
+@jit(inline=True)
 def _model_step(f, q, mapping, noise, x0, p0, z, x_out, p_out, scratch):
-    """One model's Kalman step: ``(x0, p0)`` predicted through ``(F, Q)``, then updated in
-    the Joseph form with ``z`` by the sensor selecting ``mapping`` (noise R) into
-    ``(x_out, p_out)``. Returns the measurement's log likelihood, or NaN if the innovation
-    covariance is not positive definite. ``scratch`` is :func:`_scratch`'s."""
-    x, p, work, s, lower, gain, innovation, v = scratch
+    """One model's Kalman step: ``(x0, p0)`` predicted through ``(F, Q)``, then updated
+    (:func:`_kalman_update`) into ``(x_out, p_out)``; returns the log likelihood or NaN.
+    ``scratch`` is :func:`_scratch`'s."""
+    x, p, work = scratch[:3]
     _predict(f, q, x0, p0, x, p, work)
+    return _kalman_update(mapping, noise, x, p, z, x_out, p_out, scratch)
+
+
+@jit(inline=True)
+def _kalman_update(mapping, noise, x, p, z, x_out, p_out, scratch):
+    """The Joseph-form update of ``(x, p)`` with ``z`` by the sensor selecting ``mapping``
+    (noise R) into ``(x_out, p_out)``. Returns the measurement's log likelihood, or NaN if
+    the innovation covariance is not positive definite. ``scratch`` is
+    :func:`_scratch`'s (its first two arrays untouched)."""
+    work, s, lower, gain, innovation, v = scratch[2:]
     d, m = x.size, mapping.size
     for r in range(m):
         for c in range(m):
@@ -155,7 +177,7 @@ def _model_step(f, q, mapping, noise, x0, p0, z, x_out, p_out, scratch):
     return log_likelihood
 
 
-@jit()
+@jit(inline=True)
 def _normalised(log_weights, out):
     """``out = exp(log_weights)`` normalised to sum to one (the largest finite)."""
     top = -np.inf
@@ -173,15 +195,9 @@ def _mixing_step(algorithm, transitions, noises, mapping, noise, matrix, means, 
                  z, out_means, out_covars, out_probs, space):
     """One filter's IMM or GPB1 step (see :func:`imm_linear_step`); returns its status.
     ``space`` is :func:`_workspace`'s."""
-    scratch, x0, p0, check, log_posterior, weights, _, everyone = space[:8]
-    models = means.shape[0]
-    for j in range(models):
-        predicted = 0.0
-        for i in range(models):
-            predicted += matrix[i, j] * probs[i]
-        _mixed(algorithm, matrix, probs, means, covars, j, predicted, weights, everyone, x0,
-               p0)
-        code = _covariance_code(p0, check, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    scratch, x0, p0, log_posterior = space[0], space[1], space[2], space[4]
+    for j in range(means.shape[0]):
+        predicted, code = _prior(algorithm, matrix, probs, means, covars, j, space)
         if code != OK:
             return code
         log_likelihood = _model_step(transitions[j], noises[j], mapping, noise, x0, p0, z,
@@ -276,6 +292,68 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, mean
                 status[k] = _mixing_step(algorithm, transitions, noises, mapping, noise,
                                          matrix, means[k], covars[k], probs[k], z[k],
                                          out_means[k], out_covars[k], out_probs[k], space)
+
+
+@jit()
+def imm_predict(transitions, noises, matrix, means, covars, probs, out_means, out_covars,
+                out_predicted, status):
+    """The IMM's prediction of K filters (the first half of :func:`imm_linear_step`):
+    each model's prior mixed from all models' posteriors, predicted through its F and Q.
+
+    Parameters
+    ----------
+    transitions, noises, matrix, means, covars, probs
+        As :func:`imm_linear_step`'s.
+    out_means, out_covars, out_predicted : arrays of the shapes of the inputs
+        The models' predictions and predicted probabilities ``c_j = sum_i p_ij mu_i``.
+    status : (K,) int64
+        OK, or why a filter's prediction is undefined.
+    """
+    filters, models, d = means.shape
+    space = _workspace(d, 1, models)
+    for k in range(filters):
+        status[k] = OK
+        for j in range(models):
+            out_predicted[k, j], status[k] = _prior(IMM, matrix, probs[k], means[k], covars[k],
+                                                    j, space)
+            if status[k] != OK:
+                break
+            _predict(transitions[j], noises[j], space[1], space[2], out_means[k, j],
+                     out_covars[k, j], space[0][2])
+
+
+@jit()
+def imm_update(mapping, noise, means, covars, predicted, z, out_means, out_covars,
+               out_probs, status):
+    """The IMM's update of K filters (the second half of :func:`imm_linear_step`): each
+    model's prediction updated with the filter's measurement, the models weighed in logs.
+
+    Parameters
+    ----------
+    mapping, noise
+        As :func:`imm_linear_step`'s.
+    means, covars, predicted : (K, M, d), (K, M, d, d), (K, M) float64
+        The models' predictions and predicted probabilities.
+    z : (K, m) float64
+    out_means, out_covars, out_probs : arrays of the shapes of the inputs
+    status : (K,) int64
+        OK, or INNOVATION_NOT_PD.
+    """
+    filters, models, d = means.shape
+    space = _workspace(d, mapping.size, models)
+    scratch, log_posterior = space[0], space[4]
+    for k in range(filters):
+        status[k] = OK
+        for j in range(models):
+            log_likelihood = _kalman_update(mapping, noise, means[k, j], covars[k, j], z[k],
+                                            out_means[k, j], out_covars[k, j], scratch)
+            if log_likelihood != log_likelihood:
+                status[k] = INNOVATION_NOT_PD
+                break
+            log_posterior[j] = math.log(predicted[k, j]) + log_likelihood \
+                if predicted[k, j] > 0.0 else -np.inf
+        if status[k] == OK:
+            _normalised(log_posterior, out_probs[k])
 
 
 #: The state dimension :func:`imm_smooth` is compiled for; 0: any (read from the arrays).

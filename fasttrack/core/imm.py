@@ -60,6 +60,8 @@ def mode_probabilities(probs, shape, name="mode_probs"):
         raise ValueError(f"{name} must have no negative entries")
     sums = probs.sum(axis=-1)
     bad = np.abs(sums - 1.0) > SUM_TOLERANCE
+    if bad.ndim == 0 and bad:
+        raise ValueError(f"{name} must sum to 1; they sum to {float(sums)!r}")
     if bad.any():
         row = np.unravel_index(np.argmax(bad), bad.shape)
         raise ValueError(f"each row of {name} must sum to 1; row "
@@ -111,7 +113,8 @@ def step(transition_models, measurement_model, matrix, means, covars, mode_probs
     matrix : (M, M) ndarray
         The validated switching matrix (:func:`transition_matrix`).
     means, covars, mode_probs, measurements, intervals : ndarray
-        Validated (K, M, d), (K, M, d, d), (K, M), (K, m) and (K,) arrays.
+        Validated (K, M, d), (K, M, d, d), (K, M), (K, m) and (K,) arrays (C-contiguous
+        float64).
     algorithm : {'imm', 'gpb1', 'gpb2'}
         One of :data:`ALGORITHMS`.
 
@@ -222,34 +225,71 @@ def _fused(transition_models, measurement_model, matrix, means, covars, mode_pro
     if sensor.kind != SELECT or np.any(sensor.angles) or np.any(intervals != intervals[0]) \
             or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models * pairs):
         return None
-    transitions, noises = zip(*(_transition(model.spec(float(intervals[0])))
-                                for model in transition_models))
-    arrays = [np.require(a, np.float64, ["C", "W"])
-              for a in (means, covars, mode_probs, measurements)]
-    out = np.empty_like(arrays[0]), np.empty_like(arrays[1]), np.empty_like(arrays[2])
+    transitions, noises = _matrices(transition_models, float(intervals[0]))
+    out = np.empty_like(means), np.empty_like(covars), np.empty_like(mode_probs)
     status = np.empty(k, dtype=np.int64)
-    _imm.imm_linear_step(ALGORITHMS.index(algorithm), np.array(transitions), np.array(noises),
-                         sensor.mapping, sensor.noise_covar, matrix, *arrays, *out, status)
+    _imm.imm_linear_step(ALGORITHMS.index(algorithm), transitions, noises, sensor.mapping,
+                         sensor.noise_covar, matrix, means, covars, mode_probs, measurements,
+                         *out, status)
     return out if not status.any() else None
 
 
-#: F and Q of constant-velocity specs, by interval and noise rates (a filter steps at few
-#: intervals; building Q costs more than the step).
-_CV_MATRICES = {}
+def predict(transition_models, matrix, means, covars, mode_probs, dt):
+    """The IMM's prediction of K filters ``dt`` seconds ahead in one kernel call
+    (:func:`fasttrack._jit.imm.imm_predict`): ``(means, covars, predicted)``, each model's
+    prediction from its mixed prior and the predicted mode probabilities; None where a
+    model is not linear, the process runs NumPy first, or a prior is not positive
+    semi-definite (the caller's general path then reports it)."""
+    k, models = mode_probs.shape
+    if not all(hasattr(model, "matrix") and hasattr(model, "spec")
+               for model in transition_models) \
+            or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models):
+        return None
+    transitions, noises = _matrices(transition_models, dt)
+    out = np.empty_like(means), np.empty_like(covars), np.empty_like(mode_probs)
+    status = np.empty(k, dtype=np.int64)
+    _imm.imm_predict(transitions, noises, matrix, means, covars, mode_probs, *out, status)
+    return out if not status.any() else None
 
 
-def _transition(spec):
-    """``(F, Q)`` of a linear transition spec, remembered for constant-velocity blocks,
-    which the interval and the noise rates determine."""
-    if spec.kind != CV:
-        return spec.matrix, spec.noise
-    key = (spec.dt, spec.rates.tobytes())
-    found = _CV_MATRICES.get(key)
+def update(measurement_model, means, covars, predicted, measurements):
+    """The IMM's update of K filters' model predictions with their measurements (K, m) in
+    one kernel call (:func:`fasttrack._jit.imm.imm_update`): ``(means, covars, probs)``;
+    None where the sensor does not select state components, the process runs NumPy first,
+    or an innovation covariance is not positive definite (the caller's general path then
+    reports it)."""
+    sensor = measurement_model.spec
+    k, models = predicted.shape
+    if sensor.kind != SELECT or np.any(sensor.angles) \
+            or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models):
+        return None
+    out = np.empty_like(means), np.empty_like(covars), np.empty_like(predicted)
+    status = np.empty(k, dtype=np.int64)
+    _imm.imm_update(sensor.mapping, sensor.noise_covar, means, covars, predicted,
+                    measurements, *out, status)
+    return out if not status.any() else None
+
+
+def _matrices(transition_models, dt):
+    """(M, d, d) F and Q of the models over ``dt`` seconds, remembered for banks of
+    constant-velocity models, which the interval and their noise rates determine (a filter
+    steps at few intervals; building Q costs more than the step)."""
+    specs = [model.spec(dt) for model in transition_models]
+    key = (dt, tuple(spec.rates.tobytes() for spec in specs)) \
+        if all(spec.kind == CV for spec in specs) else None
+    found = _CV_BANKS.get(key)
     if found is None:
-        if len(_CV_MATRICES) >= 64:
-            _CV_MATRICES.clear()
-        found = _CV_MATRICES[key] = (spec.matrix, spec.noise)
+        found = (np.array([spec.matrix for spec in specs]),
+                 np.array([spec.noise for spec in specs]))
+        if key is not None:
+            if len(_CV_BANKS) >= 64:
+                _CV_BANKS.clear()
+            _CV_BANKS[key] = found
     return found
+
+
+#: :func:`_matrices` of constant-velocity banks, by interval and rates.
+_CV_BANKS = {}
 
 
 def smooth(transition_models, matrix, means, covars, mode_probs, intervals):
@@ -274,10 +314,9 @@ def smooth(transition_models, matrix, means, covars, mode_probs, intervals):
     """
     values, step = np.unique(intervals, return_inverse=True)
     values = values if values.size else np.zeros(1)
-    pairs = [[_transition(model.spec(float(dt))) for model in transition_models]
-             for dt in values]
-    transitions = np.array([[f for f, _ in row] for row in pairs], dtype=np.float64)
-    noises = np.array([[q for _, q in row] for row in pairs], dtype=np.float64)
+    banks = [_matrices(transition_models, float(dt)) for dt in values]
+    transitions = np.array([f for f, _ in banks])
+    noises = np.array([q for _, q in banks])
     step = np.ascontiguousarray(np.append(step, 0), dtype=np.int64)
     arrays = [np.require(a, np.float64, ["C"]) for a in (means, covars, mode_probs)]
     out = [np.empty_like(a) for a in arrays]

@@ -76,6 +76,42 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, mean
             out_probs[k] = weights / weights.sum()
 
 
+def imm_predict(transitions, noises, matrix, means, covars, probs, out_means, out_covars,
+                out_predicted, status):
+    models = means.shape[1]
+    for k in range(means.shape[0]):
+        status[k] = OK
+        out_predicted[k] = probs[k] @ matrix
+        for j in range(models):
+            c = out_predicted[k, j]
+            w = matrix[:, j] * probs[k] if c > 0 else np.eye(models)[j]
+            x0, p0 = _merged(w, means[k], covars[k])
+            out_means[k, j] = transitions[j] @ x0
+            out_covars[k, j] = transitions[j] @ p0 @ transitions[j].T + noises[j]
+
+
+def imm_update(mapping, noise, means, covars, predicted, z, out_means, out_covars, out_probs,
+               status):
+    d = means.shape[2]
+    h = np.zeros((mapping.size, d))
+    h[np.arange(mapping.size), mapping] = 1.0
+    eye = np.eye(d)
+    for k in range(means.shape[0]):
+        status[k] = OK
+        log_posterior = np.full(means.shape[1], -np.inf)
+        for j in range(means.shape[1]):
+            step = _kalman(eye, np.zeros((d, d)), h, noise, means[k, j], covars[k, j], z[k])
+            if step is None:
+                status[k] = INNOVATION_NOT_PD
+                break
+            out_means[k, j], out_covars[k, j] = step[:2]
+            if predicted[k, j] > 0:
+                log_posterior[j] = np.log(predicted[k, j]) + step[2]
+        if status[k] == OK:
+            weights = np.exp(log_posterior - log_posterior.max())
+            out_probs[k] = weights / weights.sum()
+
+
 def imm_smooth(transitions, noises, step, matrix, means, covars, probs, out_means,
                out_covars, out_probs, status):
     """Kim's smoother track by track, pair by pair, with explicit inverses."""
