@@ -1,7 +1,8 @@
 """Multiple-model steps on stacks: one filter and 10^4 filters of 3 constant-velocity models
 (noise 0.01, 1 and 10; d = 4, a position sensor), one step of the IMM (order 0), GPB1 or
 GPB2 (order 1, 2) per call of ``step``; one IMM step through the predictor and updater
-classes; the IMM smoother over 1 and 100 tracks of 1000 steps."""
+classes; the IMM smoother over 1 and 100 tracks of 1000 steps; one IMM-GNN scan of 1000
+tracks."""
 import numpy as np
 import pytest
 
@@ -86,3 +87,33 @@ def test_imm_smooth(benchmark, k):
     probs = rng.dirichlet(np.ones(3), size=(k, 1000))
     out = benchmark(_filter().smooth, means, covars, probs, 1.0)
     assert np.allclose(out[2].sum(axis=-1), 1.0)
+
+
+def test_imm_gnn_scan(benchmark):
+    """One IMM-GNN scan of 1000 tracks x 1000 detections (the targets of
+    ``bench/test_gating.py``, 3 constant-velocity models): predict every model, gate and
+    assign on the mode-combined predicted measurements, update the assigned tracks."""
+    from bench.test_gating import MISSED, PRIOR_COVAR, scenario
+    from fasttrack.core import imm
+    from fasttrack.core.assign import global_nearest_neighbour
+    from fasttrack.core.gating import gate
+    benchmark.group = "imm-gnn-scan N=1000 M=3"
+    n, filt = 1000, _filter()
+    means, detections = scenario(n)
+    means = np.repeat(means[:, None], 3, axis=1)
+    covars = np.broadcast_to(PRIOR_COVAR, (n, 3, 4, 4)).copy()
+    probs = np.full((n, 3), 1.0 / 3.0)
+    models, sensor = filt.transition_models, filt.measurement_model
+
+    def scan():
+        x, p, predicted, z_hats, s = imm.predictions(models, sensor, filt.transition_matrix,
+                                                     means, covars, probs, np.ones(n))
+        chosen = global_nearest_neighbour(gate(*imm.combine(z_hats, s, predicted), detections,
+                                               MISSED ** 2), MISSED)
+        hit = chosen >= 0
+        imm.updates(models, sensor, x[hit], p[hit], predicted[hit], z_hats[hit], s[hit],
+                    detections[chosen[hit]])
+        return chosen
+
+    assert (scan() >= 0).mean() > 0.95
+    benchmark.pedantic(scan, rounds=20, warmup_rounds=1)

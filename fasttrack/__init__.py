@@ -35,7 +35,7 @@ _MODULES = {
     "simulate": ["detections", "ground_truth"],
     "smoother": ["ExtendedKalmanSmoother", "KalmanSmoother", "UnscentedKalmanSmoother", "ffbs"],
     "threads": ["get_threads", "set_threads"],
-    "tracker": ["MultiTargetTracker"],
+    "tracker": ["IMMTracker", "MultiTargetTracker"],
     "types": ["Detection", "GaussianMeasurementPrediction", "GaussianMixture", "GaussianState",
               "GaussianStatePrediction", "GaussianStateUpdate", "GroundTruthPath",
               "GroundTruthState", "KernelParticleState",

@@ -5,9 +5,10 @@ import numpy as np
 from . import _validate
 from .association import gate, global_nearest_neighbour, nearest_neighbour
 from .batch import check_models
+from .core import imm as _imm
 from .core import kalman as _kalman
 from .models.measurement import LinearGaussian
-from .types.mixture import TrackSet
+from .types.mixture import IMMTrackSet, TrackSet
 
 _ASSOCIATORS = {"gnn": global_nearest_neighbour, "nn": nearest_neighbour}
 
@@ -208,3 +209,87 @@ class MultiTargetTracker:
         time_interval = _validate.positive(time_interval, "time_interval")
         start = 0.0 if self.time is None else self.time + time_interval
         return [self.step(scan, start + t * time_interval) for t, scan in enumerate(scans)]
+
+
+class IMMTracker(MultiTargetTracker):
+    """:class:`MultiTargetTracker` whose tracks are interacting multiple model filters: each
+    track a bank of M Kalman filters (one a transition model) with its mode probabilities.
+
+    Each scan, every track's models are mixed and predicted (:func:`fasttrack.core.imm.
+    predictions`); the track's predicted measurement for gating and assignment is the
+    moment match of its models' (mean ``sum_j c_j z_j``, covariance ``sum_j c_j (S_j +
+    spread)`` with ``c_j`` the predicted mode probabilities), so the gate and the
+    Mahalanobis cost are those of the mode-combined Gaussian; a track given a detection
+    updates each model with it and reweighs the models by their own likelihoods, a track
+    given none keeps its predictions and predicted mode probabilities. Confirmation and
+    deletion are :class:`MultiTargetTracker`'s. With one model it is that tracker.
+
+    Parameters
+    ----------
+    transition_models : sequence of TransitionModel
+        M linear-Gaussian models of one state dimension.
+    measurement_model : LinearGaussian
+    transition_matrix : (M, M) array_like
+        ``transition_matrix[i, j]``: the probability of switching from model i to model j
+        in one scan; rows sum to one.
+    prior_mean : (d,) array_like
+        As :class:`MultiTargetTracker`'s (every model of a new track starts there).
+    prior_covar : (d, d) array_like
+        As :class:`MultiTargetTracker`'s.
+    mode_probs : (M,) array_like, optional
+        A new track's mode probabilities (default: equal).
+    **options : keyword arguments
+        :class:`MultiTargetTracker`'s other parameters (``missed_distance``,
+        ``min_points``, ``delete_after_misses``, ...).
+
+    Attributes
+    ----------
+    confirmed, tentative : IMMTrackSet
+    """
+
+    def __init__(self, transition_models, measurement_model, transition_matrix, prior_mean,
+                 prior_covar, mode_probs=None, **options):
+        models = list(transition_models)
+        if not models:
+            raise ValueError("transition_models must hold at least one model")
+        super().__init__(models[0], measurement_model, prior_mean, prior_covar, **options)
+        for model in models[1:]:
+            check_models(model, measurement_model)
+        self.transition_models = models
+        self.transition_matrix = _imm.transition_matrix(transition_matrix, len(models))
+        self.mode_probs = (np.full(len(models), 1.0 / len(models)) if mode_probs is None
+                           else _imm.mode_probabilities(mode_probs, (len(models),)))
+        d = measurement_model.ndim_state
+        self.confirmed = IMMTrackSet.empty(d, len(models))
+        self.tentative = IMMTrackSet.empty(d, len(models))
+
+    def _advance(self, tracks, detections, dt, available):
+        taken = np.zeros(detections.shape[0], dtype=np.bool_)
+        if len(tracks) == 0:
+            return tracks, taken
+        models, sensor = self.transition_models, self.measurement_model
+        means, covars, predicted, z_hats, innovations = _imm.predictions(
+            models, sensor, self.transition_matrix, tracks.model_means, tracks.model_covars,
+            tracks.mode_probs, np.full(len(tracks), dt))
+        pool = np.flatnonzero(available)
+        result = gate(*_imm.combine(z_hats, innovations, predicted), detections[pool],
+                      self.missed_distance ** 2)
+        chosen = self._associate(result, self.missed_distance)
+        hit = chosen >= 0
+        probs = predicted
+        if hit.any():
+            means[hit], covars[hit], probs[hit] = _imm.updates(
+                models, sensor, means[hit], covars[hit], predicted[hit], z_hats[hit],
+                innovations[hit], detections[pool[chosen[hit]]])
+            taken[pool[chosen[hit]]] = True
+        return IMMTrackSet(tracks.ids, *_imm.combine(means, covars, probs),
+                           tracks.updates + hit, np.where(hit, 0, tracks.misses + 1),
+                           tracks.ages + 1, means, covars, probs), taken
+
+    def _start_tracks(self, detections):
+        started = super()._start_tracks(detections)
+        models = len(self.transition_models)
+        return IMMTrackSet(*started._fields(),
+                           np.repeat(started.means[:, None], models, axis=1),
+                           np.repeat(started.covars[:, None], models, axis=1),
+                           np.tile(self.mode_probs, (len(started), 1)))

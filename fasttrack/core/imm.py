@@ -143,20 +143,52 @@ def general_step(transition_models, measurement_model, matrix, means, covars, mo
     if algorithm == "gpb2":
         return _gpb2_step(transition_models, measurement_model, matrix, means, covars,
                           mode_probs, measurements, intervals)
+    return updates(transition_models, measurement_model,
+                   *predictions(transition_models, measurement_model, matrix, means, covars,
+                                mode_probs, intervals, algorithm), measurements)
+
+
+def predictions(transition_models, measurement_model, matrix, means, covars, mode_probs,
+                intervals, algorithm="imm"):
+    """Each model's prior (the IMM's mixing, or GPB1's merging of all models), predicted
+    ``intervals`` (K,) seconds ahead, and its predicted measurement.
+
+    Returns
+    -------
+    means, covars, predicted, z_hats, innovations : ndarray
+        (K, M, d) and (K, M, d, d) predictions, (K, M) predicted mode probabilities
+        ``c_j = sum_i p_ij mu_i``, (K, M, m) predicted measurements and (K, M, m, m)
+        innovation covariances.
+    """
     models = mode_probs.shape[1]
-    predicted = mode_probs @ matrix
     if algorithm == "gpb1":
         mean, covar = combine(means, covars, mode_probs)
         priors = (np.repeat(mean[:, None], models, axis=1),
                   np.repeat(covar[:, None], models, axis=1))
+        predicted = mode_probs @ matrix
     else:
-        priors = mix(means, covars, mode_probs, matrix)[:2]
-    out_means, out_covars = np.empty_like(means), np.empty_like(covars)
-    log_posterior = np.empty(mode_probs.shape)
+        *priors, predicted = mix(means, covars, mode_probs, matrix)
+    out = [np.empty(means.shape), np.empty(covars.shape),
+           np.empty(means.shape[:2] + (measurement_model.ndim_meas,)),
+           np.empty(means.shape[:2] + (measurement_model.ndim_meas,) * 2)]
     for j, model in enumerate(transition_models):
-        out_means[:, j], out_covars[:, j], log_likelihood = _model_step(
-            j, model, measurement_model, priors[0][:, j], priors[1][:, j], measurements,
-            intervals)
+        for whole, part in zip(out, _model_prediction(j, model, measurement_model,
+                                                      priors[0][:, j], priors[1][:, j],
+                                                      intervals)):
+            whole[:, j] = part
+    return out[0], out[1], predicted, out[2], out[3]
+
+
+def updates(transition_models, measurement_model, means, covars, predicted, z_hats,
+            innovations, measurements):
+    """Each model's prediction (:func:`predictions`'s outputs) updated with the filter's
+    measurement (K, m), and the models weighed in logs: ``(means, covars, mode_probs)``."""
+    out_means, out_covars = np.empty_like(means), np.empty_like(covars)
+    log_posterior = np.empty(predicted.shape)
+    for j, model in enumerate(transition_models):
+        out_means[:, j], out_covars[:, j], log_likelihood = _model_update(
+            j, model, measurement_model, means[:, j], covars[:, j], z_hats[:, j],
+            innovations[:, j], measurements)
         with np.errstate(divide="ignore"):
             log_posterior[:, j] = np.log(predicted[:, j]) + log_likelihood
     return out_means, out_covars, _normalised(log_posterior)
@@ -194,14 +226,32 @@ def _gpb2_step(transition_models, measurement_model, matrix, means, covars, mode
 def _model_step(j, model, measurement_model, means, covars, measurements, intervals):
     """Model j's prediction and update of the stacked priors (n, d), (n, d, d):
     ``(means, covars, log_likelihoods)``; a ValueError names the model."""
+    return _model_update(j, model, measurement_model,
+                         *_model_prediction(j, model, measurement_model, means, covars,
+                                            intervals), measurements)
+
+
+def _model_prediction(j, model, measurement_model, means, covars, intervals):
+    """Model j's :func:`fasttrack.core.kalman.stack_predict` of stacked priors; a
+    ValueError names the model."""
     try:
-        prior_means, prior_covars, z_hats, innovation = _kalman.stack_predict(
-            model, measurement_model, intervals, np.ascontiguousarray(means),
-            np.ascontiguousarray(covars), by_interval=True)
-        out_means, out_covars = _kalman.stack_update(measurement_model, prior_means,
-                                                     prior_covars, measurements)
+        return _kalman.stack_predict(model, measurement_model, intervals,
+                                     np.ascontiguousarray(means), np.ascontiguousarray(covars),
+                                     by_interval=True)
+    except ValueError as error:
+        raise ValueError(f"model {j} ({type(model).__name__}): {error}") from None
+
+
+def _model_update(j, model, measurement_model, means, covars, z_hats, innovations,
+                  measurements):
+    """Model j's update of stacked predictions with their measurements and the log
+    likelihoods: ``(means, covars, log_likelihoods)``; a ValueError names the model."""
+    try:
+        out_means, out_covars = _kalman.stack_update(
+            measurement_model, np.ascontiguousarray(means), np.ascontiguousarray(covars),
+            measurements)
         return out_means, out_covars, log_gaussian(measurement_model, measurements, z_hats,
-                                                   innovation)
+                                                   innovations)
     except ValueError as error:
         raise ValueError(f"model {j} ({type(model).__name__}): {error}") from None
 

@@ -21,7 +21,7 @@ from .base import Link, check_timestamp, seconds, time_interval, weak
 from .gaussian import (Detection, GaussianMeasurementPrediction, GaussianState,
                        GaussianStatePrediction, GaussianStateUpdate, GroundTruthState, State,
                        WeightedGaussianState, column_vector)
-from .mixture import GaussianMixture, TrackSet
+from .mixture import GaussianMixture, IMMTrackSet, TrackSet
 from .kernel import (KernelParticleState, KernelParticleStateMeasurementPrediction,
                      KernelParticleStatePrediction, KernelParticleStateUpdate,
                      dense_kernel_covar, factor_kernel_covar, isotropic_factors)
@@ -31,7 +31,8 @@ from .tracks import GroundTruthPath, SingleHypothesis, StateSequence, Track
 
 __all__ = [
     "Detection", "GaussianMeasurementPrediction", "GaussianState", "GaussianStatePrediction",
-    "GaussianMixture", "GaussianStateUpdate", "GroundTruthPath", "GroundTruthState", "KernelParticleState",
+    "GaussianMixture", "GaussianStateUpdate", "GroundTruthPath", "GroundTruthState",
+    "IMMTrackSet", "KernelParticleState",
     "KernelParticleStateMeasurementPrediction", "KernelParticleStatePrediction",
     "KernelParticleStateUpdate", "Link", "Particle", "ParticleState", "ParticleStatePrediction",
     "ParticleStateUpdate", "SingleHypothesis", "State", "StateSequence", "Track", "TrackSet",

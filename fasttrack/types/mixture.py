@@ -8,7 +8,7 @@ from .. import _validate
 from ..core import imm as _imm
 from ..core import mixture as _mixture
 
-__all__ = ["GaussianMixture", "TrackSet"]
+__all__ = ["GaussianMixture", "IMMTrackSet", "TrackSet"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -177,18 +177,43 @@ class TrackSet:
 
     def copy(self):
         """A copy holding copies of the arrays."""
-        return TrackSet(*[field.copy() for field in self._fields()])
+        return type(self)(*[field.copy() for field in self._fields()])
 
     def take(self, keep):
         """The tracks selected by a boolean mask or index array."""
-        return TrackSet(*[field[keep] for field in self._fields()])
+        return type(self)(*[field[keep] for field in self._fields()])
 
     @staticmethod
     def concatenate(first, second):
-        """The tracks of both sets."""
-        return TrackSet(*[np.concatenate((a, b)) for a, b in
-                          zip(first._fields(), second._fields())])
+        """The tracks of both sets (of one type)."""
+        return type(first)(*[np.concatenate((a, b)) for a, b in
+                             zip(first._fields(), second._fields())])
 
     def _fields(self):
         """The arrays, in field order (not copied, unlike ``dataclasses.astuple``)."""
         return [getattr(self, field.name) for field in dataclasses.fields(self)]
+
+
+@dataclasses.dataclass
+class IMMTrackSet(TrackSet):
+    """Tracks that are IMM filters, as arrays: :class:`TrackSet`'s fields (``means`` and
+    ``covars`` the combined estimates, the moment match of the models) and each model's.
+
+    Attributes
+    ----------
+    model_means : (K, M, d) float64 ndarray
+    model_covars : (K, M, d, d) float64 ndarray
+    mode_probs : (K, M) float64 ndarray
+        Each track's model probabilities (rows sum to one).
+    """
+
+    model_means: np.ndarray = None
+    model_covars: np.ndarray = None
+    mode_probs: np.ndarray = None
+
+    @classmethod
+    def empty(cls, d, models=1):
+        """No tracks of dimension ``d`` and ``models`` models."""
+        none = TrackSet.empty(d)
+        return cls(*none._fields(), np.empty((0, models, d)), np.empty((0, models, d, d)),
+                   np.empty((0, models)))
