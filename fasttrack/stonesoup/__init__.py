@@ -6,11 +6,15 @@ a Stone Soup script runs unchanged, faster. Each class is a subclass of the Ston
 it replaces, takes and returns Stone Soup's own types, memoises ``predict`` as Stone Soup
 does and draws its random numbers from NumPy's global state (``np.random.seed``).
 
-Stone Soup's built-in models ``ConstantVelocity``, ``CombinedLinearGaussianTransitionModel``,
-``LinearGaussian``, ``CartesianToBearingRange`` and ``Cartesian2DToBearing`` run through
-fasttrack's kernels; other models work through their own Python code. Each call that runs
+Stone Soup's built-in models ``ConstantVelocity``, ``KnownTurnRate``,
+``CombinedLinearGaussianTransitionModel``, ``LinearGaussian``, ``CartesianToBearingRange`` and
+``Cartesian2DToBearing`` run through fasttrack's kernels; other models work through their own Python code. Each call that runs
 Stone Soup's code logs why at debug level (logger ``fasttrack.stonesoup``), and
 :func:`fallbacks` counts them.
+
+``IMMPredictor`` and ``IMMUpdater`` have no Stone Soup counterpart: an interacting multiple
+model filter on Stone Soup's ``GaussianMixture`` with its Kalman predictors and updaters as
+the models.
 """
 try:
     import stonesoup  # noqa: F401
@@ -28,6 +32,7 @@ _MODULES = {
     "gater": ["DistanceGater"],
     "hypothesiser": ["DistanceHypothesiser", "GaussianMixtureHypothesiser",
                      "GaussianMixtureKDTreeHypothesiser", "PDAHypothesiser"],
+    "imm": ["IMMPredictor", "IMMUpdater"],
     "initiator": ["MultiMeasurementInitiator", "SimpleMeasurementInitiator"],
     "kernel": ["GaussianKernel", "LinearKernel", "PolynomialKernel", "QuadraticKernel",
                "QuarticKernel"],

@@ -36,6 +36,9 @@ _BUILDERS = {
     ss_transition_linear.ConstantVelocity:
         lambda model: ft_models.ConstantVelocity(model.noise_diff_coeff),
     ss_transition_linear.CombinedLinearGaussianTransitionModel: _combined,
+    ss_transition_linear.KnownTurnRate:
+        lambda model: ft_models.KnownTurnRate(floats(model.turn_noise_diff_coeffs),
+                                              float(model.turn_rate)),
     ss_measurement_linear.LinearGaussian:
         lambda model: ft_models.LinearGaussian(model.ndim_state, model.mapping,
                                                floats(model.noise_covar)),
