@@ -10,10 +10,10 @@ EXAMPLES = sorted((pathlib.Path(__file__).resolve().parents[1] / "docs" / "examp
                   .glob("*.py"))
 
 
-def test_the_four_tutorials_are_there():
+def test_the_tutorials_are_there():
     assert [e.stem for e in EXAMPLES] == ["adaptive_kernel_kalman_filter",
-                                          "extended_kalman_filter", "particle_filter",
-                                          "resampling"]
+                                          "extended_kalman_filter", "multiple_models",
+                                          "particle_filter", "resampling"]
 
 
 @pytest.mark.parametrize("example", EXAMPLES, ids=lambda path: path.stem)
