@@ -2,7 +2,7 @@
 (noise 0.01, 1 and 10; d = 4, a position sensor), one step of the IMM (order 0), GPB1 or
 GPB2 (order 1, 2) per call of ``step``; one IMM step through the predictor and updater
 classes; the IMM smoother over 1 and 100 tracks of 1000 steps; one IMM-GNN scan of 1000
-tracks."""
+tracks and one IMM-JPDA step of 100 tracks."""
 import numpy as np
 import pytest
 
@@ -117,3 +117,36 @@ def test_imm_gnn_scan(benchmark):
 
     assert (scan() >= 0).mean() > 0.95
     benchmark.pedantic(scan, rounds=20, warmup_rounds=1)
+
+
+def test_imm_jpda_step(benchmark):
+    """One IMM-JPDA step of 100 tracks on 100 targets + 100 clutter points (the workload of
+    ``bench/test_jpda.py``; 3 models of its noise, q = 0.05, turning at 0.1, 0 and -0.1
+    rad/s): predict every model, gate on the mode-combined predicted measurements, exact
+    JPDA marginals of the mode-mixture likelihoods, and each model's PDA update."""
+    from bench.test_jpda import P0, PROB_DETECT, PROB_GATE, workload
+    from fasttrack.core import imm
+    from fasttrack.core.gating import gate
+    from scipy.stats import chi2
+    benchmark.group = "imm-jpda-step N=100+100 M=3"
+    x0, z, clutter, density = workload()
+    points = np.concatenate([z, clutter])
+    n = len(x0)
+    filt = ft.BatchIMMFilter([ft.KnownTurnRate([0.05, 0.05], w) for w in (0.1, 0.0, -0.1)],
+                             ft.LinearGaussian(4, (0, 2), np.eye(2)), MATRIX)
+    means = np.repeat(x0[:, None], 3, axis=1)
+    covars = np.broadcast_to(P0, (n, 3, 4, 4)).copy()
+    probs = np.full((n, 3), 1.0 / 3.0)
+    models, sensor = filt.transition_models, filt.measurement_model
+    threshold = chi2.ppf(PROB_GATE, 2)
+
+    def step():
+        x, p, predicted, z_hats, s = imm.predictions(models, sensor, filt.transition_matrix,
+                                                     means, covars, probs, np.ones(n))
+        result = gate(*imm.combine(z_hats, s, predicted), points, threshold)
+        return imm.jpda_updates(sensor, x, p, predicted, z_hats, s, points, result,
+                                PROB_DETECT, PROB_GATE, density)
+
+    out = step()
+    assert np.allclose(out[2].sum(axis=1), 1.0) and (out[3] < 1).mean() > 0.9
+    benchmark.pedantic(step, rounds=20, warmup_rounds=1)

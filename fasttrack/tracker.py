@@ -1,6 +1,7 @@
 """A multi-target tracker on arrays: every track set is (K, d) means and (K, d, d)
 covariances, advanced a scan at a time by batched predict, gate, assignment and update."""
 import numpy as np
+from scipy.stats import chi2
 
 from . import _validate
 from .association import gate, global_nearest_neighbour, nearest_neighbour
@@ -238,8 +239,19 @@ class IMMTracker(MultiTargetTracker):
         As :class:`MultiTargetTracker`'s.
     mode_probs : (M,) array_like, optional
         A new track's mode probabilities (default: equal).
+    association : {'gnn', 'nn', 'jpda'}
+        Global or greedy nearest neighbour on the mode-combined predicted measurements, or
+        IMM-JPDA: every track updated with every detection of its gate, weighed by the
+        exact JPDA marginals of its mode-mixture likelihoods, each model by its own
+        innovations (:func:`fasttrack.core.imm.jpda_updates`); a detection in any
+        track's gate starts no track, and a track misses when its gate is empty.
+    prob_detect : float
+        With 'jpda': the probability of detection, in (0, 1].
+    clutter_density : float, optional
+        With 'jpda' (required): the clutter's expected number per unit measurement volume
+        per scan, > 0.
     **options : keyword arguments
-        :class:`MultiTargetTracker`'s other parameters (``missed_distance``,
+        :class:`MultiTargetTracker`'s other parameters (``missed_distance``: the gate,
         ``min_points``, ``delete_after_misses``, ...).
 
     Attributes
@@ -248,11 +260,23 @@ class IMMTracker(MultiTargetTracker):
     """
 
     def __init__(self, transition_models, measurement_model, transition_matrix, prior_mean,
-                 prior_covar, mode_probs=None, **options):
+                 prior_covar, mode_probs=None, association="gnn", prob_detect=0.9,
+                 clutter_density=None, **options):
         models = list(transition_models)
         if not models:
             raise ValueError("transition_models must hold at least one model")
-        super().__init__(models[0], measurement_model, prior_mean, prior_covar, **options)
+        self.jpda = association == "jpda"
+        super().__init__(models[0], measurement_model, prior_mean, prior_covar,
+                         association="gnn" if self.jpda else association, **options)
+        if self.jpda:
+            self.prob_detect = _validate.probability(prob_detect, "prob_detect")
+            if not self.prob_detect > 0:
+                raise ValueError("prob_detect must be > 0 for JPDA")
+            if clutter_density is None:
+                raise ValueError("association='jpda' needs clutter_density (> 0)")
+            self.clutter_density = _validate.positive(clutter_density, "clutter_density")
+            self.prob_gate = float(chi2.cdf(self.missed_distance ** 2,
+                                            measurement_model.ndim_meas))
         for model in models[1:]:
             check_models(model, measurement_model)
         self.transition_models = models
@@ -274,6 +298,9 @@ class IMMTracker(MultiTargetTracker):
         pool = np.flatnonzero(available)
         result = gate(*_imm.combine(z_hats, innovations, predicted), detections[pool],
                       self.missed_distance ** 2)
+        if self.jpda:
+            return self._jpda_advance(tracks, detections[pool], pool, result, means, covars,
+                                      predicted, z_hats, innovations, taken)
         chosen = self._associate(result, self.missed_distance)
         hit = chosen >= 0
         probs = predicted
@@ -282,6 +309,18 @@ class IMMTracker(MultiTargetTracker):
                 models, sensor, means[hit], covars[hit], predicted[hit], z_hats[hit],
                 innovations[hit], detections[pool[chosen[hit]]])
             taken[pool[chosen[hit]]] = True
+        return IMMTrackSet(tracks.ids, *_imm.combine(means, covars, probs),
+                           tracks.updates + hit, np.where(hit, 0, tracks.misses + 1),
+                           tracks.ages + 1, means, covars, probs), taken
+
+    def _jpda_advance(self, tracks, detections, pool, result, means, covars, predicted,
+                      z_hats, innovations, taken):
+        """:meth:`_advance`'s IMM-JPDA update of every track with its gate's detections."""
+        means, covars, probs, _ = _imm.jpda_updates(
+            self.measurement_model, means, covars, predicted, z_hats, innovations, detections,
+            result, self.prob_detect, self.prob_gate, self.clutter_density)
+        hit = np.diff(result.starts) > 0
+        taken[pool[result.detections]] = True
         return IMMTrackSet(tracks.ids, *_imm.combine(means, covars, probs),
                            tracks.updates + hit, np.where(hit, 0, tracks.misses + 1),
                            tracks.ages + 1, means, covars, probs), taken

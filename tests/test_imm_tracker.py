@@ -72,6 +72,9 @@ def test_turning_targets_are_kept_by_turn_models():
     (dict(transition_matrix=[[0.5, 0.6], [0.5, 0.5]]), "row 0 sums to 1.1"),
     (dict(mode_probs=[0.2, 0.2]), "mode_probs must sum to 1; they sum to 0.4"),
     (dict(mode_probs=[0.2, 0.3, 0.5]), r"mode_probs must have shape \(2,\)"),
+    (dict(association="jpda"), "association='jpda' needs clutter_density"),
+    (dict(association="jpda", clutter_density=1e-3, prob_detect=0.0), "prob_detect must be > 0"),
+    (dict(association="pda"), "association must be one of"),
 ])
 def test_bad_input_is_refused_naming_the_argument(change, message):
     arguments = dict(transition_models=[TRANSITION, TRANSITION], measurement_model=SENSOR,
@@ -79,3 +82,76 @@ def test_bad_input_is_refused_naming_the_argument(change, message):
     arguments.update(change)
     with pytest.raises(ValueError, match=message):
         IMMTracker(**arguments)
+
+
+def test_the_jpda_update_is_each_hypothesis_and_model_merged():
+    """jpda_updates against Kalman updates of every (detection, model) pair, merged by the
+    joint probabilities built from the dense JPDA marginals of the mixture likelihoods."""
+    from scipy.stats import chi2, multivariate_normal
+
+    from fasttrack.association import gate, jpda_marginals
+    from fasttrack.core import imm
+    rng = np.random.default_rng(4)
+    models = [ft.KnownTurnRate([0.1, 0.1], w) for w in (0.2, 0.0, -0.2)]
+    matrix = np.full((3, 3), 0.1) + 0.7 * np.eye(3)
+    k = 4
+    means = np.repeat(np.array([[0.0, 1, 0, 1], [3.0, -1, 0, 1], [40, 0, 40, 0],
+                                [-40, 0, -40, 0]])[:, None], 3, axis=1)
+    means = means + rng.normal(size=means.shape) * 0.3
+    covars = np.tile(np.diag([2.0, 0.5, 2.0, 0.5]), (k, 3, 1, 1))
+    probs = rng.dirichlet(np.ones(3), size=k)
+    x, p, c, z_hats, s = imm.predictions(models, SENSOR, matrix, means, covars, probs,
+                                         np.ones(k))
+    detections = np.array([[1.5, 1.2], [2.5, 0.8], [4.0, 1.5], [41.0, 39.0], [90.0, 90.0]])
+    pd, density = 0.9, 1e-3
+    result = gate(*imm.combine(z_hats, s, c), detections, 16.0)
+    pg = float(chi2.cdf(16.0, 2))
+    got = imm.jpda_updates(SENSOR, x, p, c, z_hats, s, detections, result, pd, pg, density)
+    weights = np.zeros((k, len(detections) + 1))
+    weights[:, 0] = 1 - pd * pg
+    likelihood = np.zeros((k, len(detections), 3))
+    for t in range(k):
+        for j in result.detections[result.starts[t]:result.starts[t + 1]]:
+            for m in range(3):
+                likelihood[t, j, m] = multivariate_normal.pdf(detections[j], z_hats[t, m],
+                                                              s[t, m])
+            weights[t, j + 1] = pd * (c[t] @ likelihood[t, j]) / density
+    beta = jpda_marginals(weights)
+    assert result.starts[-1] > 0 and np.diff(result.starts)[3] == 0  # an empty gate
+    h = SENSOR.matrix()
+    for t in range(k):
+        for m in range(3):
+            joint = [beta[t, 0] * c[t, m]]
+            states = [(x[t, m], p[t, m])]
+            for j in result.detections[result.starts[t]:result.starts[t + 1]]:
+                joint.append(beta[t, j + 1] * c[t, m] * likelihood[t, j, m]
+                             / (c[t] @ likelihood[t, j]))
+                gain = p[t, m] @ h.T @ np.linalg.inv(s[t, m])
+                states.append((x[t, m] + gain @ (detections[j] - z_hats[t, m]),
+                               p[t, m] - gain @ s[t, m] @ gain.T))
+            joint = np.array(joint)
+            np.testing.assert_allclose(got[2][t, m], joint.sum(), rtol=1e-9, atol=1e-12)
+            w = joint / joint.sum()
+            mean = sum(wi * xi for wi, (xi, _) in zip(w, states))
+            covar = sum(wi * (pi + np.outer(xi - mean, xi - mean))
+                        for wi, (xi, pi) in zip(w, states))
+            np.testing.assert_allclose(got[0][t, m], mean, rtol=1e-9, atol=1e-9)
+            np.testing.assert_allclose(got[1][t, m], covar, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(got[3], beta[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(got[2][3], c[3], rtol=1e-12)  # no detection: the prediction
+
+
+def test_imm_jpda_keeps_turning_targets():
+    turning = ft.KnownTurnRate([0.05, 0.05], 0.3)
+    scenario = _scenario(turning, speed=3.0, seed=5)
+    models = [ft.KnownTurnRate([0.05, 0.05], w) for w in (0.3, 0.0, -0.3)]
+    matrix = np.full((3, 3), 0.05) + 0.85 * np.eye(3)
+    imm = IMMTracker(models, SENSOR, matrix, association="jpda", prob_detect=0.9,
+                     clutter_density=scenario.clutter_density, **SETTINGS)
+    held = []
+    for t, (scan, truths) in enumerate(zip(scenario.detections, scenario.truths)):
+        held.append(np.mean(_errors(imm.step(scan, float(t)), truths) < 3.0))
+    # measured: 81 % of the targets within 3 m of a confirmed track (as IMM-GNN)
+    assert np.mean(held[5:]) > 0.7
+    np.testing.assert_allclose(imm.confirmed.mode_probs.sum(axis=1), 1.0, rtol=1e-12)
+    assert imm.confirmed.mode_probs.mean(axis=0).argmax() == 0

@@ -14,6 +14,7 @@ tracks of T steps."""
 import numpy as np
 
 from .. import _jit, _validate
+from . import jpda as _jpda
 from . import kalman as _kalman
 from .kalman_numpy import wrap
 from .kinds import CV, SELECT
@@ -192,6 +193,76 @@ def updates(transition_models, measurement_model, means, covars, predicted, z_ha
         with np.errstate(divide="ignore"):
             log_posterior[:, j] = np.log(predicted[:, j]) + log_likelihood
     return out_means, out_covars, _normalised(log_posterior)
+
+
+def jpda_updates(measurement_model, means, covars, predicted, z_hats, innovations,
+                 detections, gate, prob_detect, prob_gate, clutter_density):
+    """IMM-JPDA: every track's models updated with the detections of its gate.
+
+    The association uses the tracks' exact mode-mixture likelihoods: pair (t, j) weighs
+    ``prob_detect * L_tj / clutter_density`` with ``L_tj = sum_m c_m N(z_j; z_m, S_m)``, the
+    missed detection ``1 - prob_detect * prob_gate``, and the JPDA marginals ``beta_tj``
+    follow (:func:`fasttrack.core.jpda.gate_marginals`). Given the marginals, the joint
+    probability of detection j (0: none) and model m is ``beta_t0 c_m`` or
+    ``beta_tj c_m N(z_j; z_m, S_m) / L_tj`` (exact for a track given its marginals; the
+    probability of detection does not depend on the model): their sum over j is model m's
+    posterior probability, and model m's state is the PDA combination of its own
+    innovations with weights ``beta_jm`` (the joint probabilities over it):
+    ``x = x_m + K_m sum_j beta_jm v_jm`` and ``P = P_m - (1 - beta_0m) K_m S_m K_m^T +
+    K_m (sum_j beta_jm v_jm v_jm^T - v v^T) K_m^T``.
+
+    Parameters
+    ----------
+    measurement_model : LinearGaussian
+    means, covars, predicted, z_hats, innovations : ndarray
+        :func:`predictions`' outputs for K tracks of M models.
+    detections : (D, m) ndarray
+    gate : Gate
+        The candidate (track, detection) pairs (e.g. on the mode-combined predicted
+        measurements).
+    prob_detect, prob_gate, clutter_density : float
+
+    Returns
+    -------
+    means, covars, mode_probs : ndarray
+        The updated (K, M, d), (K, M, d, d) and (K, M) arrays.
+    marginal_missed : (K,) ndarray
+        Each track's probability of no detection.
+    """
+    owners, chosen = gate.tracks(), gate.detections
+    m = detections.shape[1]
+    lower = np.linalg.cholesky(innovations)  # (K, M, m, m)
+    v = detections[chosen][:, None, :] - z_hats[owners]  # (n, M, m)
+    whitened = np.linalg.solve(lower[owners], v[..., None])[..., 0]
+    log_det = np.log(np.diagonal(lower, axis1=-2, axis2=-1)).sum(axis=-1)  # (K, M)
+    with np.errstate(divide="ignore"):
+        log_joint = (np.log(predicted[owners]) - 0.5 * (whitened ** 2).sum(axis=-1)
+                     - log_det[owners] - 0.5 * m * np.log(2.0 * np.pi))  # (n, M)
+    top = log_joint.max(axis=1, keepdims=True)
+    log_mixture = top[:, 0] + np.log(np.exp(log_joint - top).sum(axis=1))  # log L_tj
+    marginal_missed, marginal = _jpda.gate_marginals(
+        gate, np.log1p(-prob_detect * prob_gate),
+        np.log(prob_detect) + log_mixture - np.log(clutter_density))
+    pair_joint = marginal[:, None] * np.exp(log_joint - log_mixture[:, None])  # (n, M)
+    missed_joint = marginal_missed[:, None] * predicted  # (K, M)
+    probs = missed_joint.copy()
+    np.add.at(probs, owners, pair_joint)
+    alive = probs > 0.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        missed_weight = np.where(alive, missed_joint / probs, 1.0)
+        pair_weight = np.where(alive[owners], pair_joint / probs[owners], 0.0)
+    innovation = np.zeros(z_hats.shape)
+    np.add.at(innovation, owners, pair_weight[..., None] * v)
+    spread = np.zeros(innovations.shape)
+    np.add.at(spread, owners, pair_weight[..., None, None] * v[..., :, None] * v[..., None, :])
+    spread -= innovation[..., :, None] * innovation[..., None, :]
+    cross = covars @ measurement_model.matrix().T  # P H^T (K, M, d, m)
+    gain = np.linalg.solve(innovations, cross.swapaxes(-1, -2)).swapaxes(-1, -2)
+    out_means = means + (gain @ innovation[..., None])[..., 0]
+    out_covars = (covars - (1.0 - missed_weight)[..., None, None] * gain @ innovations
+                  @ gain.swapaxes(-1, -2) + gain @ spread @ gain.swapaxes(-1, -2))
+    out_covars = 0.5 * (out_covars + out_covars.swapaxes(-1, -2))
+    return out_means, out_covars, probs / probs.sum(axis=1, keepdims=True), marginal_missed
 
 
 def _gpb2_step(transition_models, measurement_model, matrix, means, covars, mode_probs,

@@ -31,6 +31,7 @@ import numpy as np
 from .. import _jit
 from .. import _validate
 from .._jit.tunables import ENUMERATED_EVENTS, MAX_FRONTIER, MAX_NODES
+from .gating import clusters
 
 _kernels = _jit.lazy("jpda")
 
@@ -319,3 +320,60 @@ def jpda_marginals(weights, max_nodes=MAX_NODES):
         k = int(bad[0])
         _raise(info[k, 0], int(info[k, 1]), f"weights[{k}]", clusters[k].shape, max_nodes)
     return [out[offsets[k]:offsets[k + 1]].reshape(w.shape) for k, w in enumerate(clusters)]
+
+
+def gate_marginals(gate, log_missed, log_weights):
+    """Exact JPDA marginals of the candidate pairs of a :class:`~fasttrack.core.gating.Gate`
+    (:func:`jpda_marginals` on each cluster of tracks that share detections; a track alone
+    gets its normalised weights).
+
+    Parameters
+    ----------
+    gate : Gate
+        The pairs that may associate (its distances and likelihoods are not read).
+    log_missed : float or (K,) ndarray
+        The log weight of each track's missed detection.
+    log_weights : (n,) ndarray
+        The log weight of each candidate pair, in the gate's order.
+
+    Returns
+    -------
+    marginal_missed : (K,) ndarray
+        Each track's probability of no detection.
+    marginal : (n,) ndarray
+        Each pair's probability.
+    """
+    starts, candidates = gate.starts, gate.detections
+    k = starts.size - 1
+    owners = np.repeat(np.arange(k), np.diff(starts))
+    row_max = np.broadcast_to(np.asarray(log_missed, dtype=np.float64), (k,)).copy()
+    np.maximum.at(row_max, owners, log_weights)
+    missed = np.exp(log_missed - row_max)
+    weights = np.exp(log_weights - row_max[owners])
+    totals = missed.copy()
+    np.add.at(totals, owners, weights)
+    marginal_missed, marginal = missed / totals, weights / totals[owners]
+    groups = clusters(gate)
+    sizes = np.bincount(groups.track_labels, minlength=groups.n_clusters)
+    shared = np.flatnonzero(sizes > 1)  # clusters of one track: its normalised weights
+    if shared.size == 0:
+        return marginal_missed, marginal
+    members = np.split(np.argsort(groups.track_labels, kind="stable"), np.cumsum(sizes)[:-1])
+    column = np.empty(gate.n_detections, dtype=np.int64)
+    matrices, rows = [], []
+    for c in shared:
+        tracks = members[c]
+        qs = [np.arange(starts[t], starts[t + 1]) for t in tracks]
+        dets = np.unique(candidates[np.concatenate(qs)])
+        column[dets] = np.arange(1, dets.size + 1)
+        matrix = np.zeros((tracks.size, dets.size + 1))
+        matrix[:, 0] = missed[tracks]
+        for i, q in enumerate(qs):
+            matrix[i, column[candidates[q]]] = weights[q]
+        matrices.append(matrix)
+        rows.append((tracks, qs))
+    for result, (tracks, qs) in zip(jpda_marginals(matrices), rows):
+        marginal_missed[tracks] = result[:, 0]
+        for i, q in enumerate(qs):  # (a detection is in one cluster: its column stays)
+            marginal[q] = result[i, column[candidates[q]]]
+    return marginal_missed, marginal

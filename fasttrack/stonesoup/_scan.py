@@ -30,10 +30,10 @@ from stonesoup.types.prediction import (GaussianMeasurementPrediction, GaussianS
 from stonesoup.types.state import GaussianState, State, StateMutableSequence
 from stonesoup.types.update import GaussianStateUpdate
 
-from ..association import (Gate, clusters, gate, global_nearest_neighbour, jpda_marginals,
-                           nearest_neighbour)
+from ..association import Gate, gate, global_nearest_neighbour, nearest_neighbour
 from ..core import kalman as ft_kalman
 from ..core.gating import gate_arrays
+from ..core.jpda import gate_marginals
 from ..core.mixture import segment_logsumexp
 from ..models import LinearGaussian
 from . import predictor as _predictor
@@ -496,50 +496,10 @@ class _Scan:
         return Gate(self.starts, self.candidates, np.zeros(self.candidates.size),
                     np.zeros(self.candidates.size), len(self.detections))
 
-    def _clusters(self):
-        return clusters(self._pairs())
-
     def marginals(self):
         """Exact JPDA marginal probabilities: of each track's missed detection (K,) and of
         each candidate (n,)."""
-        k = len(self.tracks)
-        starts, candidates = self.starts, self.candidates
-        counts = np.diff(starts)
-        owners = np.repeat(np.arange(k), counts)
-        row_max = np.full(k, self.missed_log_weight)
-        np.maximum.at(row_max, owners, self.log_weights)
-        missed = np.exp(self.missed_log_weight - row_max)
-        weights = np.exp(self.log_weights - row_max[owners])
-        totals = missed.copy()
-        np.add.at(totals, owners, weights)
-        marginal_missed, marginal = missed / totals, weights / totals[owners]
-        groups = self._clusters()
-        sizes = np.bincount(groups.track_labels, minlength=groups.n_clusters)
-        shared = np.flatnonzero(sizes > 1)  # clusters of one track: its normalised weights
-        if shared.size == 0:
-            return marginal_missed, marginal
-        track_order = np.argsort(groups.track_labels, kind="stable")
-        track_splits = np.cumsum(sizes)[:-1]
-        members = np.split(track_order, track_splits)
-        column = np.empty(len(self.detections), dtype=np.int64)
-        matrices, rows = [], []
-        for c in shared:
-            tracks = members[c]
-            dets = np.unique(candidates[np.concatenate([np.arange(starts[t], starts[t + 1])
-                                                        for t in tracks])])
-            column[dets] = np.arange(1, dets.size + 1)
-            matrix = np.zeros((tracks.size, dets.size + 1))
-            matrix[:, 0] = missed[tracks]
-            qs = [np.arange(starts[t], starts[t + 1]) for t in tracks]
-            for i, q in enumerate(qs):
-                matrix[i, column[candidates[q]]] = weights[q]
-            matrices.append(matrix)
-            rows.append((tracks, qs))
-        for result, (tracks, qs) in zip(jpda_marginals(matrices), rows):
-            marginal_missed[tracks] = result[:, 0]
-            for i, q in enumerate(qs):
-                marginal[q] = result[i, column[candidates[q]]]
-        return marginal_missed, marginal
+        return gate_marginals(self._pairs(), self.missed_log_weight, self.log_weights)
 
     def jpda_hypotheses(self, marginal_missed, marginal, ehm):
         """``{track: MultipleHypothesis}`` of the JPDA marginals as Stone Soup's ``JPDA``
