@@ -25,7 +25,8 @@ from .imm import BatchIMMFilter
 from .kernel import GaussianKernel, QuadraticKernel
 from .mixturereducer import GaussianMixtureReducer
 from .models.measurement import LinearGaussian
-from .models.transition import (CombinedLinearGaussianTransitionModel, ConstantVelocity,
+from .models.kinematic import ConstantVelocity
+from .models.transition import (CombinedLinearGaussianTransitionModel,
                                 LinearGaussianTransitionModel)
 from .phd import CPHDTracker, PHDTracker
 from .predictor import (AdaptiveKernelKalmanPredictor, ExtendedKalmanPredictor, KalmanPredictor,

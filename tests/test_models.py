@@ -69,6 +69,33 @@ def test_known_turn_rate_matches_stone_soup(dt, rate):
                                rtol=RTOL, atol=1e-12)
 
 
+@against_stonesoup
+@pytest.mark.parametrize("dt", [1.0, 0.25, 7.5, -2.0])
+def test_constant_acceleration_matches_stone_soup(dt):
+    ours = ft.CombinedLinearGaussianTransitionModel([ft.ConstantAcceleration(0.2),
+                                                     ft.ConstantAcceleration(0.7)])
+    theirs = ss_linear.CombinedLinearGaussianTransitionModel(
+        [ss_linear.ConstantAcceleration(0.2), ss_linear.ConstantAcceleration(0.7)])
+    np.testing.assert_allclose(ours.matrix(dt), theirs.matrix(time_interval=_td(dt)),
+                               rtol=RTOL, atol=0)
+    np.testing.assert_allclose(ours.covar(dt), theirs.covar(time_interval=_td(dt)), rtol=RTOL)
+    x = np.random.default_rng(2).normal(size=(6, 3))
+    np.testing.assert_allclose(ours.function(x, time_interval=dt),
+                               theirs.function(_ss_states(x), time_interval=_td(dt)),
+                               rtol=RTOL, atol=1e-12)
+
+
+def test_constant_acceleration_moves_a_thrown_body_and_refuses_a_bad_rate():
+    model = ft.ConstantAcceleration(0.0)
+    np.testing.assert_allclose(model.matrix(2.0) @ [0.0, 3.0, -9.81], [6.0 - 19.62, 3.0 - 19.62,
+                                                                       -9.81])
+    assert model.covar(2.0).sum() == 0.0
+    with pytest.raises(ValueError, match="noise_diff_coeff"):
+        ft.ConstantAcceleration(-1.0)
+    with pytest.raises(ValueError, match="overflows Q"):
+        ft.ConstantAcceleration(1.0).covar(1e70)
+
+
 def test_known_turn_rate_turns_and_its_zero_rate_is_constant_velocity():
     quarter = ft.KnownTurnRate([0.0, 0.0], np.pi / 2)  # a quarter turn a second
     np.testing.assert_allclose(quarter.matrix(1.0) @ [0.0, 1.0, 0.0, 0.0],

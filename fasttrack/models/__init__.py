@@ -1,13 +1,13 @@
 """Transition and measurement models (built-in, or built from a user's Numba function)."""
 from .measurement import (Cartesian2DToBearing, CartesianToBearingRange, LinearGaussian,
                           MeasurementModel, NonlinearGaussianMeasurement)
-from .transition import (CombinedLinearGaussianTransitionModel, ConstantVelocity,
-                         KnownTurnRate, LinearGaussianTransitionModel,
+from .kinematic import ConstantAcceleration, ConstantVelocity, KnownTurnRate
+from .transition import (CombinedLinearGaussianTransitionModel, LinearGaussianTransitionModel,
                          NonlinearGaussianTransitionModel, TransitionModel)
 
 __all__ = [
     "Cartesian2DToBearing", "CartesianToBearingRange", "CombinedLinearGaussianTransitionModel",
-    "ConstantVelocity", "KnownTurnRate", "LinearGaussian", "LinearGaussianTransitionModel",
-    "MeasurementModel", "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel",
-    "TransitionModel",
+    "ConstantAcceleration", "ConstantVelocity", "KnownTurnRate", "LinearGaussian",
+    "LinearGaussianTransitionModel", "MeasurementModel", "NonlinearGaussianMeasurement",
+    "NonlinearGaussianTransitionModel", "TransitionModel",
 ]

@@ -19,8 +19,8 @@ from .base import (UserFunction, check_rows, gaussian_noise, read_only, scalar_o
 from .spec import CV, FIXED, FUNCTION, TransitionSpec
 
 __all__ = [
-    "TransitionModel", "LinearGaussianTransitionModel", "ConstantVelocity",
-    "CombinedLinearGaussianTransitionModel", "KnownTurnRate", "NonlinearGaussianTransitionModel",
+    "TransitionModel", "LinearGaussianTransitionModel", "CombinedLinearGaussianTransitionModel",
+    "NonlinearGaussianTransitionModel",
 ]
 
 
@@ -298,146 +298,6 @@ class LinearGaussianTransitionModel(_LinearGaussian):
 
     def _seconds(self, time_interval):
         return 0.0 if time_interval is None else seconds(time_interval)
-
-
-class ConstantVelocity(_LinearGaussian):
-    """Nearly constant velocity in one dimension, state (position, velocity).
-
-    ``F = [[1, dt], [0, 1]]``, ``Q = q [[t^3/3, t^2/2], [t^2/2, t]]`` with ``t = |dt|``.
-
-    Parameters
-    ----------
-    noise_diff_coeff : float
-        q >= 0, in (state units)^2 / s^3.
-    """
-
-    ndim_state = property(lambda self: 2, doc="Number of state dimensions (2).")
-
-    def __init__(self, noise_diff_coeff):
-        self.noise_diff_coeff = noise_diff_coeff
-
-    @property
-    def noise_diff_coeff(self):
-        """q >= 0, in (state units)^2 / s^3."""
-        return self._q
-
-    @noise_diff_coeff.setter
-    def noise_diff_coeff(self, value):
-        self._q = _validate.non_negative(value, "noise_diff_coeff")
-
-    def _parameters(self):
-        return None  # F does not depend on q
-
-    def matrix(self, time_interval):
-        """F(dt) = ``[[1, dt], [0, 1]]`` (2, 2).
-
-        Parameters
-        ----------
-        time_interval : datetime.timedelta or float seconds
-            dt (may be negative).
-        """
-        dt = self._seconds(time_interval)
-        return np.array([[1.0, dt], [0.0, 1.0]])
-
-    def covar(self, time_interval):
-        """Q(dt) = ``q [[t^3/3, t^2/2], [t^2/2, t]]`` (2, 2) with ``t = |dt|``.
-
-        Parameters
-        ----------
-        time_interval : datetime.timedelta or float seconds
-            dt (may be negative).
-        """
-        return _velocity_noise(self.noise_diff_coeff, self._seconds(time_interval))
-
-    def _cv_rates(self):
-        return (self._q,)
-
-
-def _velocity_noise(q, dt):
-    """``q [[t^3/3, t^2/2], [t^2/2, t]]`` with ``t = |dt|``: the noise of a nearly constant
-    velocity over dt seconds; a ValueError if it overflows."""
-    t = np.float64(abs(dt))
-    with np.errstate(over="ignore"):
-        noise = q * np.array([[t**3 / 3, t**2 / 2], [t**2 / 2, t]])
-    if not np.isfinite(noise).all():
-        raise ValueError(f"time_interval of {t:g} s overflows Q(dt) (q t^3 / 3 with "
-                         f"q = {q:g})")
-    return noise
-
-
-class KnownTurnRate(_LinearGaussian):
-    """A nearly constant turn at a known rate w in the plane, state (x, vx, y, vy) (Stone
-    Soup's ``KnownTurnRate``).
-
-    With ``s = sin(w dt)`` and ``c = cos(w dt)``, ``F(dt) = [[1, s/w, 0, -(1 - c)/w],
-    [0, c, 0, -s], [0, (1 - c)/w, 1, s/w], [0, s, 0, c]]`` turns the velocity by w dt and
-    moves the position along the arc (w = 0 is its limit, constant velocity); Q is a
-    constant-velocity noise per axis, ``q_i [[t^3/3, t^2/2], [t^2/2, t]]`` with
-    ``t = |dt|``.
-
-    Parameters
-    ----------
-    turn_noise_diff_coeffs : (2,) array_like
-        q1 (along x) and q2 (along y), >= 0, in (state units)^2 / s^3.
-    turn_rate : float
-        w in rad/s, positive anticlockwise.
-    """
-
-    ndim_state = property(lambda self: 4, doc="Number of state dimensions (4).")
-
-    def __init__(self, turn_noise_diff_coeffs, turn_rate):
-        self.turn_noise_diff_coeffs = turn_noise_diff_coeffs
-        self.turn_rate = turn_rate
-
-    @property
-    def turn_noise_diff_coeffs(self):
-        """(q1, q2), each >= 0 (a read-only array)."""
-        return read_only(self._qs)
-
-    @turn_noise_diff_coeffs.setter
-    def turn_noise_diff_coeffs(self, value):
-        qs = _validate.finite_array(value, "turn_noise_diff_coeffs", 1)
-        if qs.shape != (2,) or (qs < 0).any():
-            raise ValueError(f"turn_noise_diff_coeffs must be two numbers >= 0, got "
-                             f"{qs.tolist()}")
-        self._qs = qs.copy()
-
-    @property
-    def turn_rate(self):
-        """w, rad/s."""
-        return self._turn_rate
-
-    @turn_rate.setter
-    def turn_rate(self, value):
-        self._turn_rate = _validate.real(value, "turn_rate")
-
-    def _parameters(self):
-        return self._turn_rate
-
-    def matrix(self, time_interval):
-        """F(dt) (4, 4).
-
-        Parameters
-        ----------
-        time_interval : datetime.timedelta or float seconds
-            dt (may be negative).
-        """
-        dt, w = self._seconds(time_interval), self._turn_rate
-        s, c = np.sin(w * dt), np.cos(w * dt)
-        along, across = (s / w, (1.0 - c) / w) if w != 0.0 else (dt, 0.0)
-        return np.array([[1.0, along, 0.0, -across], [0.0, c, 0.0, -s],
-                         [0.0, across, 1.0, along], [0.0, s, 0.0, c]])
-
-    def covar(self, time_interval):
-        """Q(dt) (4, 4): a constant-velocity noise per axis.
-
-        Parameters
-        ----------
-        time_interval : datetime.timedelta or float seconds
-            dt (may be negative).
-        """
-        dt = self._seconds(time_interval)
-        return _block_diag([_velocity_noise(q, dt) for q in self._qs])
 
 
 class CombinedLinearGaussianTransitionModel(_LinearGaussian):

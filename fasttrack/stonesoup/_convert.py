@@ -36,6 +36,8 @@ _BUILDERS = {
     ss_transition_linear.ConstantVelocity:
         lambda model: ft_models.ConstantVelocity(model.noise_diff_coeff),
     ss_transition_linear.CombinedLinearGaussianTransitionModel: _combined,
+    ss_transition_linear.ConstantAcceleration:
+        lambda model: ft_models.ConstantAcceleration(model.noise_diff_coeff),
     ss_transition_linear.KnownTurnRate:
         lambda model: ft_models.KnownTurnRate(floats(model.turn_noise_diff_coeffs),
                                               float(model.turn_rate)),
