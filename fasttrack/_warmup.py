@@ -21,7 +21,7 @@ from .core.particle import gather
 from .core.resample import (ess, multinomial, normalise, resampling_points, residual, stratified,
                             systematic)
 from .filtering import run_filter
-from .imm import BatchIMMFilter
+from .imm import BatchIMMFilter, IMMPredictor, IMMUpdater
 from .kernel import GaussianKernel, QuadraticKernel
 from .mixturereducer import GaussianMixtureReducer
 from .models.measurement import LinearGaussian
@@ -38,7 +38,7 @@ from .scenarios import (adaptive_kernel_tutorial, extended_kalman_tutorial, grid
 from .simulate import detections, ground_truth
 from .smoother import ExtendedKalmanSmoother, KalmanSmoother, UnscentedKalmanSmoother, ffbs
 from .tracker import MultiTargetTracker
-from .types.gaussian import Detection
+from .types.gaussian import Detection, WeightedGaussianState
 from .types.kernel import KernelParticleState
 from .types.mixture import GaussianMixture
 from .types.particle import ParticleState
@@ -195,13 +195,23 @@ def _mixture():
 def _imm():
     models = [CombinedLinearGaussianTransitionModel([ConstantVelocity(q)] * 2)
               for q in (0.1, 1.0)]
-    imm = BatchIMMFilter(models, LinearGaussian(4, (0, 2), np.eye(2)),
-                         [[0.9, 0.1], [0.1, 0.9]])
+    sensor, matrix = LinearGaussian(4, (0, 2), np.eye(2)), [[0.9, 0.1], [0.1, 0.9]]
+    imm = BatchIMMFilter(models, sensor, matrix)
     means = np.zeros((2, 2, 4))
     covars = np.broadcast_to(np.eye(4), (2, 2, 4, 4)).copy()
     means, covars, probs = imm.step(means, covars, np.full((2, 2), 0.5), np.zeros((2, 2)), 1.0)
     imm.smooth(np.stack([means] * 2, axis=1), np.stack([covars] * 2, axis=1),
                np.stack([probs] * 2, axis=1), 1.0)
+    axis = BatchIMMFilter([ConstantVelocity(0.1), ConstantVelocity(1.0)],
+                          LinearGaussian(2, (0,), np.eye(1)), matrix)  # the smoother for any d
+    axis.smooth(np.zeros((3, 2, 2)), np.broadcast_to(np.eye(2), (3, 2, 2, 2)),
+                np.full((3, 2), 0.5), 1.0)
+    prior = GaussianMixture([WeightedGaussianState(np.zeros(4), np.eye(4), weight=0.5,
+                                                   timestamp=0.0)] * 2)
+    prediction = IMMPredictor([KalmanPredictor(m) for m in models], matrix).predict(prior, 1.0)
+    IMMUpdater([KalmanUpdater(sensor)] * 2, matrix).update(
+        SingleHypothesis(prediction, Detection(np.zeros(2), timestamp=1.0,
+                                               measurement_model=sensor)))
 
 
 def _jpda():

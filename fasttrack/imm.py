@@ -51,7 +51,8 @@ class IMMPredictor(_Models):
     ----------
     predictors : sequence of M predictors
         E.g. ``[KalmanPredictor(model) for model in transition_models]`` (Kalman, extended
-        or unscented), one a model.
+        or unscented), one a model, of the state's dimension (a model of fewer components
+        embedded, as :class:`BatchIMMFilter` describes).
     transition_matrix : (M, M) array_like
         ``transition_matrix[i, j]``: the probability of switching from model i to model j;
         rows sum to one.
@@ -80,27 +81,36 @@ class IMMPredictor(_Models):
             ``c_j = sum_i p_ij mu_i``.
         """
         probs = self._mixture(prior, "prior")
-        fast = self._kernel_prediction(prior, probs, timestamp)
+        has = self._components(prior.means.shape[1])
+        fast = self._kernel_prediction(prior, probs, timestamp, has)
         if fast is not None:
             return fast
         means, covars, predicted = _imm.mix(prior.means[None], prior.covars[None], probs[None],
-                                            self.transition_matrix)
+                                            self.transition_matrix, has)
         states = [predictor.predict(GaussianState(means[0, j], covars[0, j],
                                                   timestamp=prior.timestamp),
                                     timestamp=timestamp)
                   for j, predictor in enumerate(self.predictors)]
         return _stacked(states, predicted[0], timestamp)
 
-    def _kernel_prediction(self, prior, probs, timestamp):
-        """:meth:`predict` in one kernel call where every predictor is a
-        :class:`~fasttrack.KalmanPredictor` of the prior's dimension; else None."""
+    def _components(self, d):
+        """:func:`fasttrack.core.imm.components` of the predictors' models in a state of
+        dimension d (remembered for the models and d)."""
         models = [p.transition_model for p in self.predictors]
-        if any(type(p) is not KalmanPredictor for p in self.predictors) \
-                or any(m.ndim_state != prior.means.shape[1] for m in models):
+        key = (d, tuple(map(id, models)))
+        if self.__dict__.get("_known", (None,))[0] != key:
+            self._known = (key, _imm.components(models, d), models)
+        return self._known[1]
+
+    def _kernel_prediction(self, prior, probs, timestamp, has):
+        """:meth:`predict` in one kernel call where every predictor is a
+        :class:`~fasttrack.KalmanPredictor`; else None."""
+        if any(type(p) is not KalmanPredictor for p in self.predictors):
             return None
         dt = Predictor._interval(prior, timestamp)
-        out = _imm.predict(models, self.transition_matrix, prior.means[None],
-                           prior.covars[None], probs[None], dt)
+        out = _imm.predict([p.transition_model for p in self.predictors],
+                           self.transition_matrix, prior.means[None], prior.covars[None],
+                           probs[None], dt, has)
         return None if out is None else _stacked_arrays(out[0][0], out[1][0], out[2][0],
                                                         timestamp)
 
@@ -217,8 +227,15 @@ class BatchIMMFilter:
     Parameters
     ----------
     transition_models : sequence of TransitionModel
-        M linear-Gaussian models of one state dimension (e.g. constant velocity with two
-        noise levels).
+        M linear-Gaussian models of the state's dimension d (e.g. constant velocity with two
+        noise levels). A model of fewer components sits in the state through an explicit
+        map, :class:`~fasttrack.models.transition.EmbeddedTransitionModel` (e.g. constant
+        velocity (x, vx, y, vy) in a constant-acceleration state (x, vx, ax, y, vy, ay)
+        with ``state_map=(0, 1, 3, 4)``): a model entering another's prior brings the
+        components it has, and the other model's own mean, variance and covariances stand
+        for those it lacks (so no variance is lost or invented); a model's components that
+        it lacks are 0 in its arrays, and :meth:`combine` counts them as 0 (a
+        constant-velocity model's acceleration).
     measurement_model : MeasurementModel
         A built-in model (linear, or polar through the extended Kalman filter).
     transition_matrix : (M, M) array_like
@@ -245,6 +262,7 @@ class BatchIMMFilter:
         models = list(transition_models)
         if not models:
             raise ValueError("transition_models must hold at least one model")
+        self._has = _imm.components(models, measurement_model.ndim_state)
         for model in models:
             check_models(model, measurement_model)
         self.transition_models = models
@@ -294,7 +312,7 @@ class BatchIMMFilter:
             return means.copy(), covars.copy(), mode_probs.copy()
         return _imm.step(self.transition_models, self.measurement_model,
                          self.transition_matrix, means, covars, mode_probs, measurements,
-                         intervals, self.algorithm)
+                         intervals, self.algorithm, self._has)
 
     def smooth(self, means, covars, mode_probs, time_intervals):
         """The fixed-interval IMM smoother of Kim (1994): each track's states and mode
@@ -349,6 +367,9 @@ class BatchIMMFilter:
         intervals = step_intervals(time_intervals, n)
         for model in self.transition_models:
             _linear(model)
+        if self._has is not None:
+            raise ValueError("smoothing models of different components (embedded models) "
+                             "is not supported")
         out_means, out_covars, out_probs, status = _imm.smooth(
             self.transition_models, self.transition_matrix, means, covars, mode_probs,
             intervals)

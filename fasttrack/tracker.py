@@ -228,7 +228,8 @@ class IMMTracker(MultiTargetTracker):
     Parameters
     ----------
     transition_models : sequence of TransitionModel
-        M linear-Gaussian models of one state dimension.
+        M linear-Gaussian models of the state's dimension (a model of fewer components
+        embedded, as :class:`~fasttrack.BatchIMMFilter` describes).
     measurement_model : LinearGaussian
     transition_matrix : (M, M) array_like
         ``transition_matrix[i, j]``: the probability of switching from model i to model j
@@ -265,6 +266,7 @@ class IMMTracker(MultiTargetTracker):
         models = list(transition_models)
         if not models:
             raise ValueError("transition_models must hold at least one model")
+        self._has = _imm.components(models, measurement_model.ndim_state)
         self.jpda = association == "jpda"
         super().__init__(models[0], measurement_model, prior_mean, prior_covar,
                          association="gnn" if self.jpda else association, **options)
@@ -294,7 +296,7 @@ class IMMTracker(MultiTargetTracker):
         models, sensor = self.transition_models, self.measurement_model
         means, covars, predicted, z_hats, innovations = _imm.predictions(
             models, sensor, self.transition_matrix, tracks.model_means, tracks.model_covars,
-            tracks.mode_probs, np.full(len(tracks), dt))
+            tracks.mode_probs, np.full(len(tracks), dt), has=self._has)
         pool = np.flatnonzero(available)
         result = gate(*_imm.combine(z_hats, innovations, predicted), detections[pool],
                       self.missed_distance ** 2)

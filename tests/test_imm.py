@@ -141,7 +141,8 @@ def test_a_model_that_cannot_be_reached_keeps_its_state_and_probability_zero():
     (dict(transition_matrix=np.eye(3)), ValueError, r"must have shape \(2, 2\)"),
     (dict(transition_models=[]), ValueError, "at least one model"),
     (dict(transition_models=[_cv(1.0), ft.ConstantVelocity(1.0)]), ValueError,
-     "disagree on the state dimension"),
+     r"transition model 1 \(ConstantVelocity\) has 2 state dimensions, the state 4: embed "
+     r"a model of fewer in the state with EmbeddedTransitionModel"),
 ])
 def test_bad_filters_are_refused_naming_the_argument(change, error, message):
     arguments = dict(transition_models=[_cv(1.0), _cv(2.0)], measurement_model=SENSOR,
@@ -229,7 +230,8 @@ def test_the_kernel_is_its_mirror_and_the_general_path(seed, algorithm):
     z = rng.normal(size=(k, 2)) * 5.0
     arguments = (imm.ALGORITHMS.index(algorithm), np.array([m.matrix(1.5) for m in models]),
                  np.array([m.covar(1.5) for m in models]), SENSOR.spec.mapping,
-                 SENSOR.noise_covar, matrix, means, covars, probs, z)
+                 SENSOR.noise_covar, matrix, np.ones((3, 4), dtype=bool), means, covars, probs,
+                 z)
     got = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
            np.zeros(k, dtype=np.int64)]
     want = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
@@ -388,11 +390,13 @@ def test_the_prediction_and_update_kernels_are_their_mirrors():
     probs[0] = [0.0, 0.4, 0.6]  # nothing switches into model 0
     transitions = np.array([m.matrix(2.0) for m in models])
     noises = np.array([m.covar(2.0) for m in models])
+    everything = np.ones((3, 4), dtype=bool)
     results = []
     for module in (kernels, mirror):
         predicted = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
                      np.ones(k, dtype=np.int64)]
-        module.imm_predict(transitions, noises, matrix, means, covars, probs, *predicted)
+        module.imm_predict(transitions, noises, matrix, everything, means, covars, probs,
+                           *predicted)
         updated = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
                    np.ones(k, dtype=np.int64)]
         z = rng.normal(size=(k, 2)) * 5.0 if not results else results[0][1]
@@ -405,6 +409,6 @@ def test_the_prediction_and_update_kernels_are_their_mirrors():
     step = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
             np.ones(k, dtype=np.int64)]
     kernels.imm_linear_step(0, transitions, noises, SENSOR.spec.mapping, SENSOR.noise_covar,
-                            matrix, means, covars, probs, results[0][1], *step)
+                            matrix, everything, means, covars, probs, results[0][1], *step)
     for a_, b_ in zip(step[:3], results[0][0][3:]):  # the two halves are the step
         np.testing.assert_array_equal(a_, b_)

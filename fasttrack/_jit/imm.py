@@ -14,7 +14,6 @@ from .mixture import _moment_match_group
 from .numeric import cholesky, chunk_bounds
 from .smooth import _rts_prediction, _rts_smoothed
 from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
-from .tunables import UNROLLED_DIMENSIONS
 
 #: log(2 pi) / 2
 HALF_LOG_TWO_PI = 0.9189385332046727
@@ -26,30 +25,78 @@ IMM, GPB1, GPB2 = 0, 1, 2
 
 
 @jit(inline=True)
-def _mixed(algorithm, matrix, probs, means, covars, j, predicted, weights, models, x0, p0):
-    """Model j's prior of one filter into ``x0`` (d,) and ``p0`` (d, d): for the IMM the
-    models mixed by ``p_ij mu_i`` (``predicted`` their sum; a model of predicted probability
-    0 keeps its own state), for GPB1 all models merged by ``mu_i``. ``weights`` (M,) is
-    scratch; ``models`` is ``arange(M)``."""
-    for i in range(models.size):
+def _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, x0, p0):
+    """Model j's prior of one filter into ``x0`` (d,) and ``p0`` (d, d) (symmetric): for
+    the IMM the models mixed by ``p_ij mu_i`` (``predicted`` their sum; a model of predicted
+    probability 0 keeps its own state), for GPB1 all models merged by ``mu_i``; each model
+    i :func:`_converted` into model j's components (``has`` (M, d)). ``weights`` (M,) is
+    scratch."""
+    models, d = means.shape
+    total = 0.0
+    for i in range(models):
         if algorithm == GPB1:
             weights[i] = probs[i]
         else:
             weights[i] = matrix[i, j] * probs[i] if predicted > 0.0 else (i == j) * 1.0
-    _moment_match_group(means, covars, weights, models, models.size, x0, p0)
-    _symmetrise(p0)
+        total += weights[i]
+    for a in range(d):
+        x0[a] = 0.0
+        for i in range(models):
+            if has[j, a]:
+                x0[a] += weights[i] / total * (means[i, a] if has[i, a] else means[j, a])
+        for b in range(d):
+            p0[a, b] = 0.0
+    for i in range(models):
+        w = weights[i] / total
+        if w == 0.0:
+            continue
+        for a in range(d):
+            if not has[j, a]:
+                continue
+            da = (means[i, a] if has[i, a] else means[j, a]) - x0[a]
+            for b in range(a + 1):
+                if has[j, b]:
+                    db = (means[i, b] if has[i, b] else means[j, b]) - x0[b]
+                    p0[a, b] += w * (_converted_covariance(covars, has, i, j, a, b) + da * db)
+    for a in range(d):
+        for b in range(a):
+            p0[b, a] = p0[a, b]
 
 
 @jit(inline=True)
-def _prior(algorithm, matrix, probs, means, covars, j, space):
+def _converted_covariance(covars, has, i, j, a, b):
+    """Entry (a, b) of model i's covariance in model j's components (of those j has): model
+    i's where i has both, model j's own where i has neither, else 0."""
+    if has[i, a] and has[i, b]:
+        return covars[i, a, b]
+    if not has[i, a] and not has[i, b]:
+        return covars[j, a, b]
+    return 0.0
+
+
+@jit(inline=True)
+def _converted(means, covars, has, i, j, x, p):
+    """Model i's state of one filter in model j's components into ``x`` (d,) and ``p``
+    (d, d): a component j has and i lacks takes model j's own mean, variance and
+    covariances with the others i lacks; a component j lacks is 0."""
+    d = x.size
+    for a in range(d):
+        x[a] = (means[i, a] if has[i, a] else means[j, a]) if has[j, a] else 0.0
+        for b in range(d):
+            p[a, b] = _converted_covariance(covars, has, i, j, a, b) \
+                if has[j, a] and has[j, b] else 0.0
+
+
+@jit(inline=True)
+def _prior(algorithm, matrix, probs, means, covars, has, j, space):
     """``(c_j, status)``: model j's prior of one filter (:func:`_mixed`) into ``space``'s
     prior arrays, its predicted probability ``c_j = sum_i p_ij mu_i``, and OK or why the
     prior is not a covariance. ``space`` is :func:`_workspace`'s."""
     predicted = 0.0
     for i in range(means.shape[0]):
         predicted += matrix[i, j] * probs[i]
-    x0, p0, check, weights, everyone = space[1], space[2], space[3], space[5], space[7]
-    _mixed(algorithm, matrix, probs, means, covars, j, predicted, weights, everyone, x0, p0)
+    x0, p0, check, weights = space[1], space[2], space[3], space[5]
+    _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, x0, p0)
     return predicted, _covariance_code(p0, check, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
 
 
@@ -191,13 +238,13 @@ def _normalised(log_weights, out):
 
 
 @jit()
-def _mixing_step(algorithm, transitions, noises, mapping, noise, matrix, means, covars, probs,
-                 z, out_means, out_covars, out_probs, space):
+def _mixing_step(algorithm, transitions, noises, mapping, noise, matrix, has, means, covars,
+                 probs, z, out_means, out_covars, out_probs, space):
     """One filter's IMM or GPB1 step (see :func:`imm_linear_step`); returns its status.
     ``space`` is :func:`_workspace`'s."""
     scratch, x0, p0, log_posterior = space[0], space[1], space[2], space[4]
     for j in range(means.shape[0]):
-        predicted, code = _prior(algorithm, matrix, probs, means, covars, j, space)
+        predicted, code = _prior(algorithm, matrix, probs, means, covars, has, j, space)
         if code != OK:
             return code
         log_likelihood = _model_step(transitions[j], noises[j], mapping, noise, x0, p0, z,
@@ -211,11 +258,11 @@ def _mixing_step(algorithm, transitions, noises, mapping, noise, matrix, means, 
 
 
 @jit()
-def _gpb2_step(transitions, noises, mapping, noise, matrix, means, covars, probs, z,
+def _gpb2_step(transitions, noises, mapping, noise, matrix, has, means, covars, probs, z,
                out_means, out_covars, out_probs, space):
     """One filter's GPB2 step (see :func:`imm_linear_step`); returns its status.
     ``space`` is :func:`_workspace`'s."""
-    scratch, check, log_posterior, weights, log_pair = space[0], *space[3:7]
+    scratch, x0, p0, check, log_posterior, weights, log_pair = space[:7]
     pair_means, pair_covars, reached = space[8:]
     models = means.shape[0]
     for i in range(models):
@@ -228,8 +275,9 @@ def _gpb2_step(transitions, noises, mapping, noise, matrix, means, covars, probs
             prior = matrix[i, j] * probs[i]
             if prior <= 0.0 and i != j:
                 continue
-            log_likelihood = _model_step(transitions[j], noises[j], mapping, noise, means[i],
-                                         covars[i], z, pair_means[i], pair_covars[i], scratch)
+            _converted(means, covars, has, i, j, x0, p0)
+            log_likelihood = _model_step(transitions[j], noises[j], mapping, noise, x0, p0, z,
+                                         pair_means[i], pair_covars[i], scratch)
             if log_likelihood != log_likelihood:
                 return INNOVATION_NOT_PD
             if prior > 0.0:
@@ -253,7 +301,7 @@ def _gpb2_step(transitions, noises, mapping, noise, matrix, means, covars, probs
 
 
 @jit(parallel=True, size=6)
-def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, means, covars,
+def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has, means, covars,
                     probs, z, out_means, out_covars, out_probs, status):
     """One step of K multiple-model filters of M linear models sharing one interval.
 
@@ -272,6 +320,9 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, mean
         The state components the sensor measures; ``noise`` (m, m) is its R.
     matrix : (M, M) float64
         ``matrix[i, j]``: the probability of switching from model i to model j.
+    has : (M, d) bool
+        The state components of each model (the rest of its mean and covariance are 0); a
+        model i is :func:`_converted` into model j's components before it enters model j.
     means, covars, probs : (K, M, d), (K, M, d, d), (K, M) float64
     z : (K, m) float64
     out_means, out_covars, out_probs : arrays of the shapes of the inputs
@@ -285,24 +336,24 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, mean
         lo, hi = chunk_bounds(c, chunks, filters)
         for k in range(lo, hi):
             if algorithm == GPB2:
-                status[k] = _gpb2_step(transitions, noises, mapping, noise, matrix, means[k],
-                                       covars[k], probs[k], z[k], out_means[k],
+                status[k] = _gpb2_step(transitions, noises, mapping, noise, matrix, has,
+                                       means[k], covars[k], probs[k], z[k], out_means[k],
                                        out_covars[k], out_probs[k], space)
             else:
                 status[k] = _mixing_step(algorithm, transitions, noises, mapping, noise,
-                                         matrix, means[k], covars[k], probs[k], z[k],
+                                         matrix, has, means[k], covars[k], probs[k], z[k],
                                          out_means[k], out_covars[k], out_probs[k], space)
 
 
 @jit()
-def imm_predict(transitions, noises, matrix, means, covars, probs, out_means, out_covars,
+def imm_predict(transitions, noises, matrix, has, means, covars, probs, out_means, out_covars,
                 out_predicted, status):
     """The IMM's prediction of K filters (the first half of :func:`imm_linear_step`):
     each model's prior mixed from all models' posteriors, predicted through its F and Q.
 
     Parameters
     ----------
-    transitions, noises, matrix, means, covars, probs
+    transitions, noises, matrix, has, means, covars, probs
         As :func:`imm_linear_step`'s.
     out_means, out_covars, out_predicted : arrays of the shapes of the inputs
         The models' predictions and predicted probabilities ``c_j = sum_i p_ij mu_i``.
@@ -315,7 +366,7 @@ def imm_predict(transitions, noises, matrix, means, covars, probs, out_means, ou
         status[k] = OK
         for j in range(models):
             out_predicted[k, j], status[k] = _prior(IMM, matrix, probs[k], means[k], covars[k],
-                                                    j, space)
+                                                    has, j, space)
             if status[k] != OK:
                 break
             _predict(transitions[j], noises[j], space[1], space[2], out_means[k, j],
@@ -359,15 +410,19 @@ def imm_update(mapping, noise, means, covars, predicted, z, out_means, out_covar
 #: The state dimension :func:`imm_smooth` is compiled for; 0: any (read from the arrays).
 _DIMENSION = 0
 
+#: The dimensions :func:`imm_smooth` has builds of its own (a planar position and velocity);
+#: each costs seconds of compiling at install.
+SMOOTH_DIMENSIONS = (4,)
+
 
 def imm_smooth_kernel(d):
     """:func:`imm_smooth` compiled for states of dimension ``d`` (an int): its own build for
-    those in :data:`UNROLLED_DIMENSIONS`, else the build for any dimension."""
-    return with_constant(imm_smooth, "_DIMENSION", d) if d in UNROLLED_DIMENSIONS \
+    those in :data:`SMOOTH_DIMENSIONS`, else the build for any dimension."""
+    return with_constant(imm_smooth, "_DIMENSION", d) if d in SMOOTH_DIMENSIONS \
         else imm_smooth
 
 
-@jit(inline=True)
+@jit()
 def _smooth_track(d, transitions, noises, step, matrix, means, covars, probs, out_means,
                   out_covars, out_probs):
     """One track's backward pass (see :func:`imm_smooth`) for states of dimension ``d``;
@@ -421,11 +476,11 @@ def _smooth_track(d, transitions, noises, step, matrix, means, covars, probs, ou
     return 0
 
 
-@jit(parallel=True, size=4)
+@jit()
 def imm_smooth(transitions, noises, step, matrix, means, covars, probs, out_means,
                out_covars, out_probs, status):
     """The fixed-interval IMM smoother of Kim (1994) over K tracks of T filtered IMM states
-    of M linear models, one track a thread.
+    of M linear models (the array layer runs chunks of the tracks on threads).
 
     Backwards from the last time, with ``c_j = sum_i p_ij mu_i(t)`` the predicted
     probability of model j at t + 1: the smoothed probability of model i at t is
@@ -453,6 +508,6 @@ def imm_smooth(transitions, noises, step, matrix, means, covars, probs, out_mean
     d = means.shape[3] if _DIMENSION == 0 else _DIMENSION
     if means.shape[3] != d:
         raise ValueError("imm_smooth: the states must have this build's dimension")
-    for k in prange(means.shape[0]):
+    for k in range(means.shape[0]):
         status[k] = _smooth_track(d, transitions, noises, step, matrix, means[k], covars[k],
                                   probs[k], out_means[k], out_covars[k], out_probs[k])

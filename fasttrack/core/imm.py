@@ -14,6 +14,7 @@ tracks of T steps."""
 import numpy as np
 
 from .. import _jit, _validate
+from .. import threads as _threads
 from . import jpda as _jpda
 from . import kalman as _kalman
 from .kalman_numpy import wrap
@@ -71,22 +72,48 @@ def mode_probabilities(probs, shape, name="mode_probs"):
     return probs
 
 
-def mix(means, covars, mode_probs, matrix):
+def mix(means, covars, mode_probs, matrix, has=None):
     """The IMM interaction: ``(means, covars, predicted)``, each model's mixed prior
     (K, M, d) and (K, M, d, d) and the predicted mode probabilities c_j = sum_i p_ij mu_i
-    (K, M). Model j's prior is the moment match of the models i with weights
-    p_ij mu_i / c_j."""
+    (K, M). Model j's prior is the moment match of the models i (:func:`converted` into
+    model j's components where ``has``, the (M, d) bool mask of each model's components,
+    is given) with weights p_ij mu_i / c_j."""
     joint = mode_probs[:, :, None] * matrix[None]  # (K, i, j)
     predicted = joint.sum(axis=1)
     alive = predicted > 0.0
     with np.errstate(invalid="ignore", divide="ignore"):
         weights = np.where(alive[:, None, :], joint / predicted[:, None, :],
                            np.eye(matrix.shape[0])[None])
-    mixed_means = np.einsum("kij,kid->kjd", weights, means)
-    spread = means[:, :, None, :] - mixed_means[:, None, :, :]  # (K, i, j, d)
-    mixed_covars = (np.einsum("kij,kiab->kjab", weights, covars)
+    return (*_matched(weights, *converted(means, covars, has)), predicted)
+
+
+def converted(means, covars, has=None):
+    """Each model i's state in each model j's components: ``(means, covars)`` (K, i, j, d)
+    and (K, i, j, d, d). A component of j that i lacks takes model j's own mean, variance and
+    covariances with the others i lacks (none with those i has); one that j lacks is 0.
+    Without ``has`` (every model has every component), model i's state for every j."""
+    models = means.shape[1]
+    if has is None:
+        shape = means.shape[:2] + (models,)
+        return (np.broadcast_to(means[:, :, None], shape + means.shape[2:]),
+                np.broadcast_to(covars[:, :, None], shape + covars.shape[2:]))
+    from_i = has[:, None, :]  # (i, 1, d): where model i's own component is taken
+    out_means = np.where(from_i, means[:, :, None], means[:, None, :]) * has[None, None]
+    both = from_i[..., :, None] & from_i[..., None, :]
+    neither = ~from_i[..., :, None] & ~from_i[..., None, :]
+    out_covars = (np.where(both, covars[:, :, None], 0.0)
+                  + np.where(neither, covars[:, None, :], 0.0))
+    return out_means, out_covars * (has[:, :, None] & has[:, None, :])[None, None]
+
+
+def _matched(weights, means, covars):
+    """The moment match over i of (K, i, j, d) means and (K, i, j, d, d) covariances with
+    weights (K, i, j): (K, j, d) and symmetric (K, j, d, d)."""
+    mixed_means = np.einsum("kij,kijd->kjd", weights, means)
+    spread = means - mixed_means[:, None]  # (K, i, j, d)
+    mixed_covars = (np.einsum("kij,kijab->kjab", weights, covars)
                     + np.einsum("kij,kija,kijb->kjab", weights, spread, spread))
-    return mixed_means, 0.5 * (mixed_covars + mixed_covars.swapaxes(-1, -2)), predicted
+    return mixed_means, 0.5 * (mixed_covars + mixed_covars.swapaxes(-1, -2))
 
 
 def combine(means, covars, mode_probs):
@@ -101,7 +128,7 @@ def combine(means, covars, mode_probs):
 
 
 def step(transition_models, measurement_model, matrix, means, covars, mode_probs,
-         measurements, intervals, algorithm="imm"):
+         measurements, intervals, algorithm="imm", has=None):
     """One multiple-model step of K filters: each model's prior (by ``algorithm``),
     predicted ``intervals`` (K,) seconds ahead and updated with the filter's measurement
     (K, m), and the models weighed.
@@ -118,6 +145,8 @@ def step(transition_models, measurement_model, matrix, means, covars, mode_probs
         float64).
     algorithm : {'imm', 'gpb1', 'gpb2'}
         One of :data:`ALGORITHMS`.
+    has : (M, d) bool ndarray, optional
+        Each model's state components (:func:`components`); None: all.
 
     Returns
     -------
@@ -130,29 +159,30 @@ def step(transition_models, measurement_model, matrix, means, covars, mode_probs
         If a model's prediction or update is undefined, naming the filter and the model.
     """
     fused = _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
-                   measurements, intervals, algorithm)
+                   measurements, intervals, algorithm, has)
     if fused is not None:
         return fused
     return general_step(transition_models, measurement_model, matrix, means, covars,
-                        mode_probs, measurements, intervals, algorithm)
+                        mode_probs, measurements, intervals, algorithm, has)
 
 
 def general_step(transition_models, measurement_model, matrix, means, covars, mode_probs,
-                 measurements, intervals, algorithm="imm"):
+                 measurements, intervals, algorithm="imm", has=None):
     """:func:`step` for any models and intervals: priors, weighing and merging on arrays,
     each model's prediction and update through the Kalman stack kernels."""
     if algorithm == "gpb2":
         return _gpb2_step(transition_models, measurement_model, matrix, means, covars,
-                          mode_probs, measurements, intervals)
+                          mode_probs, measurements, intervals, has)
     return updates(transition_models, measurement_model,
                    *predictions(transition_models, measurement_model, matrix, means, covars,
-                                mode_probs, intervals, algorithm), measurements)
+                                mode_probs, intervals, algorithm, has), measurements)
 
 
 def predictions(transition_models, measurement_model, matrix, means, covars, mode_probs,
-                intervals, algorithm="imm"):
-    """Each model's prior (the IMM's mixing, or GPB1's merging of all models), predicted
-    ``intervals`` (K,) seconds ahead, and its predicted measurement.
+                intervals, algorithm="imm", has=None):
+    """Each model's prior (the IMM's mixing, or GPB1's merging of all models; each model
+    :func:`converted` into the components of the model it enters), predicted ``intervals``
+    (K,) seconds ahead, and its predicted measurement.
 
     Returns
     -------
@@ -162,13 +192,12 @@ def predictions(transition_models, measurement_model, matrix, means, covars, mod
         innovation covariances.
     """
     models = mode_probs.shape[1]
-    if algorithm == "gpb1":
-        mean, covar = combine(means, covars, mode_probs)
-        priors = (np.repeat(mean[:, None], models, axis=1),
-                  np.repeat(covar[:, None], models, axis=1))
+    if algorithm == "gpb1":  # every model's prior from all models, weighed by mu_i
+        *priors, _ = mix(means, covars, mode_probs, np.full((models, models), 1.0 / models),
+                         has)
         predicted = mode_probs @ matrix
     else:
-        *priors, predicted = mix(means, covars, mode_probs, matrix)
+        *priors, predicted = mix(means, covars, mode_probs, matrix, has)
     out = [np.empty(means.shape), np.empty(covars.shape),
            np.empty(means.shape[:2] + (measurement_model.ndim_meas,)),
            np.empty(means.shape[:2] + (measurement_model.ndim_meas,) * 2)]
@@ -266,12 +295,12 @@ def jpda_updates(measurement_model, means, covars, predicted, z_hats, innovation
 
 
 def _gpb2_step(transition_models, measurement_model, matrix, means, covars, mode_probs,
-               measurements, intervals):
+               measurements, intervals, has):
     """:func:`general_step` of GPB2: every model j updates every model i's posterior;
     the pairs are merged by ``p_ij mu_i`` times their likelihoods (a model that nothing
     switches into keeps its own posterior, updated, and probability 0)."""
     k, models, d = means.shape
-    sources = means.reshape(k * models, d), covars.reshape(k * models, d, d)
+    sources = converted(means, covars, has)  # (K, i, j, d), (K, i, j, d, d)
     pair_z, pair_intervals = (np.repeat(measurements, models, axis=0),
                               np.repeat(intervals, models))
     with np.errstate(divide="ignore"):
@@ -280,7 +309,8 @@ def _gpb2_step(transition_models, measurement_model, matrix, means, covars, mode
     log_posterior = np.empty(mode_probs.shape)
     for j, model in enumerate(transition_models):
         pair_means, pair_covars, log_likelihood = _model_step(
-            j, model, measurement_model, *sources, pair_z, pair_intervals)
+            j, model, measurement_model, sources[0][:, :, j].reshape(k * models, d),
+            sources[1][:, :, j].reshape(k * models, d, d), pair_z, pair_intervals)
         log_pair = log_prior[:, :, j] + log_likelihood.reshape(k, models)
         top = log_pair.max(axis=1)
         reached = np.isfinite(top)
@@ -335,7 +365,7 @@ def _normalised(log_weights):
 
 
 def _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
-           measurements, intervals, algorithm):
+           measurements, intervals, algorithm, has):
     """:func:`step` in one kernel call (:func:`fasttrack._jit.imm.imm_linear_step`) for a
     sensor that selects state components and one interval for every filter, once the
     process runs kernels; None where it does not apply or a filter's step is undefined
@@ -350,12 +380,12 @@ def _fused(transition_models, measurement_model, matrix, means, covars, mode_pro
     out = np.empty_like(means), np.empty_like(covars), np.empty_like(mode_probs)
     status = np.empty(k, dtype=np.int64)
     _imm.imm_linear_step(ALGORITHMS.index(algorithm), transitions, noises, sensor.mapping,
-                         sensor.noise_covar, matrix, means, covars, mode_probs, measurements,
-                         *out, status)
+                         sensor.noise_covar, matrix, _mask(has, means.shape[1:]), means,
+                         covars, mode_probs, measurements, *out, status)
     return out if not status.any() else None
 
 
-def predict(transition_models, matrix, means, covars, mode_probs, dt):
+def predict(transition_models, matrix, means, covars, mode_probs, dt, has=None):
     """The IMM's prediction of K filters ``dt`` seconds ahead in one kernel call
     (:func:`fasttrack._jit.imm.imm_predict`): ``(means, covars, predicted)``, each model's
     prediction from its mixed prior and the predicted mode probabilities; None where a
@@ -369,7 +399,8 @@ def predict(transition_models, matrix, means, covars, mode_probs, dt):
     transitions, noises = _matrices(transition_models, dt)
     out = np.empty_like(means), np.empty_like(covars), np.empty_like(mode_probs)
     status = np.empty(k, dtype=np.int64)
-    _imm.imm_predict(transitions, noises, matrix, means, covars, mode_probs, *out, status)
+    _imm.imm_predict(transitions, noises, matrix, _mask(has, means.shape[1:]), means, covars,
+                     mode_probs, *out, status)
     return out if not status.any() else None
 
 
@@ -389,6 +420,29 @@ def update(measurement_model, means, covars, predicted, measurements):
     _imm.imm_update(sensor.mapping, sensor.noise_covar, means, covars, predicted,
                     measurements, *out, status)
     return out if not status.any() else None
+
+
+def components(transition_models, d):
+    """The (M, d) bool mask of each model's state components (an
+    :class:`~fasttrack.EmbeddedTransitionModel`'s ``state_map``, else all d), or None if
+    every model has every component; a ValueError names a model of another dimension."""
+    has = np.ones((len(transition_models), d), dtype=np.bool_)
+    for j, model in enumerate(transition_models):
+        if model.ndim_state != d:
+            raise ValueError(f"transition model {j} ({type(model).__name__}) has "
+                             f"{model.ndim_state} state dimensions, the state {d}: embed a "
+                             f"model of fewer in the state with EmbeddedTransitionModel(model, "
+                             f"state_map, {d})")
+        state_map = getattr(model, "state_map", None)
+        if state_map is not None:
+            has[j] = False
+            has[j, state_map] = True
+    return None if has.all() else has
+
+
+def _mask(has, shape):
+    """``has``, or every component of (M, d) ``shape``, for the kernels."""
+    return np.ones(shape, dtype=np.bool_) if has is None else has
 
 
 def _matrices(transition_models, dt):
@@ -442,8 +496,11 @@ def smooth(transition_models, matrix, means, covars, mode_probs, intervals):
     arrays = [np.require(a, np.float64, ["C"]) for a in (means, covars, mode_probs)]
     out = [np.empty_like(a) for a in arrays]
     status = np.empty(means.shape[0], dtype=np.int64)
-    _imm.imm_smooth_kernel(means.shape[-1])(transitions, noises, step, matrix, *arrays, *out,
-                                            status)
+    kernel = _imm.imm_smooth_kernel(means.shape[-1])
+    _threads.in_chunks(lambda lo, hi: kernel(transitions, noises, step, matrix,
+                                             *(a[lo:hi] for a in arrays),
+                                             *(a[lo:hi] for a in out), status[lo:hi]),
+                       means.shape[0], serial_below=2)
     return (*out, status)
 
 

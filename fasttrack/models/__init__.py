@@ -2,12 +2,13 @@
 from .measurement import (Cartesian2DToBearing, CartesianToBearingRange, LinearGaussian,
                           MeasurementModel, NonlinearGaussianMeasurement)
 from .kinematic import ConstantAcceleration, ConstantVelocity, KnownTurnRate
-from .transition import (CombinedLinearGaussianTransitionModel, LinearGaussianTransitionModel,
-                         NonlinearGaussianTransitionModel, TransitionModel)
+from .transition import (CombinedLinearGaussianTransitionModel, EmbeddedTransitionModel,
+                         LinearGaussianTransitionModel, NonlinearGaussianTransitionModel,
+                         TransitionModel)
 
 __all__ = [
     "Cartesian2DToBearing", "CartesianToBearingRange", "CombinedLinearGaussianTransitionModel",
-    "ConstantAcceleration", "ConstantVelocity", "KnownTurnRate", "LinearGaussian",
-    "LinearGaussianTransitionModel", "MeasurementModel", "NonlinearGaussianMeasurement",
-    "NonlinearGaussianTransitionModel", "TransitionModel",
+    "ConstantAcceleration", "ConstantVelocity", "EmbeddedTransitionModel", "KnownTurnRate",
+    "LinearGaussian", "LinearGaussianTransitionModel", "MeasurementModel",
+    "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel", "TransitionModel",
 ]

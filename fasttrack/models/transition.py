@@ -20,7 +20,7 @@ from .spec import CV, FIXED, FUNCTION, TransitionSpec
 
 __all__ = [
     "TransitionModel", "LinearGaussianTransitionModel", "CombinedLinearGaussianTransitionModel",
-    "NonlinearGaussianTransitionModel",
+    "EmbeddedTransitionModel", "NonlinearGaussianTransitionModel",
 ]
 
 
@@ -371,6 +371,72 @@ class CombinedLinearGaussianTransitionModel(_LinearGaussian):
                 return None
             rates += part
         return rates
+
+
+class EmbeddedTransitionModel(_LinearGaussian):
+    """A linear model of d components acting on d of a larger state's D components: the
+    model's component c is the state's ``state_map[c]``; the others are carried unchanged,
+    without noise (e.g. a constant-velocity model (x, vx, y, vy) in a constant-acceleration
+    state (x, vx, ax, y, vy, ay) with ``state_map=(0, 1, 3, 4)``).
+
+    Parameters
+    ----------
+    model : linear TransitionModel
+        Of d components (with ``matrix``).
+    state_map : (d,) sequence of int
+        Distinct indices in ``[0, ndim_state)``.
+    ndim_state : int
+        D >= d.
+    """
+
+    def __init__(self, model, state_map, ndim_state):
+        if not isinstance(model, _LinearGaussian):
+            raise TypeError(f"model must be a linear transition model, got "
+                            f"{type(model).__name__}")
+        self.model = model
+        self._ndim_state = _validate.count(ndim_state, "ndim_state")
+        self.state_map = state_map_indices(state_map, model.ndim_state, self._ndim_state,
+                                           "state_map")
+
+    ndim_state = property(lambda self: self._ndim_state, doc="Number of state dimensions D.")
+
+    def _parameters(self):
+        return self.model._parameters()
+
+    def matrix(self, time_interval):
+        """F(dt) (D, D): the model's on its components, the identity elsewhere.
+
+        Parameters
+        ----------
+        time_interval : datetime.timedelta or float seconds
+        """
+        out = np.eye(self._ndim_state)
+        out[np.ix_(self.state_map, self.state_map)] = self.model.matrix(time_interval)
+        return out
+
+    def covar(self, time_interval):
+        """Q(dt) (D, D): the model's on its components, 0 elsewhere.
+
+        Parameters
+        ----------
+        time_interval : datetime.timedelta or float seconds
+        """
+        out = np.zeros((self._ndim_state, self._ndim_state))
+        out[np.ix_(self.state_map, self.state_map)] = self.model.covar(time_interval)
+        return out
+
+
+def state_map_indices(state_map, d, ndim_state, name):
+    """``state_map`` as a read-only (d,) int64 array of distinct indices in
+    ``[0, ndim_state)``, or a ValueError naming ``name``."""
+    indices = np.asarray(state_map)
+    if indices.shape != (d,) or indices.dtype.kind not in "iu" \
+            or np.unique(indices).size != d or (indices < 0).any() \
+            or (indices >= ndim_state).any():
+        raise ValueError(f"{name} must be {d} distinct indices in [0, {ndim_state}) (where "
+                         f"each of the model's components sits in the state), got "
+                         f"{np.asarray(state_map).tolist()}")
+    return read_only(indices.astype(np.int64))
 
 
 class NonlinearGaussianTransitionModel(TransitionModel):

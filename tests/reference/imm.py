@@ -18,6 +18,22 @@ def _kalman(f, q, h, noise, x0, p0, z):
     return x + gain @ v, a @ p @ a.T + gain @ noise @ gain.T, log_likelihood
 
 
+def _converted(means, covars, has, i, j):
+    """Model i's state in model j's components, entry by entry."""
+    d = means.shape[1]
+    x, p = np.zeros(d), np.zeros((d, d))
+    for a in range(d):
+        if has[j, a]:
+            x[a] = means[i, a] if has[i, a] else means[j, a]
+        for b in range(d):
+            if has[j, a] and has[j, b]:
+                if has[i, a] and has[i, b]:
+                    p[a, b] = covars[i, a, b]
+                elif not has[i, a] and not has[i, b]:
+                    p[a, b] = covars[j, a, b]
+    return x, p
+
+
 def _merged(w, means, covars):
     w = w / w.sum()
     x = w @ means
@@ -25,7 +41,7 @@ def _merged(w, means, covars):
     return x, np.einsum("i,iab->ab", w, covars) + np.einsum("i,ia,ib->ab", w, spread, spread)
 
 
-def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, means, covars,
+def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has, means, covars,
                     probs, z, out_means, out_covars, out_probs, status):
     models, d = means.shape[1:]
     h = np.zeros((mapping.size, d))
@@ -38,8 +54,8 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, mean
             if algorithm == 2:  # GPB2: model j from every model i's posterior
                 pairs, log_w = [], np.full(models, -np.inf)
                 for i in range(models):
-                    step = _kalman(transitions[j], noises[j], h, noise, means[k, i],
-                                   covars[k, i], z[k])
+                    step = _kalman(transitions[j], noises[j], h, noise,
+                                   *_converted(means[k], covars[k], has, i, j), z[k])
                     if step is None:
                         status[k] = INNOVATION_NOT_PD
                         break
@@ -60,7 +76,9 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, mean
                 w = probs[k]
             else:
                 w = matrix[:, j] * probs[k] if predicted[j] > 0 else np.eye(models)[j]
-            x0, p0 = _merged(w, means[k], covars[k])
+            sources = [_converted(means[k], covars[k], has, i, j) for i in range(models)]
+            x0, p0 = _merged(w, np.array([x for x, _ in sources]),
+                             np.array([p for _, p in sources]))
             if np.linalg.eigvalsh(0.5 * (p0 + p0.T)).min() < -1e-9 * max(p0.max(), 0.0):
                 status[k] = PRIOR_NOT_PSD
                 break
@@ -76,7 +94,7 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, mean
             out_probs[k] = weights / weights.sum()
 
 
-def imm_predict(transitions, noises, matrix, means, covars, probs, out_means, out_covars,
+def imm_predict(transitions, noises, matrix, has, means, covars, probs, out_means, out_covars,
                 out_predicted, status):
     models = means.shape[1]
     for k in range(means.shape[0]):
@@ -85,7 +103,9 @@ def imm_predict(transitions, noises, matrix, means, covars, probs, out_means, ou
         for j in range(models):
             c = out_predicted[k, j]
             w = matrix[:, j] * probs[k] if c > 0 else np.eye(models)[j]
-            x0, p0 = _merged(w, means[k], covars[k])
+            sources = [_converted(means[k], covars[k], has, i, j) for i in range(models)]
+            x0, p0 = _merged(w, np.array([x for x, _ in sources]),
+                             np.array([p for _, p in sources]))
             out_means[k, j] = transitions[j] @ x0
             out_covars[k, j] = transitions[j] @ p0 @ transitions[j].T + noises[j]
 
