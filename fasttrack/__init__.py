@@ -19,7 +19,7 @@ _MODULES = {
     "mixturereducer": ["GaussianMixtureReducer"],
     "models": ["Cartesian2DToBearing", "CartesianToBearingRange",
                "CombinedLinearGaussianTransitionModel", "ConstantAcceleration",
-               "ConstantVelocity", "EmbeddedTransitionModel", "KnownTurnRate",
+               "ConstantTurn", "ConstantVelocity", "EmbeddedTransitionModel", "KnownTurnRate",
                "LinearGaussian", "LinearGaussianTransitionModel", "MeasurementModel",
                "NonlinearGaussianMeasurement", "NonlinearGaussianTransitionModel",
                "TransitionModel"],

@@ -25,7 +25,7 @@ from .imm import BatchIMMFilter, IMMPredictor, IMMUpdater
 from .kernel import GaussianKernel, QuadraticKernel
 from .mixturereducer import GaussianMixtureReducer
 from .models.measurement import LinearGaussian
-from .models.kinematic import ConstantVelocity
+from .models.kinematic import ConstantTurn, ConstantVelocity
 from .models.transition import (CombinedLinearGaussianTransitionModel,
                                 LinearGaussianTransitionModel)
 from .phd import CPHDTracker, PHDTracker
@@ -212,6 +212,7 @@ def _imm():
     IMMUpdater([KalmanUpdater(sensor)] * 2, matrix).update(
         SingleHypothesis(prediction, Detection(np.zeros(2), timestamp=1.0,
                                                measurement_model=sensor)))
+    ConstantTurn([0.1, 0.1], 1e-4)  # compiles its function
 
 
 def _jpda():

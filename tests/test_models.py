@@ -96,6 +96,41 @@ def test_constant_acceleration_moves_a_thrown_body_and_refuses_a_bad_rate():
         ft.ConstantAcceleration(1.0).covar(1e70)
 
 
+@against_stonesoup
+@pytest.mark.parametrize("dt", [1.0, 0.25, 7.5, -2.0])
+def test_constant_turn_matches_stone_soup(dt):
+    from stonesoup.models.transition.nonlinear import ConstantTurn
+    ours = ft.ConstantTurn([0.1, 0.3], 0.02)
+    theirs = ConstantTurn(linear_noise_coeffs=np.array([0.1, 0.3]), turn_noise_coeff=0.02)
+    x = np.random.default_rng(3).normal(size=(5, 4))
+    x[4] = [0.01, -0.3, 1.5, -0.02634]
+    np.testing.assert_allclose(ours.function(x, time_interval=dt),
+                               theirs.function(_ss_states(x), time_interval=_td(dt)),
+                               rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(ours.covar(dt), theirs.covar(time_interval=_td(dt)), rtol=RTOL)
+
+
+def test_constant_turn_is_its_mirror_turns_and_flies_straight_at_a_rate_of_zero():
+    from reference import turn as mirror
+    model = ft.ConstantTurn([0.0, 0.0], 0.0)
+    x = np.random.default_rng(4).normal(size=(5, 6))
+    x[4] = [0.0, 1e-12, -1e-9, 0.2, -1.0, 3.0]
+    for dt in (1.0, 0.1, -4.0):
+        np.testing.assert_allclose(model.function(x, time_interval=dt),
+                                   mirror.constant_turn(x, dt), rtol=1e-10, atol=1e-12)
+    quarter = model.function(np.array([[0.0], [1.0], [0.0], [0.0], [np.pi / 2]]),
+                             time_interval=1.0)[:, 0]  # a quarter turn a second
+    np.testing.assert_allclose(quarter, [2 / np.pi, 0.0, 2 / np.pi, 1.0, np.pi / 2],
+                               atol=1e-15)
+    straight = model.function(np.array([[1.0], [2.0], [3.0], [4.0], [0.0]]),
+                              time_interval=0.5)[:, 0]
+    np.testing.assert_array_equal(straight, [2.0, 2.0, 5.0, 4.0, 0.0])
+    with pytest.raises(ValueError, match="linear_noise_coeffs must be two numbers >= 0"):
+        ft.ConstantTurn([0.1, -0.1], 0.0)
+    with pytest.raises(ValueError, match="turn_noise_coeff"):
+        ft.ConstantTurn([0.1, 0.1], -1.0)
+
+
 def test_known_turn_rate_turns_and_its_zero_rate_is_constant_velocity():
     quarter = ft.KnownTurnRate([0.0, 0.0], np.pi / 2)  # a quarter turn a second
     np.testing.assert_allclose(quarter.matrix(1.0) @ [0.0, 1.0, 0.0, 0.0],

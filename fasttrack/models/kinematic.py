@@ -1,14 +1,15 @@
 """Kinematic transition models of one axis or the plane: nearly constant velocity and
-acceleration, and a turn at a known rate (Stone Soup's ``ConstantVelocity``,
-``ConstantAcceleration`` and ``KnownTurnRate``); combine axes with
-:class:`~fasttrack.models.transition.CombinedLinearGaussianTransitionModel`."""
+acceleration, a turn at a known rate, and a turn whose rate is in the state (Stone Soup's
+``ConstantVelocity``, ``ConstantAcceleration``, ``KnownTurnRate`` and ``ConstantTurn``);
+combine axes with :class:`~fasttrack.models.transition.CombinedLinearGaussianTransitionModel`."""
 import numpy as np
 
 from .. import _validate
+from ..core.kinematic import constant_turn
 from .base import read_only
-from .transition import _block_diag, _LinearGaussian
+from .transition import NonlinearGaussianTransitionModel, _block_diag, _LinearGaussian
 
-__all__ = ["ConstantAcceleration", "ConstantVelocity", "KnownTurnRate"]
+__all__ = ["ConstantAcceleration", "ConstantTurn", "ConstantVelocity", "KnownTurnRate"]
 
 
 class ConstantVelocity(_LinearGaussian):
@@ -210,3 +211,55 @@ class KnownTurnRate(_LinearGaussian):
         """
         dt = self._seconds(time_interval)
         return _block_diag([_velocity_noise(q, dt) for q in self._qs])
+
+
+class ConstantTurn(NonlinearGaussianTransitionModel):
+    """Nearly constant speed and turn rate in the plane, state (x, vx, y, vy, w) with the
+    turn rate w in rad/s (Stone Soup's ``ConstantTurn``): the velocity turns by w dt and
+    the position moves along the arc; w = 0 is the straight-line limit (Stone Soup turns a
+    rate of exactly 0 into machine epsilon). Nonlinear in w: filter it with the extended or
+    unscented Kalman filter or a particle filter.
+
+    ``Q(dt)`` is ``q_x [[t^3/3, t^2/2], [t^2/2, t]]`` on (x, vx), the same with ``q_y`` on
+    (y, vy), and ``q_w t`` on w, with ``t = |dt|``.
+
+    Parameters
+    ----------
+    linear_noise_coeffs : (2,) array_like
+        q_x and q_y, >= 0, in (state units)^2 / s^3.
+    turn_noise_coeff : float
+        q_w >= 0, in rad^2 / s^3.
+    """
+
+    def __init__(self, linear_noise_coeffs, turn_noise_coeff):
+        self.linear_noise_coeffs = linear_noise_coeffs
+        self.turn_noise_coeff = turn_noise_coeff
+        super().__init__(constant_turn(), self._noise, 5)
+
+    @property
+    def linear_noise_coeffs(self):
+        """(q_x, q_y), each >= 0 (a read-only array)."""
+        return read_only(self._linear_qs)
+
+    @linear_noise_coeffs.setter
+    def linear_noise_coeffs(self, value):
+        qs = _validate.finite_array(value, "linear_noise_coeffs", 1)
+        if qs.shape != (2,) or (qs < 0).any():
+            raise ValueError(f"linear_noise_coeffs must be two numbers >= 0, got "
+                             f"{qs.tolist()}")
+        self._linear_qs = qs.copy()
+
+    @property
+    def turn_noise_coeff(self):
+        """q_w >= 0, in rad^2 / s^3."""
+        return self._turn_q
+
+    @turn_noise_coeff.setter
+    def turn_noise_coeff(self, value):
+        self._turn_q = _validate.non_negative(value, "turn_noise_coeff")
+
+    def _noise(self, dt):
+        noise = np.zeros((5, 5))
+        noise[:4, :4] = _block_diag([_velocity_noise(q, dt) for q in self._linear_qs])
+        noise[4, 4] = self._turn_q * abs(dt)
+        return noise
