@@ -126,6 +126,15 @@ class ConstantAcceleration(_LinearGaussian):
         return noise
 
 
+def _axis_rates(value, name):
+    """Two noise rates (along x and y), each >= 0, as a new array; a ValueError names
+    ``name``."""
+    qs = _validate.finite_array(value, name, 1)
+    if qs.shape != (2,) or (qs < 0).any():
+        raise ValueError(f"{name} must be two numbers >= 0, got {qs.tolist()}")
+    return qs.copy()
+
+
 def _velocity_noise(q, dt):
     """``q [[t^3/3, t^2/2], [t^2/2, t]]`` with ``t = |dt|``: the noise of a nearly constant
     velocity over dt seconds; a ValueError if it overflows."""
@@ -169,11 +178,7 @@ class KnownTurnRate(_LinearGaussian):
 
     @turn_noise_diff_coeffs.setter
     def turn_noise_diff_coeffs(self, value):
-        qs = _validate.finite_array(value, "turn_noise_diff_coeffs", 1)
-        if qs.shape != (2,) or (qs < 0).any():
-            raise ValueError(f"turn_noise_diff_coeffs must be two numbers >= 0, got "
-                             f"{qs.tolist()}")
-        self._qs = qs.copy()
+        self._qs = _axis_rates(value, "turn_noise_diff_coeffs")
 
     @property
     def turn_rate(self):
@@ -243,11 +248,7 @@ class ConstantTurn(NonlinearGaussianTransitionModel):
 
     @linear_noise_coeffs.setter
     def linear_noise_coeffs(self, value):
-        qs = _validate.finite_array(value, "linear_noise_coeffs", 1)
-        if qs.shape != (2,) or (qs < 0).any():
-            raise ValueError(f"linear_noise_coeffs must be two numbers >= 0, got "
-                             f"{qs.tolist()}")
-        self._linear_qs = qs.copy()
+        self._linear_qs = _axis_rates(value, "linear_noise_coeffs")
 
     @property
     def turn_noise_coeff(self):
