@@ -263,36 +263,43 @@ IMM_MATRIX = np.full((3, 3), 0.05) + 0.85 * np.eye(3)
 
 
 def multiple_models(table, plots):
-    """An IMM filter of three turn models (:data:`IMM_TURN_RATES`) on the manoeuvring
-    target of Stone Soup's multiple-model tutorial (600 scans)."""
-    _progress("IMM filter, manoeuvring target")
+    """An IMM filter of three turn models (:data:`IMM_TURN_RATES`, the flight's own process
+    noise) on the manoeuvring target of Stone Soup's multiple-model tutorial (600 scans),
+    and the IMM smoother over the whole flight."""
+    _progress("IMM filter and smoother, manoeuvring target")
     scenario = manoeuvring_target(seed=1)
-    models = [ft.KnownTurnRate([1e-3, 1e-3], rate) for rate in IMM_TURN_RATES.values()]
+    models = [ft.KnownTurnRate([1e-2, 1e-2], rate) for rate in IMM_TURN_RATES.values()]
     imm = ft.BatchIMMFilter(models, scenario.measurement_model, IMM_MATRIX)
     first = scenario.measurements[0]
     start = (np.tile([first[0], -30.0, first[1], -30.0], (1, 3, 1)),
              np.tile(np.diag([1.0, 25.0, 1.0, 25.0]), (1, 3, 1, 1)), np.full((1, 3), 1 / 3))
+    steps = len(scenario.measurements) - 1
 
     def run():
-        means, covars, probs = start
-        estimates, history = [], []
+        state, history = start, []
         for z in scenario.measurements[1:]:
-            means, covars, probs = imm.step(means, covars, probs, z[None], 1.0)
-            estimates.append(ft.BatchIMMFilter.combine(means, covars, probs)[0][0])
-            history.append(probs[0])
-        return np.array(estimates), np.array(history)
+            state = imm.step(*state, z[None], 1.0)
+            history.append([a[0] for a in state])
+        return [np.array(a) for a in zip(*history)]  # (T, M, d), (T, M, d, d), (T, M)
 
-    (estimates, history), seconds = _timed_track(run, 3, len(scenario.measurements) - 1)
-    errors = estimates[:, [0, 2]] - scenario.truths[1:, [0, 2]]
-    table.add("IMM, 3 turn models", 1, float(np.sqrt((errors ** 2).sum(axis=1).mean())),
-              seconds)
+    filtered, seconds = _timed_track(run, 3, steps)
+    smoothed, smoothing = _timed_track(lambda: imm.smooth(*filtered, 1.0), 3, steps)
+    truths = scenario.truths[1:, [0, 2]]
+    estimates = {}
+    for name, arrays, per_step in (("IMM, 3 turn models", filtered, seconds),
+                                   ("IMM smoother", smoothed, smoothing)):
+        estimates[name] = ft.BatchIMMFilter.combine(*arrays)[0][:, [0, 2]]
+        table.add(name, 1, float(np.sqrt(((estimates[name] - truths) ** 2).sum(axis=1)
+                                         .mean())), per_step)
     if plots:
-        ax = plots.plotting.plot_mode_probabilities(history, list(IMM_TURN_RATES),
-                                                    scenario.turn_rates[1:])
-        plots.save(ax, "imm-mode-probabilities.png",
-                   "IMM mode probabilities over a manoeuvring flight")
+        for probs, label in ((filtered[2], "filtered"), (smoothed[2], "smoothed")):
+            ax = plots.plotting.plot_mode_probabilities(probs, list(IMM_TURN_RATES),
+                                                        scenario.turn_rates[1:])
+            plots.save(ax, f"imm-mode-probabilities-{label}.png",
+                       f"IMM mode probabilities over a manoeuvring flight, {label}")
         ax = plots.plotting.plot_paths({"ground truth": scenario.truths[:, [0, 2]],
-                                        "IMM estimate": estimates[:, [0, 2]]})
+                                        "IMM estimate": estimates["IMM, 3 turn models"],
+                                        "IMM smoothed": estimates["IMM smoother"]})
         plots.save(ax, "imm-track.png", "IMM track of the manoeuvring target")
 
 

@@ -23,12 +23,13 @@ def test_quick_demo_runs_and_writes_plots(tmp_path):
     assert "Resampler tutorial" in out and "offspring" in out
     for row in ("resample systematic", "resample residual", "particle filter",
                 "extended Kalman filter", "AKKF quadratic", "AKKF gaussian", "GM-PHD",
-                "GM-CPHD", "IMM, 3 turn models"):
+                "GM-CPHD", "IMM, 3 turn models", "IMM smoother"):
         assert row in out
     assert "speed-up" in out and "Demo finished" in out
     pngs = sorted(tmp_path.glob("*.png"))
     assert len(pngs) >= 7 and {"cphd-vo-linear-30.png", "target-count-30.png",
-                               "imm-mode-probabilities.png", "imm-track.png"} <= {
+                               "imm-mode-probabilities-filtered.png",
+                               "imm-mode-probabilities-smoothed.png", "imm-track.png"} <= {
         png.name for png in pngs}
     for png in pngs:
         _assert_drawn(png)

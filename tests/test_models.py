@@ -317,3 +317,22 @@ def test_a_stone_soup_model_in_a_native_class_points_to_the_drop_ins():
                                                   noise_covar=np.eye(2))
     with pytest.raises(TypeError, match="measurement_model must be a MeasurementModel.*drop-in"):
         ft.ParticleUpdater(sensor)
+
+
+def test_a_remembered_q_follows_every_noise_parameter():
+    cv = ft.ConstantVelocity(0.1)
+    turn = ft.KnownTurnRate([0.1, 0.2], 0.05)
+    combined = ft.CombinedLinearGaussianTransitionModel([cv, ft.ConstantAcceleration(0.3)])
+    embedded = ft.EmbeddedTransitionModel(turn, (0, 1, 3, 4), 6)
+    for model, change in ((cv, lambda: setattr(cv, "noise_diff_coeff", 0.7)),
+                          (turn, lambda: setattr(turn, "turn_noise_diff_coeffs", [0.4, 0.2])),
+                          (combined, lambda: setattr(combined.model_list[0],
+                                                     "noise_diff_coeff", 2.0)),
+                          (embedded, lambda: setattr(turn, "turn_noise_diff_coeffs", [1, 1])),
+                          (combined, lambda: setattr(combined, "model_list", [
+                              ft.ConstantVelocity(5.0), ft.ConstantAcceleration(0.3)]))):
+        before = model.spec(2.0).noise.copy()
+        change()
+        after = model.spec(2.0).noise
+        np.testing.assert_array_equal(after, model.covar(2.0))
+        assert not np.array_equal(before, after)

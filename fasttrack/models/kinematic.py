@@ -40,6 +40,9 @@ class ConstantVelocity(_LinearGaussian):
     def _parameters(self):
         return None  # F does not depend on q
 
+    def _noise_parameters(self):
+        return self._q
+
     def matrix(self, time_interval):
         """F(dt) = ``[[1, dt], [0, 1]]`` (2, 2).
 
@@ -95,6 +98,9 @@ class ConstantAcceleration(_LinearGaussian):
 
     def _parameters(self):
         return None  # F does not depend on q
+
+    def _noise_parameters(self):
+        return self._q
 
     def matrix(self, time_interval):
         """F(dt) (3, 3).
@@ -191,6 +197,9 @@ class KnownTurnRate(_LinearGaussian):
 
     def _parameters(self):
         return self._turn_rate
+
+    def _noise_parameters(self):
+        return self._qs.tobytes()
 
     def matrix(self, time_interval):
         """F(dt) (4, 4).

@@ -172,7 +172,25 @@ _REVISIONS = itertools.count()
 
 class _LinearGaussian(TransitionModel):
     """x_k = F(dt) x_{k-1} + w: subclasses define ``matrix(time_interval)`` and
-    ``_parameters()``, a hashable value that changes whenever F can."""
+    ``_parameters()``, a hashable value that changes whenever F can, and may define
+    ``_noise_parameters()``, one that changes whenever Q can (None: Q is not
+    remembered)."""
+
+    def _noise_parameters(self):
+        return None
+
+    def _covar(self, dt):
+        """Q(dt) as a C-contiguous array, memoised for the last interval and noise
+        parameters where the model names them."""
+        parameters = self._noise_parameters()
+        if parameters is None:
+            return super()._covar(dt)
+        key = (dt, parameters)
+        memo = self.__dict__.get("_covar_memo")
+        if memo is None or memo[0] != key:
+            memo = (key, super()._covar(dt))
+            self.__dict__["_covar_memo"] = memo
+        return memo[1]
 
     def _mean(self, x, dt):
         return self._matrix(dt) @ x
@@ -343,6 +361,10 @@ class CombinedLinearGaussianTransitionModel(_LinearGaussian):
     def _parameters(self):
         return self._revision, tuple(model._parameters() for model in self._models)
 
+    def _noise_parameters(self):
+        parts = tuple(model._noise_parameters() for model in self._models)
+        return None if None in parts else (self._revision, parts)
+
     def matrix(self, time_interval):
         """F(dt) (d, d): the parts' transition matrices on the diagonal.
 
@@ -402,6 +424,9 @@ class EmbeddedTransitionModel(_LinearGaussian):
 
     def _parameters(self):
         return self.model._parameters()
+
+    def _noise_parameters(self):
+        return self.model._noise_parameters()
 
     def matrix(self, time_interval):
         """F(dt) (D, D): the model's on its components, the identity elsewhere.
