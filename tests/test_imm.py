@@ -412,3 +412,13 @@ def test_the_prediction_and_update_kernels_are_their_mirrors():
                             matrix, everything, means, covars, probs, results[0][1], *step)
     for a_, b_ in zip(step[:3], results[0][0][3:]):  # the two halves are the step
         np.testing.assert_array_equal(a_, b_)
+
+
+def test_the_step_kernel_measures_its_work_by_the_filters_means():
+    """Its serial or threaded build is chosen by the size of ``means`` (K M d), not of a
+    small argument beside it."""
+    import inspect
+
+    from fasttrack._jit import imm as kernels
+    step = kernels.imm_linear_step
+    assert list(inspect.signature(step.py_func).parameters)[step.size] == "means"

@@ -25,12 +25,13 @@ IMM, GPB1, GPB2 = 0, 1, 2
 
 
 @jit(inline=True)
-def _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, x0, p0):
+def _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, everyone, x0,
+           p0):
     """Model j's prior of one filter into ``x0`` (d,) and ``p0`` (d, d) (symmetric): for
     the IMM the models mixed by ``p_ij mu_i`` (``predicted`` their sum; a model of predicted
     probability 0 keeps its own state), for GPB1 all models merged by ``mu_i``; each model
     i :func:`_converted` into model j's components (``has`` (M, d)). ``weights`` (M,) is
-    scratch."""
+    scratch; ``everyone`` is ``arange(M)``."""
     models, d = means.shape
     total = 0.0
     for i in range(models):
@@ -39,6 +40,18 @@ def _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, 
         else:
             weights[i] = matrix[i, j] * probs[i] if predicted > 0.0 else (i == j) * 1.0
         total += weights[i]
+    if _every(has):  # no conversion: the plain moment match
+        _moment_match_group(means, covars, weights, everyone, models, x0, p0)
+        _symmetrise(p0)
+    else:
+        _converted_match(means, covars, has, j, weights, total, x0, p0)
+
+
+@jit()
+def _converted_match(means, covars, has, j, weights, total, x0, p0):
+    """:func:`_mixed`'s moment match of the models :func:`_converted` into model j's
+    components with ``weights`` (M,) of sum ``total`` (symmetric ``p0``)."""
+    models, d = means.shape
     for a in range(d):
         x0[a] = 0.0
         for i in range(models):
@@ -64,6 +77,16 @@ def _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, 
 
 
 @jit(inline=True)
+def _every(has):
+    """Whether every entry of the bool array ``has`` (M, d) is True."""
+    for i in range(has.shape[0]):
+        for a in range(has.shape[1]):
+            if not has[i, a]:
+                return False
+    return True
+
+
+@jit(inline=True)
 def _converted_covariance(covars, has, i, j, a, b):
     """Entry (a, b) of model i's covariance in model j's components (of those j has): model
     i's where i has both, model j's own where i has neither, else 0."""
@@ -80,6 +103,10 @@ def _converted(means, covars, has, i, j, x, p):
     (d, d): a component j has and i lacks takes model j's own mean, variance and
     covariances with the others i lacks; a component j lacks is 0."""
     d = x.size
+    if _every(has):
+        x[:] = means[i]
+        p[:] = covars[i]
+        return
     for a in range(d):
         x[a] = (means[i, a] if has[i, a] else means[j, a]) if has[j, a] else 0.0
         for b in range(d):
@@ -95,8 +122,9 @@ def _prior(algorithm, matrix, probs, means, covars, has, j, space):
     predicted = 0.0
     for i in range(means.shape[0]):
         predicted += matrix[i, j] * probs[i]
-    x0, p0, check, weights = space[1], space[2], space[3], space[5]
-    _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, x0, p0)
+    x0, p0, check, weights, everyone = space[1], space[2], space[3], space[5], space[7]
+    _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, everyone, x0,
+           p0)
     return predicted, _covariance_code(p0, check, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
 
 
@@ -300,7 +328,7 @@ def _gpb2_step(transitions, noises, mapping, noise, matrix, has, means, covars, 
     return OK
 
 
-@jit(parallel=True, size=6)
+@jit(parallel=True, size=7)
 def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has, means, covars,
                     probs, z, out_means, out_covars, out_probs, status):
     """One step of K multiple-model filters of M linear models sharing one interval.
