@@ -388,13 +388,11 @@ def _fused(transition_models, measurement_model, matrix, means, covars, mode_pro
 def predict(transition_models, matrix, means, covars, mode_probs, dt, has=None):
     """The IMM's prediction of K filters ``dt`` seconds ahead in one kernel call
     (:func:`fasttrack._jit.imm.imm_predict`): ``(means, covars, predicted)``, each model's
-    prediction from its mixed prior and the predicted mode probabilities; None where a
-    model is not linear, the process runs NumPy first, or a prior is not positive
-    semi-definite (the caller's general path then reports it)."""
+    prediction from its mixed prior and the predicted mode probabilities, for linear
+    ``transition_models``; None where the process runs NumPy first or a prior is not
+    positive semi-definite (the caller's general path then reports it)."""
     k, models = mode_probs.shape
-    if not all(hasattr(model, "matrix") and hasattr(model, "spec")
-               for model in transition_models) \
-            or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models):
+    if _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models):
         return None
     transitions, noises = _matrices(transition_models, dt)
     out = np.empty_like(means), np.empty_like(covars), np.empty_like(mode_probs)
@@ -441,8 +439,18 @@ def components(transition_models, d):
 
 
 def _mask(has, shape):
-    """``has``, or every component of (M, d) ``shape``, for the kernels."""
-    return np.ones(shape, dtype=np.bool_) if has is None else has
+    """``has``, or every component of (M, d) ``shape``, for the kernels (writable, as
+    they compile for: they only read it)."""
+    if has is not None:
+        return has
+    found = _EVERYTHING.get(shape)
+    if found is None:
+        found = _EVERYTHING[shape] = np.ones(shape, dtype=np.bool_)
+    return found
+
+
+#: :func:`_mask`'s masks of every component, by shape.
+_EVERYTHING = {}
 
 
 def _matrices(transition_models, dt):
