@@ -32,7 +32,7 @@ def _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, 
     probability 0 keeps its own state), for GPB1 all models merged by ``mu_i``; each model
     i :func:`_converted` into model j's components (``has`` (M, d)). ``weights`` (M,) is
     scratch; ``everyone`` is ``arange(M)``."""
-    models, d = means.shape
+    models = means.shape[0]
     total = 0.0
     for i in range(models):
         if algorithm == GPB1:
