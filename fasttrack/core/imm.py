@@ -373,7 +373,7 @@ def _fused(transition_models, measurement_model, matrix, means, covars, mode_pro
     sensor = measurement_model.spec
     k, models = mode_probs.shape
     pairs = models if algorithm == "gpb2" else 1
-    if sensor.kind != SELECT or np.any(sensor.angles) or np.any(intervals != intervals[0]) \
+    if sensor.kind != SELECT or sensor.angles.any() or (intervals != intervals[0]).any() \
             or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models * pairs):
         return None
     transitions, noises = _matrices(transition_models, float(intervals[0]))
@@ -410,7 +410,7 @@ def update(measurement_model, means, covars, predicted, measurements):
     reports it)."""
     sensor = measurement_model.spec
     k, models = predicted.shape
-    if sensor.kind != SELECT or np.any(sensor.angles) \
+    if sensor.kind != SELECT or sensor.angles.any() \
             or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models):
         return None
     out = np.empty_like(means), np.empty_like(covars), np.empty_like(predicted)
