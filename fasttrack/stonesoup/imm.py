@@ -17,6 +17,7 @@ from stonesoup.types.state import GaussianState
 from stonesoup.types.update import WeightedGaussianStateUpdate
 from stonesoup.updater import kalman as ss_updater
 
+from .. import imm as ft_imm_classes
 from ..core import imm as ft_imm
 from ..models.measurement import LinearGaussian
 from . import predictor as ft_predictor
@@ -30,14 +31,9 @@ _KALMAN_PREDICTORS = (ss_predictor.KalmanPredictor, ft_predictor.KalmanPredictor
 _KALMAN_UPDATERS = (ss_updater.KalmanUpdater, ft_updater.KalmanUpdater)
 
 
-class _Models:
-    """Per-model predictors or updaters and the switching matrix."""
-
-    def __init__(self, models, transition_matrix, name):
-        self._models = list(models)
-        if not self._models:
-            raise ValueError(f"{name} must hold at least one model's")
-        self.transition_matrix = ft_imm.transition_matrix(transition_matrix, len(self._models))
+class _Models(ft_imm_classes._Models):
+    """Per-model predictors or updaters and the switching matrix, on Stone Soup's
+    mixtures."""
 
     def _mixture(self, mixture, name):
         """``(means, covars, probs)`` (M, d), (M, d, d), (M,) of a Stone Soup
