@@ -12,25 +12,16 @@ from .transition import NonlinearGaussianTransitionModel, _block_diag, _LinearGa
 __all__ = ["ConstantAcceleration", "ConstantTurn", "ConstantVelocity", "KnownTurnRate"]
 
 
-class ConstantVelocity(_LinearGaussian):
-    """Nearly constant velocity in one dimension, state (position, velocity).
-
-    ``F = [[1, dt], [0, 1]]``, ``Q = q [[t^3/3, t^2/2], [t^2/2, t]]`` with ``t = |dt|``.
-
-    Parameters
-    ----------
-    noise_diff_coeff : float
-        q >= 0, in (state units)^2 / s^3.
-    """
-
-    ndim_state = property(lambda self: 2, doc="Number of state dimensions (2).")
+class _OneAxis(_LinearGaussian):
+    """A model of one axis driven by white noise of rate q on its highest derivative
+    (``noise_diff_coeff``); F does not depend on q."""
 
     def __init__(self, noise_diff_coeff):
         self.noise_diff_coeff = noise_diff_coeff
 
     @property
     def noise_diff_coeff(self):
-        """q >= 0, in (state units)^2 / s^3."""
+        """q >= 0, in (state units)^2 / s^(2 n + 1) for the n-th derivative."""
         return self._q
 
     @noise_diff_coeff.setter
@@ -42,6 +33,20 @@ class ConstantVelocity(_LinearGaussian):
 
     def _noise_parameters(self):
         return self._q
+
+
+class ConstantVelocity(_OneAxis):
+    """Nearly constant velocity in one dimension, state (position, velocity).
+
+    ``F = [[1, dt], [0, 1]]``, ``Q = q [[t^3/3, t^2/2], [t^2/2, t]]`` with ``t = |dt|``.
+
+    Parameters
+    ----------
+    noise_diff_coeff : float
+        q >= 0, in (state units)^2 / s^3.
+    """
+
+    ndim_state = property(lambda self: 2, doc="Number of state dimensions (2).")
 
     def matrix(self, time_interval):
         """F(dt) = ``[[1, dt], [0, 1]]`` (2, 2).
@@ -68,7 +73,7 @@ class ConstantVelocity(_LinearGaussian):
         return (self._q,)
 
 
-class ConstantAcceleration(_LinearGaussian):
+class ConstantAcceleration(_OneAxis):
     """Nearly constant acceleration in one dimension, state (position, velocity,
     acceleration) (Stone Soup's ``ConstantAcceleration``).
 
@@ -83,24 +88,6 @@ class ConstantAcceleration(_LinearGaussian):
     """
 
     ndim_state = property(lambda self: 3, doc="Number of state dimensions (3).")
-
-    def __init__(self, noise_diff_coeff):
-        self.noise_diff_coeff = noise_diff_coeff
-
-    @property
-    def noise_diff_coeff(self):
-        """q >= 0, in (state units)^2 / s^5."""
-        return self._q
-
-    @noise_diff_coeff.setter
-    def noise_diff_coeff(self, value):
-        self._q = _validate.non_negative(value, "noise_diff_coeff")
-
-    def _parameters(self):
-        return None  # F does not depend on q
-
-    def _noise_parameters(self):
-        return self._q
 
     def matrix(self, time_interval):
         """F(dt) (3, 3).
