@@ -414,11 +414,27 @@ def test_the_prediction_and_update_kernels_are_their_mirrors():
         np.testing.assert_array_equal(a_, b_)
 
 
-def test_the_step_kernel_measures_its_work_by_the_filters_means():
-    """Its serial or threaded build is chosen by the size of ``means`` (K M d), not of a
-    small argument beside it."""
-    import inspect
-
-    from fasttrack._jit import imm as kernels
-    step = kernels.imm_linear_step
-    assert list(inspect.signature(step.py_func).parameters)[step.size] == "means"
+@pytest.mark.parametrize("algorithm", imm.ALGORITHMS)
+def test_the_step_on_threads_is_the_step_on_one(algorithm):
+    """Enough filters for the step's chunks to run on threads: each filter's result is the
+    one-thread result, bit for bit."""
+    import numba
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one thread")
+    models = [_cv(0.01), _cv(1.0), _cv(10.0)]
+    matrix = np.full((3, 3), 0.05) + np.eye(3) * 0.85
+    k = 3001
+    means, covars = _priors(k, 3)
+    rng = np.random.default_rng(1)
+    probs = rng.dirichlet(np.ones(3), size=k)
+    z = rng.normal(size=(k, 2)) * 5.0
+    filt = (ft.BatchIMMFilter(models, SENSOR, matrix) if algorithm == "imm"
+            else ft.BatchGPBFilter(models, SENSOR, matrix, order=int(algorithm[-1])))
+    threaded = filt.step(means, covars, probs, z, 1.0)
+    try:
+        ft.set_threads(1)
+        alone = filt.step(means, covars, probs, z, 1.0)
+    finally:
+        ft.set_threads(numba.config.NUMBA_NUM_THREADS)
+    for a_, b_ in zip(threaded, alone):
+        np.testing.assert_array_equal(a_, b_)

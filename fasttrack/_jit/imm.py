@@ -6,12 +6,11 @@ status code and the array layer reports it."""
 import math
 
 import numpy as np
-from numba import prange
 
 from .dispatch import jit, with_constant
 from .linalg import _covariance_code
 from .mixture import _moment_match_group
-from .numeric import cholesky, chunk_bounds
+from .numeric import cholesky
 from .smooth import _rts_prediction, _rts_smoothed
 from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
 
@@ -157,11 +156,6 @@ def _predict(f, q, x0, p0, x, p, work):
                 s += work[a, c] * f[b, c]
             p[a, b] = s
             p[b, a] = s
-
-
-#: :func:`imm_linear_step` runs its filters in at most this many chunks, each with its own
-#: scratch arrays.
-_CHUNKS = 256
 
 
 @jit()
@@ -328,7 +322,7 @@ def _gpb2_step(transitions, noises, mapping, noise, matrix, has, means, covars, 
     return OK
 
 
-@jit(parallel=True, size=7)
+@jit()
 def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has, means, covars,
                     probs, z, out_means, out_covars, out_probs, status):
     """One step of K multiple-model filters of M linear models sharing one interval.
@@ -357,20 +351,16 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has,
     status : (K,) int64
         OK, or why the filter's step is undefined (its outputs are then partly written).
     """
-    filters, models, d = means.shape
-    chunks = min(filters, _CHUNKS)
-    for c in prange(chunks):
-        space = _workspace(d, mapping.size, models)
-        lo, hi = chunk_bounds(c, chunks, filters)
-        for k in range(lo, hi):
-            if algorithm == GPB2:
-                status[k] = _gpb2_step(transitions, noises, mapping, noise, matrix, has,
-                                       means[k], covars[k], probs[k], z[k], out_means[k],
-                                       out_covars[k], out_probs[k], space)
-            else:
-                status[k] = _mixing_step(algorithm, transitions, noises, mapping, noise,
-                                         matrix, has, means[k], covars[k], probs[k], z[k],
-                                         out_means[k], out_covars[k], out_probs[k], space)
+    space = _workspace(means.shape[2], mapping.size, means.shape[1])
+    for k in range(means.shape[0]):
+        if algorithm == GPB2:
+            status[k] = _gpb2_step(transitions, noises, mapping, noise, matrix, has, means[k],
+                                   covars[k], probs[k], z[k], out_means[k], out_covars[k],
+                                   out_probs[k], space)
+        else:
+            status[k] = _mixing_step(algorithm, transitions, noises, mapping, noise, matrix,
+                                     has, means[k], covars[k], probs[k], z[k], out_means[k],
+                                     out_covars[k], out_probs[k], space)
 
 
 @jit()

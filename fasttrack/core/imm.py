@@ -19,6 +19,7 @@ from . import jpda as _jpda
 from . import kalman as _kalman
 from .kalman_numpy import wrap
 from .kinds import CV, SELECT
+from .._jit.tunables import SERIAL_BELOW_FILTERS
 
 _imm = _jit.lazy("imm")
 
@@ -379,9 +380,12 @@ def _fused(transition_models, measurement_model, matrix, means, covars, mode_pro
     transitions, noises = _matrices(transition_models, float(intervals[0]))
     out = np.empty_like(means), np.empty_like(covars), np.empty_like(mode_probs)
     status = np.empty(k, dtype=np.int64)
-    _imm.imm_linear_step(ALGORITHMS.index(algorithm), transitions, noises, sensor.mapping,
-                         sensor.noise_covar, matrix, _mask(has, means.shape[1:]), means,
-                         covars, mode_probs, measurements, *out, status)
+    shared = (ALGORITHMS.index(algorithm), transitions, noises, sensor.mapping,
+              sensor.noise_covar, matrix, _mask(has, means.shape[1:]))
+    arrays = (means, covars, mode_probs, measurements, *out, status)
+    _threads.in_chunks(lambda lo, hi: _imm.imm_linear_step(*shared,
+                                                           *[a[lo:hi] for a in arrays]),
+                       k, serial_below=SERIAL_BELOW_FILTERS // (models * pairs))
     return out if not status.any() else None
 
 
