@@ -21,8 +21,9 @@ Rules for ``parallel=True`` kernels, each learnt from a wrong result:
 Three properties of the dispatchers made here go beyond Numba's defaults:
 
 - a kernel whose name starts with an underscore is called only from other kernels: it is
-  compiled without the wrappers for calls from Python (:class:`KernelOnly`), and tests call
-  it through a kernel of their own;
+  compiled without the wrappers for calls from Python and without machine code or a cache
+  entry of its own (:class:`KernelOnly`; each caller optimises it with its own code), and
+  tests call it through a kernel of their own;
 - they load from the kernels compiled when the package was built, then from a per-user
   directory, and save to the per-user one (:mod:`cache`), where a damaged entry is
   recompiled, with a warning, instead of failing every call;
