@@ -223,11 +223,11 @@ def _jpda():
     association.jpda_marginals([weights, weights])
 
 
-#: Families, slowest to compile first (so that a pool balances them).
-FAMILIES = {"kalman": _kalman, "unscented": _unscented, "akkf": _akkf, "smooth": _smooth,
-            "gating": _gating, "assign": _assign, "jpda": _jpda, "mixture": _mixture,
-            "imm": _imm,
-            "resample": _resample, "particle": _particle}
+#: Families, slowest to compile first (so that a pool balances them); unscented starts after
+#: kalman, whose kernels it shares.
+FAMILIES = {"kalman": _kalman, "imm": _imm, "resample": _resample, "unscented": _unscented,
+            "smooth": _smooth, "akkf": _akkf, "mixture": _mixture, "gating": _gating,
+            "jpda": _jpda, "assign": _assign, "particle": _particle}
 
 
 @contextlib.contextmanager

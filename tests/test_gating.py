@@ -50,6 +50,21 @@ def test_gate_equals_the_dense_mirror(seed, grid_axes):
         assert np.all(np.diff(result.detections[result.starts[k]:result.starts[k + 1]]) > 0)
 
 
+def test_gates_of_strided_arrays_run_the_kernels_of_contiguous_ones():
+    """Views in another memory order (a tracker's transposed or sliced stacks) gate as
+    their copies and compile nothing new."""
+    from fasttrack._jit import compiles
+    z_hats, covars, detections = _scenario(40, 90, 30.0, 0)
+    want = gate_arrays(z_hats, covars, detections, 9.0, None, np.array([0, 1]))
+    views = (np.asfortranarray(z_hats), covars.transpose(0, 2, 1)[:, ::1],
+             np.asfortranarray(detections))
+    with compiles() as found:
+        got = gate_arrays(*views, 9.0, None, np.array([0, 1]))
+    assert found == []
+    for name in ("starts", "detections", "distances2", "log_likelihoods"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+
+
 def test_gate_wraps_angles_and_handles_tracks_outside_the_detections():
     z_hats = np.array([[np.pi - 0.01, 10.0], [-np.pi + 0.02, 500.0], [0.0, -300.0]])
     covars = np.broadcast_to(np.diag([0.01, 4.0]), (3, 2, 2)).copy()

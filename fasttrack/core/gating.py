@@ -218,6 +218,7 @@ def gate_arrays(z_hats, covars, detections, threshold, angles, axes):
     k = z_hats.shape[0]
     if angles is None:
         angles = np.zeros(z_hats.shape[1], dtype=np.bool_)
+    z_hats, covars, detections = map(np.ascontiguousarray, (z_hats, covars, detections))
     if _jit.numpy_first(k + detections.shape[0]):
         found = _numpy.gate(z_hats, covars, detections, threshold, angles)
         if isinstance(found, int):
