@@ -13,6 +13,8 @@ MESSAGES = {
     _status.JACOBIAN_UNDEFINED: "the measurement Jacobian is undefined at the predicted "
                                 "state (for a polar sensor: the target is at the sensor)",
     _status.MEASUREMENT_NOT_FINITE: "hypothesis.measurement contains NaN or infinite values",
+    _status.MEAN_AT_SENSOR: "the prediction's mean lies at the polar sensor, where its "
+                            "bearing is undefined",
     _status.UPDATE_NOT_PSD: "the update by hypothesis.measurement left a covariance that is "
                             "not positive semi-definite (the standard form P - K S K^T; "
                             "use_joseph_cov=True keeps it)",
@@ -20,6 +22,10 @@ MESSAGES = {
 
 #: Codes that the array layer treats apart.
 JACOBIAN_UNDEFINED, UPDATE_NOT_PSD = _status.JACOBIAN_UNDEFINED, _status.UPDATE_NOT_PSD
+
+#: Codes of an update whose outputs are still Stone Soup's numbers, which a non-strict
+#: update (a drop-in's, or a measurement prediction's) returns without an error.
+LENIENT = (_status.UPDATE_NOT_PSD, _status.MEAN_AT_SENSOR)
 
 #: Codes about the output of a user's model function.
 FUNCTION_CODES = (_status.FUNCTION_SHAPE, _status.FUNCTION_NOT_FINITE)

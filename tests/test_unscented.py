@@ -345,6 +345,49 @@ def test_the_standard_form_raises_at_the_update_where_stone_soup_loses_psd():
         batch.run(prior.state_vector.T, prior.covar[None], z[:, None], np.ones((z.shape[0], 1)))
 
 
+@pytest.mark.parametrize("spread", [0.0, 1.0])
+def test_an_update_whose_mean_lies_at_the_sensor_is_refused_as_stone_soup_computes_it(spread):
+    """The transform's central point has no bearing there: the native update, one filter
+    or a batch, in NumPy or in the kernels, refuses it by name; the drop-in and the
+    kernels' mirror give Stone Soup's numbers (its bearing atan2(0, 0) = 0)."""
+    from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
+    from stonesoup.types.detection import Detection
+    from stonesoup.types.hypothesis import SingleHypothesis
+    from stonesoup.types.prediction import GaussianStatePrediction
+    from stonesoup.updater.kalman import UnscentedKalmanUpdater
+
+    import fasttrack.stonesoup as dropin
+    from fasttrack.core import kalman_numpy
+    x, covar = np.array([[50.0], [1.0], [0.0], [-1.0]]), np.eye(4) * spread
+    z = np.array([[0.3], [2.0]])
+    message = "the prediction's mean lies at the polar sensor"
+    native = ft.UnscentedKalmanUpdater(_sensor())
+    prediction = ft.GaussianStatePrediction(x, covar, timestamp=START)
+    with pytest.raises(ValueError, match=message):
+        native.update(ft.SingleHypothesis(prediction, ft.Detection(z, timestamp=START)))
+    with pytest.raises(ValueError, match=message):
+        _batch().update(np.array([[0.0, 1.0, 2.0, 0.0], x[:, 0]]),
+                        np.array([np.eye(4), covar]), np.array([[0.1, 50.0], z[:, 0]]))
+    spec = _sensor().spec
+    assert kalman_numpy.unscented_update(spec, 0.5, 2.0, -1.0, True, x, covar, z)[0] == 11
+    outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
+             np.empty((4, 2))) for _ in range(2)]
+    args = (*spec.sensor, 0.5, 2.0, -1.0, False, x, covar, z)
+    assert kernels.unscented_update(*args, *outs[0]) == 11
+    assert reference.unscented.unscented_update(*args, *outs[1]) == 11
+    model = CartesianToBearingRange(4, (0, 2), NOISE, translation_offset=np.array([[50], [0]]))
+    hypothesis = SingleHypothesis(GaussianStatePrediction(x, covar, timestamp=START),
+                                  Detection(z, timestamp=START, measurement_model=model))
+    want = UnscentedKalmanUpdater(model).update(hypothesis)
+    got = dropin.UnscentedKalmanUpdater(model).update(hypothesis)
+    for a, b, c in zip(outs[0][:2], outs[1][:2], (want.state_vector, want.covar)):
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(a, np.asarray(c, float), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(got.state_vector, float),
+                               np.asarray(want.state_vector, float), rtol=1e-12)
+    np.testing.assert_allclose(got.covar, want.covar, rtol=1e-12, atol=1e-12)
+
+
 def test_the_default_form_is_the_standard_one_less_the_unexplained_spread():
     """One update near the sensor: the Joseph form with the statistical linearisation
     H = C^T P^-1 equals P - K S K^T - K (P_zz - H P H^T) K^T, P_zz = S - R."""

@@ -24,3 +24,5 @@ PREDICTION_NOT_SYMMETRIC = np.int64(9)
 #: An update in the standard form ``P - K S K^T`` that left a covariance that is not
 #: positive semi-definite.
 UPDATE_NOT_PSD = np.int64(10)
+#: An unscented transform whose mean lies at a polar sensor, where its bearing is undefined.
+MEAN_AT_SENSOR = np.int64(11)

@@ -24,9 +24,10 @@ from .dispatch import jit
 from .kalman import FILTERS_PER_BLOCK, _correct, _from_block, _to_block, _transition
 from .linalg import _check_covariance, _solve
 from .numeric import copy_into, fill, sin_cos_turns, wrap_angle
-from .sensor import _predict_block
-from .status import (OK, PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
-                     PRIOR_NOT_SYMMETRIC)
+from .kinds import SELECT
+from .sensor import _predict_block, _sensor_frame
+from .status import (MEAN_AT_SENSOR, OK, PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC,
+                     PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC)
 from .user import output_status
 
 #: Stages of :func:`batch_unscented` (a bit mask).
@@ -192,6 +193,19 @@ def _measure(nb, kind, mapping, offset, rotation, alpha, beta, kappa, x, covaria
 
 
 @jit()
+def _mean_at_sensor(nb, kind, mapping, offset, rotation, x, status):
+    """``status[b]`` (if still OK) becomes MEAN_AT_SENSOR where the mean ``x[:, b]`` (of
+    ``x`` (d, B)) lies at a polar sensor: the transform's central point has no bearing (the
+    outputs are those of the bearing atan2(0, 0) = 0, as Stone Soup computes them)."""
+    if kind == SELECT:
+        return
+    for b in range(nb):
+        px, py = _sensor_frame(x[mapping[0], b], x[mapping[1], b], offset, rotation)
+        if px == 0.0 and py == 0.0 and status[b] == OK:
+            status[b] = MEAN_AT_SENSOR
+
+
+@jit()
 def _tiled(matrix, nb):
     """The (r, c) ``matrix`` repeated for B filters: (r, c, B)."""
     rows, cols = matrix.shape
@@ -325,7 +339,8 @@ def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta
     from the sigma points of the prediction; ``K = C S^-1`` (by Cholesky of S), innovation
     ``z - z_hat`` with angle rows wrapped, ``x_out = x + K v``, and ``P - K S K^T`` or with
     ``joseph`` ``(I - K H) P (I - K H)^T + K R K^T`` with the statistical linearisation
-    ``H = C^T P^-1`` (exact for a linear sensor). Returns the status."""
+    ``H = C^T P^-1`` (exact for a linear sensor). Returns the status (MEAN_AT_SENSOR where
+    the prediction's mean lies at a polar sensor)."""
     d, m = x.shape[0], z.shape[0]
     status = _checked(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
     if status[0] == OK:
@@ -335,6 +350,7 @@ def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta
         _update(1, measured, noise, angles, joseph, x, covariance, z, x_out,
                 covariance_out.reshape((d, d, 1)), z_hat, innovation_covar.reshape((m, m, 1)),
                 cross.reshape((d, m, 1)), status)
+        _mean_at_sensor(1, kind, mapping, offset, rotation, x, status)
     return status[0]
 
 
@@ -417,6 +433,7 @@ def batch_unscented(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mappi
                 _update(nb, measured, noise, angles, joseph, x, covariance, z, x_post,
                         covariance_post, z_hat, innovation_covar, np.empty((d, m, nb)),
                         block_status)
+                _mean_at_sensor(nb, m_kind, mapping, offset, rotation, x, block_status)
                 x, covariance = x_post, covariance_post
         _from_block(x, lo, hi, means_out)
         _from_block(covariance, lo, hi, covars_out)

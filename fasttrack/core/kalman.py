@@ -105,9 +105,9 @@ def update(model, x, covar, z, jacobian="analytic", joseph=True, strict=True):
 
 
 def _check_update(status, strict, spec, x):
-    """Raise the error of an update's ``status``; unless ``strict``, not for a posterior
-    that is not positive semi-definite."""
-    if status and (strict or status != _errors.UPDATE_NOT_PSD):
+    """Raise the error of an update's ``status``; unless ``strict``, not for the codes
+    whose outputs are still Stone Soup's (``_errors.LENIENT``)."""
+    if status and (strict or status not in _errors.LENIENT):
         _errors.check(status, spec.function, x)
 
 

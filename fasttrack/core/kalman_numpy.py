@@ -14,9 +14,10 @@ import math
 
 import numpy as np
 
-from .._jit.status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
-                           PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
-                           PRIOR_NOT_SYMMETRIC, UPDATE_NOT_PSD)
+from .._jit.status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEAN_AT_SENSOR,
+                           MEASUREMENT_NOT_FINITE, OK, PREDICTION_NOT_PSD,
+                           PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC,
+                           UPDATE_NOT_PSD)
 from .._jit.tunables import PSD_TOLERANCE
 from .kinds import ANALYTIC, BEARING_RANGE, CENTRAL, FORWARD, SELECT
 
@@ -305,7 +306,10 @@ def unscented_update(sensor, alpha, beta, kappa, joseph, x, covar, z):
         return status, x, covar, None, None, None
     z_hat, s, cross, lower = measurement_moments(sensor, alpha, beta, kappa, x, covar)
     h = np.linalg.solve(lower.T, np.linalg.solve(lower, cross)).T if joseph else None
-    return _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross)
+    status, *out = _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross)
+    if status == OK and sensor.kind != SELECT and at_sensor(sensor, x):
+        status = MEAN_AT_SENSOR  # the outputs are those of the bearing atan2(0, 0) = 0
+    return (status, *out)
 
 
 def measurement_moments(sensor, alpha, beta, kappa, x, covar):

@@ -122,11 +122,11 @@ def update(model, x, covar, z, alpha, beta, kappa, joseph=False, strict=True):
     ``model`` (see :func:`check_measurement`); ``kappa`` is resolved (a float, see
     :func:`scaling`). Raises ValueError when the step is undefined (see
     :mod:`fasttrack._errors`); unless ``strict``, not for a standard-form posterior that
-    is not positive semi-definite (as Stone Soup)."""
+    is not positive semi-definite or a mean at a polar sensor (Stone Soup's numbers)."""
     spec = model.spec
     if in_numpy(spec.kind):
         status, *out = _numpy.unscented_update(spec, alpha, beta, kappa, joseph, x, covar, z)
-        if status and (strict or status != _errors.UPDATE_NOT_PSD):
+        if status and (strict or status not in _errors.LENIENT):
             _errors.check(status)
         return tuple(out)
     m, d = spec.ndim_meas, spec.ndim_state
@@ -140,7 +140,7 @@ def update(model, x, covar, z, alpha, beta, kappa, joseph=False, strict=True):
     else:
         status = _unscented.unscented_update(*spec.sensor, alpha, beta, kappa, joseph,
                                              *outputs)
-    if status and (strict or status != _errors.UPDATE_NOT_PSD):
+    if status and (strict or status not in _errors.LENIENT):
         _function_error(status, spec.function, x, covar, alpha, beta, kappa)
     return x_out, covar_out, z_hat, s, cross
 

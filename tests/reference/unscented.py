@@ -5,8 +5,10 @@ import numpy as np
 from .kalman import _covariance_status, _positive_definite, _standard_form, _transition
 from .likelihood import measure
 from .numeric import wrap_angle
-from .status import (INNOVATION_NOT_PD, MEASUREMENT_NOT_FINITE, OK, PREDICTION_NOT_PSD,
-                     PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC)
+from .sensor import SELECT
+from .status import (INNOVATION_NOT_PD, MEAN_AT_SENSOR, MEASUREMENT_NOT_FINITE, OK,
+                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
+                     PRIOR_NOT_SYMMETRIC)
 from .user import output_status
 
 
@@ -100,9 +102,12 @@ def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta
     _, points, wm, wc = _sigma(x, covariance, alpha, beta, kappa)
     transformed = np.empty((z.shape[0], points.shape[1]))
     measure(kind, points, mapping, offset, rotation, transformed)
-    return _unscented_correct(points, transformed, wm, wc, noise, angles, joseph, x,
-                              covariance, z, x_out, covariance_out, z_hat, innovation_covar,
-                              cross)
+    status = _unscented_correct(points, transformed, wm, wc, noise, angles, joseph, x,
+                                covariance, z, x_out, covariance_out, z_hat, innovation_covar,
+                                cross)
+    at_sensor = kind != SELECT and not (rotation[:2, :2]
+                                        @ (x[mapping[:2], 0] - offset[:2])).any()
+    return MEAN_AT_SENSOR if status == OK and at_sensor else status
 
 
 def _unscented_correct(points, transformed, wm, wc, noise, angles, joseph, x, covariance, z,
