@@ -280,6 +280,7 @@ def _pda_inputs(rng, n_tracks=4, n_dets=6, m=2):
     {}, {"clutter_spatial_density": None}, {"include_all": True},
     {"gate": "random"}, {"angles": np.array([True, False, False])},
     {"gate": "random", "clutter_spatial_density": None, "prob_gate": 0.5},
+    {"gate": "random", "clutter_spatial_density": None, "prob_gate": 1.0},
 ])
 def test_pda_weight_kernel_matches_its_mirror(kwargs):
     rng = np.random.default_rng(8)
@@ -306,8 +307,11 @@ def test_pda_weight_kernel_matches_its_mirror(kwargs):
     assert (got[:, 1:] > 0).any()
     public = dict(kwargs, gate=gate, angles=angles)
     public.pop("prob_gate", None)
-    w = pda_weights(means, covars, dets, prob_detect=0.8, prob_gate=pg, normalise=False,
+    limit = pg == 1.0 and density is None  # only its normalised rows are finite
+    w = pda_weights(means, covars, dets, prob_detect=0.8, prob_gate=pg, normalise=limit,
                     **{"clutter_spatial_density": 1e-3, **public})
+    if limit:
+        expected /= expected.sum(axis=1, keepdims=True)
     np.testing.assert_allclose(w, expected, rtol=1e-12, atol=0)
 
 
@@ -326,6 +330,29 @@ def test_pda_weights_normalise_and_edge_cases():
     pda_weights(means, covars, dets, gate=np.ones((4, 6), bool))
     for a, b in zip((means, covars, dets), before):
         np.testing.assert_array_equal(a, b)
+
+
+def test_an_unbounded_gate_without_clutter_density_gives_the_limit_of_the_weights():
+    """prob_gate = 1 without a clutter density: each row is its limit as prob_gate tends
+    to 1 (the estimated density n / V tends to 0): missed detection 0, detections by their
+    likelihoods, even where every likelihood underflows; no detection: missed only."""
+    rng = np.random.default_rng(6)
+    means, covars, dets = _pda_inputs(rng, 4, 5, 2)
+    gate = np.ones((4, 5), bool)
+    gate[3] = False  # nothing can associate with track 3
+    got = pda_weights(means, covars, dets, 0.9, 1.0, gate=gate)
+    for t in range(3):
+        d2 = [float(v @ np.linalg.solve(covars[t], v)) for v in dets - means[t]]
+        likelihood = np.exp(-0.5 * (np.array(d2) - min(d2)))
+        np.testing.assert_allclose(got[t], np.r_[0.0, likelihood / likelihood.sum()],
+                                   rtol=1e-12, atol=1e-300)
+    np.testing.assert_array_equal(got[3], np.r_[1.0, np.zeros(5)])
+    missed = [pda_weights(means[:3], covars[:3], dets, 0.9, pg)[:, 0]
+              for pg in (0.99, 1 - 1e-6, 1 - 1e-15)]
+    assert (np.diff(missed, axis=0) < 0).all()  # falling towards the limit's 0
+    far = pda_weights(means[:1], np.eye(2)[None], means[:1] + [[1e3, 0.0], [0.0, 1.1e3]], 0.9,
+                      1.0)  # both likelihoods exp(-d2 / 2) underflow
+    np.testing.assert_array_equal(far, [[0.0, 1.0, 0.0]])
 
 
 def test_pda_weights_wrap_angles():
@@ -364,7 +391,7 @@ def test_pda_weights_wrap_angles():
     ({"normalise": None}, TypeError, "normalise must be a bool"),
     ({"prob_detect": 1.0, "prob_gate": 1.0, "detections": np.full((6, 2), 1e9)}, ValueError,
      "track 0 has no possible hypothesis"),
-    ({"prob_gate": 1.0, "clutter_spatial_density": None}, ValueError,
+    ({"prob_gate": 1.0, "clutter_spatial_density": None, "normalise": False}, ValueError,
      "prob_gate=1 makes the gate infinite"),
     ({"clutter_spatial_density": 1e-320}, ValueError,
      "track 0's detection weights .* overflow: clutter_spatial_density=1e-320 is too small"),

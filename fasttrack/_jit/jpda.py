@@ -352,6 +352,21 @@ def ehm_marginals_batch(weights, offsets, shapes, max_nodes, out, info):
         info[c, 1] = detail
 
 
+@jit()
+def _unbounded_gate(row, kept, n_kept, d2):
+    """A track's row in the limit of an unbounded gate (``prob_gate`` 1) with no clutter
+    density, whose estimate n / V tends to 0, up to a factor: the missed detection 0, the
+    kept detections (``kept[:n_kept]``) in proportion to ``exp(-d2 / 2)``, relative to
+    the nearest (so that none underflows)."""
+    nearest = np.inf
+    for k in range(n_kept):
+        nearest = min(nearest, d2[kept[k]])
+    row[0] = 0.0
+    for k in range(n_kept):
+        d = kept[k]
+        row[d + 1] = np.exp(-0.5 * (d2[d] - nearest))
+
+
 @jit(parallel=True, size=11, serial_below=SERIAL_BELOW_HEAVY)
 def pda_weight_matrix(means, covars, detections, angles, gate, prob_detect, prob_gate,
                       gate_threshold, clutter_spatial_density, volume_factor, include_all,
@@ -363,7 +378,9 @@ def pda_weight_matrix(means, covars, detections, angles, gate, prob_detect, prob
     Mahalanobis distance is within ``gate_threshold`` (or ``include_all``) and ``gate``
     allows it: ``prob_detect * N(z_j; mean, S) / clutter_spatial_density``, or, for a density
     <= 0 (none given), ``prob_detect * N(z_j; mean, S) * V / n`` with the gate volume
-    ``V = volume_factor * sqrt(det S)`` and n the detections inside the gate.
+    ``V = volume_factor * sqrt(det S)`` and n the detections inside the gate; with an
+    infinite ``gate_threshold`` and no density, the limit of the row up to a factor (the
+    missed detection 0, detection j in proportion to ``exp(-d2_j / 2)``) where n > 0.
 
     Parameters
     ----------
@@ -450,6 +467,9 @@ def pda_weight_matrix(means, covars, detections, angles, gate, prob_detect, prob
             inside += valid
             kept[n_kept] = d
             n_kept += valid or (allowed and include_all)
+        if clutter_spatial_density <= 0.0 and gate_threshold == np.inf and inside > 0:
+            _unbounded_gate(row, kept, n_kept, d2)
+            continue
         for k in range(n_kept):
             d = kept[k]
             row[d + 1] = prob_detect * np.exp(-0.5 * (log_det + d2[d] + log_norm))

@@ -19,7 +19,11 @@ predicted measurement ``z_hat`` and innovation covariance ``S`` (dimension m):
 - with no clutter density: ``prob_detect * N(z; z_hat, S) * V / n``, V the volume of the
   gate ellipsoid ``pi**(m/2) / Gamma(m/2 + 1) * chi2.ppf(prob_gate, m)**(m/2) *
   sqrt(det S)`` and n the number of detections inside the gate;
-- then (``normalise=True``, the default) each row is divided by its sum.
+- then (``normalise=True``, the default) each row is divided by its sum; with
+  ``prob_gate = 1`` and no clutter density (where Stone Soup's weights are infinite) the
+  rows are their limits as ``prob_gate`` tends to 1: a track with detections in its gate
+  has a missed-detection probability of 0 and detection probabilities in proportion to
+  ``exp(-d2 / 2)``.
 
 The JPDA marginals do not depend on the row normalisation.
 """
@@ -132,10 +136,10 @@ def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
         if asym.any():
             raise ValueError(f"covars[{int(np.argmax(asym))}] must be symmetric")
 
-    if prob_gate == 1.0 and density == 0.0 and n_tracks:
+    if prob_gate == 1.0 and density == 0.0 and n_tracks and not normalise:
         raise ValueError("prob_gate=1 makes the gate infinite, so the clutter density "
-                         "estimated from it would be 0: give clutter_spatial_density, or "
-                         "prob_gate < 1")
+                         "estimated from it is 0 and the detections' weights infinite: "
+                         "give clutter_spatial_density, prob_gate < 1 or normalise=True")
     threshold, volume_factor = _gate(prob_gate, m)
     out = np.empty((n_tracks, n_dets + 1))
     status = np.empty(n_tracks, dtype=np.int64)

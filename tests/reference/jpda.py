@@ -62,7 +62,10 @@ def pda_weight_matrix(means, covars, detections, angles, gate, prob_detect, prob
         kept = valid | (gate[t] & include_all)
         pdf = multivariate_normal(np.zeros(means.shape[1]), covars[t]).pdf(nu)
         out[t, 1:] = np.where(kept, prob_detect * np.atleast_1d(pdf), 0.0)
-        if clutter_spatial_density > 0:
+        if clutter_spatial_density <= 0 and np.isinf(gate_threshold) and valid.any():
+            out[t, 0] = 0.0
+            out[t, 1:] = np.where(kept, np.exp(-0.5 * (d2 - d2[kept].min())), 0.0)
+        elif clutter_spatial_density > 0:
             out[t, 1:] /= clutter_spatial_density
         elif valid.any():
             out[t, 1:] *= volume_factor * np.sqrt(np.linalg.det(covars[t])) / valid.sum()
