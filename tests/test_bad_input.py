@@ -122,6 +122,25 @@ def test_kernel_values_that_overflow_are_refused():
             kernel(x)
 
 
+@pytest.mark.parametrize("numpy_first", [True, False])
+def test_an_akkf_measurement_whose_kernel_value_overflows_is_named(numpy_first, monkeypatch):
+    from fasttrack import _jit
+    from fasttrack.scenarios import adaptive_kernel_tutorial
+    monkeypatch.setattr(_jit, "numpy_first", lambda work: numpy_first)
+    scenario = adaptive_kernel_tutorial(30, steps=2)
+    model = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.01, 1.0]))
+    detection = scenario.detections[1]
+    prediction = ft.AdaptiveKernelKalmanPredictor(scenario.transition_model).predict(
+        scenario.prior, detection.timestamp)
+    updater = ft.AdaptiveKernelKalmanUpdater(model, ft.QuadraticKernel(), rng=0)
+    z = ft.Detection(np.array([[0.1], [1e200]]), timestamp=detection.timestamp)
+    with pytest.raises(ValueError, match=r"hypothesis.measurement \[0.1, 1e\+200\] is too "
+                                         r"large for QuadraticKernel: its kernel value"):
+        updater.update(ft.SingleHypothesis(prediction, z))
+    z = ft.Detection(np.array([[0.1], [20.0]]), timestamp=detection.timestamp)
+    assert np.isfinite(updater.update(ft.SingleHypothesis(prediction, z)).weight).all()
+
+
 @pytest.mark.parametrize("threshold", [-5.0, 0.0, np.nan])
 def test_ess_threshold_must_be_positive(threshold):
     with pytest.raises(ValueError, match="threshold must be finite and > 0"):

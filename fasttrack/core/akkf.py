@@ -104,6 +104,12 @@ def update(model, kernel, y, z, x, weight, factors, lambda_updater, rng):
     angles = model.spec.angles
     z = z.reshape(-1, 1)
     kind, params = kernel.spec(angles, y, z)
+    with np.errstate(over="ignore"):
+        overflows = not np.isfinite(_numpy.diagonal(kind, params, z)).all()
+    if overflows:
+        raise ValueError(f"hypothesis.measurement {z.ravel().tolist()} is too large for "
+                         f"{type(kernel).__name__}: its kernel value k(z, z) overflows; "
+                         f"rescale the measurements or use a lower-degree kernel")
     key = _random.stream_key(rng)
     if _jit.numpy_first(_numpy.work(weight.size)):
         w, lt, v1t, v2t, proposal = _numpy.update_embedding(

@@ -61,7 +61,9 @@ def resolve(kind, params, angles, x1, x2):
     return np.array([variance, 1.0, params[2]])
 
 
-def _diagonal(kind, params, points):
+def diagonal(kind, params, points):
+    """``k(x_j, x_j)`` of each of the (d, n) ``points`` (the (n, n) matrix's diagonal for
+    MATRIX)."""
     if kind == MATRIX:
         return points.diagonal().copy()
     if kind == GAUSSIAN:
@@ -73,7 +75,7 @@ def factor(kind, params, angles, points):
     """Low-rank factor F (r, n) with ``F^T F`` the Gram matrix of the n points (an explicit
     (n, n) matrix for MATRIX): Cholesky with diagonal pivoting, stopped at LAPACK's
     ``dpstrf`` rule, as ``fasttrack._jit.gram.factor``."""
-    residual = _diagonal(kind, params, points)
+    residual = diagonal(kind, params, points)
     n = residual.size
     tol = n * 2.220446049250313e-16 * max(residual.max(), 0.0) if n > 0 else 0.0
     if not np.isfinite(tol):
