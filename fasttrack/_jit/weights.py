@@ -3,7 +3,9 @@ weighted mean and covariance of a particle cloud.
 
 Sums are chunked reductions with a chunk count that depends only on N, so the results have
 the same bits whatever the thread count. Inside a chunk, weights are exponentiated a block at
-a time into a small buffer (a loop that vectorises) before they are summed.
+a time into a small buffer (a loop that vectorises) before they are summed, each block in
+four interleaved partial sums (:func:`_dot`), so that the additions do not wait on each
+other.
 """
 import numpy as np
 from numba import prange
@@ -30,6 +32,37 @@ def _block_weights(log_w, start, log_w_max, buf):
     return w
 
 
+@jit()
+def _dot(a, b):
+    """``sum a[i] b[i]`` over equal-sized 1-D ``a`` and ``b``, in four partial sums over
+    i mod 4, added in a fixed order (the same bits on every run)."""
+    n = a.size
+    s0 = s1 = s2 = s3 = 0.0
+    for i in range(0, n - n % 4, 4):
+        s0 += a[i] * b[i]
+        s1 += a[i + 1] * b[i + 1]
+        s2 += a[i + 2] * b[i + 2]
+        s3 += a[i + 3] * b[i + 3]
+    for i in range(n - n % 4, n):
+        s0 += a[i] * b[i]
+    return (s0 + s1) + (s2 + s3)
+
+
+@jit()
+def _sum(a):
+    """``sum a[i]`` of a 1-D ``a``, in four partial sums as :func:`_dot`."""
+    n = a.size
+    s0 = s1 = s2 = s3 = 0.0
+    for i in range(0, n - n % 4, 4):
+        s0 += a[i]
+        s1 += a[i + 1]
+        s2 += a[i + 2]
+        s3 += a[i + 3]
+    for i in range(n - n % 4, n):
+        s0 += a[i]
+    return (s0 + s1) + (s2 + s3)
+
+
 @jit(parallel=True)
 def _power_sums(log_w, log_w_max):
     """``(sum w, sum w**2)`` of ``w = exp(log_w - log_w_max)``."""
@@ -44,9 +77,8 @@ def _power_sums(log_w, log_w_max):
         s2 = 0.0
         for start in range(0, part.size, BLOCK):
             w = _block_weights(part, start, log_w_max, buf)
-            for i in range(w.size):
-                s1 += w[i]
-                s2 += w[i] * w[i]
+            s1 += _sum(w)
+            s2 += _dot(w, w)
         partial[c, 0] = s1
         partial[c, 1] = s2
     sums = _sum_rows(partial)
@@ -90,10 +122,9 @@ def _weighted_sums(x, log_w, log_w_max):
         acc = partial[c]
         for start in range(0, part.size, BLOCK):
             w = _block_weights(part, start, log_w_max, buf)
-            for i in range(w.size):
-                acc[d] += w[i]
-                for r in range(d):
-                    acc[r] += w[i] * xs[r, start + i]
+            acc[d] += _sum(w)
+            for r in range(d):
+                acc[r] += _dot(w, xs[r, start:start + w.size])
     return _sum_rows(partial)
 
 
