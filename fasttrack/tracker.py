@@ -1,7 +1,6 @@
 """A multi-target tracker on arrays: every track set is (K, d) means and (K, d, d)
 covariances, advanced a scan at a time by batched predict, gate, assignment and update."""
 import numpy as np
-from scipy.stats import chi2
 
 from . import _validate
 from .association import gate, global_nearest_neighbour, nearest_neighbour
@@ -277,8 +276,9 @@ class IMMTracker(MultiTargetTracker):
             if clutter_density is None:
                 raise ValueError("association='jpda' needs clutter_density (> 0)")
             self.clutter_density = _validate.positive(clutter_density, "clutter_density")
-            self.prob_gate = float(chi2.cdf(self.missed_distance ** 2,
-                                            measurement_model.ndim_meas))
+            from scipy.special import gammainc  # chi2.cdf, without scipy.stats' import
+            self.prob_gate = float(gammainc(measurement_model.ndim_meas / 2,
+                                            self.missed_distance ** 2 / 2))
         for model in models[1:]:
             check_models(model, measurement_model)
         self.transition_models = models

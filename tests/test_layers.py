@@ -143,6 +143,22 @@ def test_numba_is_imported_with_the_first_kernel_not_with_fasttrack():
     assert done.stdout.split() == ["False", "True"]
 
 
+def test_no_module_of_the_library_imports_scipy_stats():
+    """scipy.stats costs half a second to import: the library computes what it needs of it
+    from scipy.special (the drop-in layer imports Stone Soup, which imports it anyway)."""
+    import subprocess
+    import sys
+    code = ("import sys, pkgutil, importlib, fasttrack\n"
+            "for info in pkgutil.walk_packages(fasttrack.__path__, 'fasttrack.'):\n"
+            "    if not info.name.startswith(('fasttrack.stonesoup', 'fasttrack._demo_stonesoup',"
+            " 'fasttrack.montecarlo')):\n"
+            "        importlib.import_module(info.name)\n"
+            "print(sorted(m for m in sys.modules if m.startswith('scipy.stats')))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, timeout=600)
+    assert done.stdout.strip() == "[]"
+
+
 def _has(module):
     import importlib.util
     return importlib.util.find_spec(module) is not None
