@@ -48,21 +48,6 @@ def _dot(a, b):
     return (s0 + s1) + (s2 + s3)
 
 
-@jit()
-def _sum(a):
-    """``sum a[i]`` of a 1-D ``a``, in four partial sums as :func:`_dot`."""
-    n = a.size
-    s0 = s1 = s2 = s3 = 0.0
-    for i in range(0, n - n % 4, 4):
-        s0 += a[i]
-        s1 += a[i + 1]
-        s2 += a[i + 2]
-        s3 += a[i + 3]
-    for i in range(n - n % 4, n):
-        s0 += a[i]
-    return (s0 + s1) + (s2 + s3)
-
-
 @jit(parallel=True)
 def _power_sums(log_w, log_w_max):
     """``(sum w, sum w**2)`` of ``w = exp(log_w - log_w_max)``."""
@@ -72,12 +57,12 @@ def _power_sums(log_w, log_w_max):
     for c in prange(k):
         lo, hi = chunk_bounds(np.int64(c), k, n)
         part = log_w[lo:hi]
-        buf = np.empty(BLOCK)
+        buf, ones = np.empty(BLOCK), np.ones(BLOCK)
         s1 = 0.0
         s2 = 0.0
         for start in range(0, part.size, BLOCK):
             w = _block_weights(part, start, log_w_max, buf)
-            s1 += _sum(w)
+            s1 += _dot(w, ones[:w.size])
             s2 += _dot(w, w)
         partial[c, 0] = s1
         partial[c, 1] = s2
@@ -118,11 +103,11 @@ def _weighted_sums(x, log_w, log_w_max):
         lo, hi = chunk_bounds(np.int64(c), k, n)
         xs = x[:, lo:hi]
         part = log_w[lo:hi]
-        buf = np.empty(BLOCK)
+        buf, ones = np.empty(BLOCK), np.ones(BLOCK)
         acc = partial[c]
         for start in range(0, part.size, BLOCK):
             w = _block_weights(part, start, log_w_max, buf)
-            acc[d] += _sum(w)
+            acc[d] += _dot(w, ones[:w.size])
             for r in range(d):
                 acc[r] += _dot(w, xs[r, start:start + w.size])
     return _sum_rows(partial)
