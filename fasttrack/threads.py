@@ -122,12 +122,14 @@ def use(serial):
         _local.threads = wanted
 
 
-def in_chunks(run, n, serial_below, align=1):
-    """Call ``run(lo, hi)`` over ``[0, n)``: at once below ``serial_below``, else on
-    :func:`get_threads` chunks (boundaries multiples of ``align``) in a pool of threads.
-    ``run`` must release the GIL (a ``nogil`` kernel) and write disjoint outputs."""
+def in_chunks(run, n, serial_below, align=1, work=None, per_thread=1):
+    """Call ``run(lo, hi)`` over ``[0, n)``: at once where ``work`` (default ``n``) is below
+    ``serial_below``, else on ``per_thread`` chunks a thread of :func:`get_threads` threads
+    (boundaries multiples of ``align``; several a thread balance items of uneven cost) in a
+    pool of threads. ``run`` must release the GIL (a ``nogil`` kernel) and write disjoint
+    outputs."""
     threads = get_threads()
-    if n < serial_below or threads == 1:
+    if (n if work is None else work) < serial_below or threads == 1 or n <= align:
         run(0, n)
         return
     if _calmed is None:
@@ -135,7 +137,7 @@ def in_chunks(run, n, serial_below, align=1):
     global _pool
     if _pool is None or _pool._max_workers != threads:
         _pool = concurrent.futures.ThreadPoolExecutor(threads, thread_name_prefix="fasttrack")
-    step = -(-n // threads)
+    step = -(-n // (threads * per_thread))
     step = -(-step // align) * align
     for future in [_pool.submit(run, lo, min(lo + step, n)) for lo in range(0, n, step)]:
         future.result()

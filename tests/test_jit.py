@@ -432,6 +432,27 @@ def test_small_work_runs_a_serial_build_and_the_limit_holds():
         fasttrack.set_threads(1.5)
 
 
+
+@pytest.mark.parametrize("n, work, per_thread, align", [
+    (10, None, 1, 1), (10, 0, 1, 1), (1000, 10**6, 4, 1), (1000, 10**6, 1, 128),
+    (1, 10**6, 4, 1), (0, 10**6, 4, 1), (7, 10**6, 4, 1)])
+def test_chunks_cover_the_items_once_on_threads_only_above_the_limit(n, work, per_thread,
+                                                                      align):
+    import threading
+    calls = []
+    fasttrack.threads.in_chunks(
+        lambda lo, hi: calls.append((lo, hi, threading.current_thread())), n, 100,
+        align=align, work=work, per_thread=per_thread)
+    bounds = sorted((lo, hi) for lo, hi, _ in calls)
+    assert [lo for lo, _ in bounds] == [0] + [hi for _, hi in bounds[:-1]]
+    assert bounds[-1][1] == n and all(lo % align == 0 for lo, _ in bounds)
+    threaded = (n if work is None else work) >= 100 and n > align and fasttrack.get_threads() > 1
+    if threaded:
+        assert 1 < len(calls) <= fasttrack.get_threads() * per_thread
+        assert all(t is not threading.current_thread() for *_, t in calls)
+    else:
+        assert len(calls) == 1 and calls[0][2] is threading.current_thread()
+
 @pytest.mark.slow
 def test_the_warmup_command_fills_the_named_cache_with_a_line_per_family(tmp_path):
     done = subprocess.run([sys.executable, "-m", "fasttrack", "warmup", "--cache-dir",

@@ -176,11 +176,10 @@ def test_inputs_are_not_modified():
 _THREAD_SCRIPT = r"""
 import json, sys
 import numpy as np
-from fasttrack._jit import jpda
+from fasttrack.core import jpda
 from fasttrack.core.jpda import jpda_marginals, pda_weights
 if sys.argv[1:] == ["parallel"]:
-    jpda.ehm_marginals_batch.serial_below = 0
-    jpda.pda_weight_matrix.serial_below = 0
+    jpda.SERIAL_BELOW_HEAVY = jpda.SERIAL_BELOW_PAIRS = 0  # chunks on threads, however small
 rng = np.random.default_rng(4)
 clusters = []
 for _ in range(64):

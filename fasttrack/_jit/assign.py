@@ -36,10 +36,8 @@ OSPA (Schuhmacher, Vo and Vo, 2008) is ``( (min sum min(d, c)^p + c^p |m - n|) /
 )^(1/p)``, and for p = inf the smallest largest pair distance (c if n != m).
 """
 import numpy as np
-from numba import prange
 
 from .dispatch import jit
-from .tunables import SERIAL_BELOW_ASSIGN
 
 
 @jit(strict=True)
@@ -146,17 +144,19 @@ def lsap(cost, row_to_col):
     return feasible
 
 
-@jit(parallel=True, strict=True, size=0, serial_below=SERIAL_BELOW_ASSIGN)
+@jit(strict=True)
 def lsap_batch(costs, offsets, shapes, row_offsets, row_to_col, feasible):
-    """Solve k problems in one call (in parallel over problems).
+    """Solve k problems in one call.
 
     Problem q's ``(shapes[q, 0], shapes[q, 1])`` matrix is ``costs[offsets[q]:offsets[q +
     1]]`` in row-major order (``costs`` 1-D float64, ``offsets`` (k + 1,) int64, ``shapes``
     (k, 2) int64); its rows' columns go to ``row_to_col[row_offsets[q]:row_offsets[q + 1]]``
     (``row_offsets`` (k + 1,), the running sums of the row counts), and ``feasible[q]``
-    (bool) says whether it had a finite assignment, as for :func:`lsap`.
+    (bool) says whether it had a finite assignment, as for :func:`lsap`. The offsets are
+    positions in ``costs`` and ``row_to_col``, so a slice of the problems (of ``offsets``,
+    ``shapes``, ``row_offsets`` and ``feasible``) solves those problems alone.
     """
-    for q in prange(shapes.shape[0]):
+    for q in range(shapes.shape[0]):
         block = costs[offsets[q]:offsets[q + 1]]
         out = row_to_col[row_offsets[q]:row_offsets[q + 1]]
         feasible[q] = lsap(block.reshape((shapes[q, 0], shapes[q, 1])), out)
@@ -257,17 +257,19 @@ def _gospa_step(truths, estimates, c, p, alpha, assignment):
     return total ** (1.0 / p), localisation, missed, false
 
 
-@jit(parallel=True, strict=True, size=0, serial_below=SERIAL_BELOW_ASSIGN)
+@jit(strict=True)
 def gospa_steps(truths, truth_offsets, estimates, estimate_offsets, c, p, alpha, assignment,
                 out):
-    """GOSPA at every step, in parallel over steps.
+    """GOSPA at every step.
 
     Step k's truths are ``truths[truth_offsets[k]:truth_offsets[k + 1]]`` of the stacked
     ``(N, d)`` truths, its estimates likewise; ``out`` (steps, 4) gets each step's distance,
     localisation, missed and false parts; ``assignment`` (N,) int64 each truth's estimate
-    (its row within the step), -1 if unassigned (or at the cut-off, for alpha = 2).
+    (its row within the step), -1 if unassigned (or at the cut-off, for alpha = 2). The
+    offsets are positions in the stacked arrays, so a slice of the steps (of both offsets
+    and ``out``) computes those steps alone.
     """
-    for k in prange(truth_offsets.size - 1):
+    for k in range(truth_offsets.size - 1):
         t0, t1 = truth_offsets[k], truth_offsets[k + 1]
         e0, e1 = estimate_offsets[k], estimate_offsets[k + 1]
         step_assignment = assignment[t0:t1]
@@ -371,14 +373,14 @@ def _ospa_step(truths, estimates, c, p, stonesoup):
     return (total / big) ** (1.0 / p)
 
 
-@jit(parallel=True, strict=True, size=0, serial_below=SERIAL_BELOW_ASSIGN)
+@jit(strict=True)
 def ospa_steps(truths, truth_offsets, estimates, estimate_offsets, c, p, stonesoup, out):
-    """OSPA at every step (layout as :func:`gospa_steps`), in parallel over steps: ``out``
-    (steps,). ``stonesoup`` (bool) reproduces Stone Soup 1.9.1's ``OSPAMetric``, which
-    chooses the pairs minimising ``sum min(d, c)`` rather than ``sum min(d, c)^p`` (the same
-    for p = 1), and for p = inf the largest pair of that choice rather than the bottleneck.
+    """OSPA at every step (layout, and slices, as :func:`gospa_steps`): ``out`` (steps,).
+    ``stonesoup`` (bool) reproduces Stone Soup 1.9.1's ``OSPAMetric``, which chooses the
+    pairs minimising ``sum min(d, c)`` rather than ``sum min(d, c)^p`` (the same for p = 1),
+    and for p = inf the largest pair of that choice rather than the bottleneck.
     """
-    for k in prange(truth_offsets.size - 1):
+    for k in range(truth_offsets.size - 1):
         t0, t1 = truth_offsets[k], truth_offsets[k + 1]
         e0, e1 = estimate_offsets[k], estimate_offsets[k + 1]
         out[k] = _ospa_step(truths[t0:t1], estimates[e0:e1], c, p, stonesoup)

@@ -12,7 +12,6 @@ distance and log-likelihood per candidate), detections in ascending order per tr
 first pass counts them, a second writes them.
 """
 import numpy as np
-from numba import prange
 
 from .dispatch import jit
 from .numeric import cholesky, wrap_angle
@@ -129,25 +128,23 @@ def _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles, 
     return count
 
 
-@jit(parallel=True, size=0)
+@jit()
 def gate(z_hats, covariances, detections, order, sorted_keys, axes, angles, origin, cell,
          shape, threshold, write, starts, candidates, distances2, log_likelihoods, status):
-    """Without ``write``: count each track's candidates into ``starts[1:]`` and cumulate
-    (``starts[0] = 0``), ``status[k]`` = 1 where S_k is not positive definite (no
-    candidates). With ``write``: store the candidates so counted (one kernel for both
-    passes, so that it compiles once)."""
-    k_tracks = z_hats.shape[0]
-    for k in prange(k_tracks):  # int64(k): one _scan for both builds (prange's k is uint64)
-        count = _scan(np.int64(k), z_hats, covariances, detections, order, sorted_keys, axes,
-                      angles, origin, cell, shape, threshold, write,
-                      starts[k] if write else 0, candidates, distances2, log_likelihoods)
+    """Without ``write``: each track k's number of candidates into ``starts[k + 1]``
+    (``starts[0]`` is left alone: the caller cumulates), ``status[k]`` = 1 where S_k is
+    not positive definite (no candidates). With ``write``: store track k's candidates from
+    ``starts[k]``, once ``starts`` holds the cumulated counts (one kernel for both passes,
+    so that it compiles once). The entries of ``candidates`` and the others are positions
+    given by ``starts``, so a slice of the tracks (of ``z_hats``, ``covariances``,
+    ``starts`` with one more entry, ``status``) gates those tracks alone."""
+    for k in range(z_hats.shape[0]):
+        count = _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles,
+                      origin, cell, shape, threshold, write, starts[k] if write else 0,
+                      candidates, distances2, log_likelihoods)
         if not write:
             status[k] = np.int64(count < 0)
             starts[k + 1] = max(count, 0)
-    if not write:
-        starts[0] = 0
-        for k in range(k_tracks):
-            starts[k + 1] += starts[k]
 
 
 @jit()

@@ -31,10 +31,8 @@ Kernels return status codes instead of raising: :data:`EHM_OK`, :data:`EHM_FRONT
 event conflicts).
 """
 import numpy as np
-from numba import prange
 
 from .dispatch import jit
-from .tunables import SERIAL_BELOW_HEAVY
 from .numeric import wrap_angle
 from .status import INNOVATION_NOT_PD, OK
 from .tunables import MAX_FRONTIER
@@ -325,9 +323,10 @@ def ehm_marginals(weights, max_nodes, out):
                 out.reshape(-1))
 
 
-@jit(parallel=True, size=0, serial_below=SERIAL_BELOW_HEAVY)
+@jit()
 def ehm_marginals_batch(weights, offsets, shapes, max_nodes, out, info):
-    """:func:`ehm_marginals` of many clusters stored flat, in parallel over clusters.
+    """:func:`ehm_marginals` of many clusters stored flat (a slice of the clusters, of
+    ``offsets``, ``shapes`` and ``info``, computes those clusters alone).
 
     Parameters
     ----------
@@ -344,7 +343,7 @@ def ehm_marginals_batch(weights, offsets, shapes, max_nodes, out, info):
     info : (C, 2) int64
         Written: (status, detail) of each cluster.
     """
-    for c in prange(shapes.shape[0]):
+    for c in range(shapes.shape[0]):
         lo, hi = offsets[c], offsets[c + 1]
         status, detail = _ehm(weights[lo:hi], shapes[c, 0], shapes[c, 1], max_nodes,
                               out[lo:hi])
@@ -367,7 +366,7 @@ def _unbounded_gate(row, kept, n_kept, d2):
         row[d + 1] = np.exp(-0.5 * (d2[d] - nearest))
 
 
-@jit(parallel=True, size=11, serial_below=SERIAL_BELOW_HEAVY)
+@jit()
 def pda_weight_matrix(means, covars, detections, angles, gate, prob_detect, prob_gate,
                       gate_threshold, clutter_spatial_density, volume_factor, include_all,
                       out, status):
@@ -408,7 +407,7 @@ def pda_weight_matrix(means, covars, detections, angles, gate, prob_detect, prob
     for d in range(n_dets):
         for i in range(m):
             columns[i, d] = detections[d, i]
-    for t in prange(n_tracks):
+    for t in range(n_tracks):
         row = out[t]
         lower = np.zeros((m, m), dtype=np.float64)
         row[0] = 1.0 - prob_detect * prob_gate

@@ -31,6 +31,8 @@ import numpy as np
 
 from .. import _jit
 from .. import _validate
+from .. import threads as _threads
+from .._jit.tunables import SERIAL_BELOW_ASSIGN
 from .._validate import _describe, float_array
 from . import gating_numpy as _numpy
 from .gating import Clusters, checked
@@ -152,14 +154,23 @@ def assign2d_batch(costs, maximize=False):
         _costs(flat[offsets[q]:offsets[q + 1]].reshape(shapes[q]), f"costs[{q}]", maximize)
     if maximize:
         flat = -flat
-    row_to_col = np.empty(row_offsets[-1], dtype=np.int64)
-    feasible = np.empty(k, dtype=np.bool_)
-    _assign.lsap_batch(flat, offsets, shapes, row_offsets, row_to_col, feasible)
+    row_to_col, feasible = _solve(flat, offsets, shapes, row_offsets)
     if not feasible.all():
         q = int(np.flatnonzero(~feasible)[0])
         raise _infeasible(f"costs[{q}]", tuple(shapes[q]))
     return [row_to_col[a:b] for a, b in zip(row_offsets[:-1].tolist(), row_offsets[1:].tolist())]
 
+
+
+def _solve(flat, offsets, shapes, row_offsets):
+    """``(row_to_col, feasible)``: the problems stored flat (see
+    :func:`fasttrack._jit.assign.lsap_batch`), solved in chunks of problems on threads."""
+    row_to_col = np.empty(row_offsets[-1], dtype=np.int64)
+    feasible = np.empty(shapes.shape[0], dtype=np.bool_)
+    _threads.in_chunks(lambda lo, hi: _assign.lsap_batch(
+        flat, offsets[lo:hi + 1], shapes[lo:hi], row_offsets[lo:hi + 1], row_to_col,
+        feasible[lo:hi]), shapes.shape[0], SERIAL_BELOW_ASSIGN, work=flat.size, per_thread=4)
+    return row_to_col, feasible
 
 def gnn_assign(cost, missed_cost):
     """Global nearest neighbour association (Stone Soup's ``GNNWith2DAssignment``): each
@@ -317,9 +328,7 @@ def global_nearest_neighbour(gate, missed_distance, clusters=None, costs=None):
     flat = np.empty(size)
     _kernels.gnn_fill(labels, gate.starts, gate.detections, costs, missed, shapes, offsets,
                       track_rows, detection_columns, flat)
-    row_to_col = np.empty(k, dtype=np.int64)
-    feasible = np.empty(c, dtype=np.bool_)
-    _assign.lsap_batch(flat, offsets, shapes, row_offsets, row_to_col, feasible)
+    row_to_col, feasible = _solve(flat, offsets, shapes, row_offsets)
     if not feasible.all():
         bad = int(np.flatnonzero(~feasible)[0])
         _no_finite_association(shapes[bad, 0], shapes[bad, 1] - shapes[bad, 0])

@@ -6,7 +6,8 @@ import numpy as np
 
 from .. import _jit
 from .. import _validate
-from .._jit.tunables import CHOLESKY_CONDITION
+from .. import threads as _threads
+from .._jit.tunables import CHOLESKY_CONDITION, SERIAL_BELOW_LIGHT
 from . import gating_numpy as _numpy
 
 _kernels = _jit.lazy("gating")
@@ -231,15 +232,21 @@ def gate_arrays(z_hats, covars, detections, threshold, angles, axes):
     sorted_keys = np.ascontiguousarray(keys[order])
     starts = np.empty(k + 1, dtype=np.int64)
     status = np.empty(k, dtype=np.int64)
-    grid = (z_hats, covars, detections, order, sorted_keys, axes, angles, origin, cell, shape,
-            threshold)
-    none = np.empty(0, dtype=np.int64), np.empty(0), np.empty(0)
-    _kernels.gate(*grid, False, starts, *none, status)
+    grid = (detections, order, sorted_keys, axes, angles, origin, cell, shape, threshold)
+
+    def scan(write, found):  # one pass of the gate kernel, on chunks of the tracks
+        _threads.in_chunks(lambda lo, hi: _kernels.gate(
+            z_hats[lo:hi], covars[lo:hi], *grid, write, starts[lo:hi + 1], *found,
+            status[lo:hi]), k, SERIAL_BELOW_LIGHT, work=z_hats.size)
+
+    scan(False, (np.empty(0, dtype=np.int64), np.empty(0), np.empty(0)))  # count
     if status.any():
         _not_positive_definite(int(np.flatnonzero(status)[0]))
+    starts[0] = 0
+    np.cumsum(starts, out=starts)
     n = int(starts[-1])
     found = np.empty(n, dtype=np.int64), np.empty(n), np.empty(n)
-    _kernels.gate(*grid, True, starts, *found, status)
+    scan(True, found)  # store
     return _built(Gate, starts, *found, detections.shape[0])
 
 

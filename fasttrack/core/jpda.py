@@ -34,7 +34,9 @@ import numpy as np
 
 from .. import _jit
 from .. import _validate
-from .._jit.tunables import ENUMERATED_EVENTS, MAX_FRONTIER, MAX_NODES
+from .. import threads as _threads
+from .._jit.tunables import (ENUMERATED_EVENTS, MAX_FRONTIER, MAX_NODES, SERIAL_BELOW_HEAVY,
+                              SERIAL_BELOW_PAIRS)
 from .gating import clusters
 
 _kernels = _jit.lazy("jpda")
@@ -143,9 +145,10 @@ def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
     threshold, volume_factor = _gate(prob_gate, m)
     out = np.empty((n_tracks, n_dets + 1))
     status = np.empty(n_tracks, dtype=np.int64)
-    _kernels.pda_weight_matrix(means, covars, detections, angles, gate, prob_detect,
-                               prob_gate, threshold, density, volume_factor, include_all,
-                               out, status)
+    _threads.in_chunks(lambda lo, hi: _kernels.pda_weight_matrix(
+        means[lo:hi], covars[lo:hi], detections, angles, gate[lo:hi], prob_detect, prob_gate,
+        threshold, density, volume_factor, include_all, out[lo:hi], status[lo:hi]),
+        n_tracks, SERIAL_BELOW_PAIRS, work=out.size)
     if n_tracks and status.any():
         t = int(np.flatnonzero(status)[0])
         raise ValueError(f"covars[{t}] is not positive definite")
@@ -318,7 +321,9 @@ def jpda_marginals(weights, max_nodes=MAX_NODES):
         return [out for out, _ in found]
     out = np.empty_like(flat)
     info = np.empty((len(clusters), 2), dtype=np.int64)
-    _kernels.ehm_marginals_batch(flat, offsets, shapes, max_nodes, out, info)
+    _threads.in_chunks(lambda lo, hi: _kernels.ehm_marginals_batch(
+        flat, offsets[lo:hi + 1], shapes[lo:hi], max_nodes, out, info[lo:hi]),
+        len(clusters), SERIAL_BELOW_HEAVY, work=flat.size, per_thread=4)
     bad = np.flatnonzero(info[:, 0])
     if bad.size:
         k = int(bad[0])

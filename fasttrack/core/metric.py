@@ -7,6 +7,8 @@ truths, its estimates likewise; :mod:`fasttrack.metrics` validates and wraps.
 import numpy as np
 
 from .. import _jit
+from .. import threads as _threads
+from .._jit.tunables import SERIAL_BELOW_ASSIGN
 
 _assign = _jit.lazy("assign")
 
@@ -17,8 +19,9 @@ def gospa(truths, truth_offsets, estimates, estimate_offsets, c, p, alpha):
     -1 if unassigned)."""
     assignment = np.empty(truths.shape[0], dtype=np.int64)
     parts = np.empty((truth_offsets.size - 1, 4))
-    _assign.gospa_steps(truths, truth_offsets, estimates, estimate_offsets, c, p, alpha,
-                        assignment, parts)
+    _by_steps(lambda t, e, lo, hi: _assign.gospa_steps(truths, t, estimates, e, c, p, alpha,
+                                                       assignment, parts[lo:hi]),
+              truths, truth_offsets, estimate_offsets)
     return parts, assignment
 
 
@@ -36,6 +39,16 @@ def ospa(truths, truth_offsets, estimates, estimate_offsets, c, p, stonesoup):
     """(steps,) OSPA at every step; ``stonesoup`` reproduces Stone Soup 1.9.1's choice of
     pairs (see :func:`fasttrack._jit.assign.ospa_steps`)."""
     out = np.empty(truth_offsets.size - 1)
-    _assign.ospa_steps(truths, truth_offsets, estimates, estimate_offsets, c, p,
-                       bool(stonesoup), out)
+    _by_steps(lambda t, e, lo, hi: _assign.ospa_steps(truths, t, estimates, e, c, p,
+                                                      bool(stonesoup), out[lo:hi]),
+              truths, truth_offsets, estimate_offsets)
     return out
+
+
+def _by_steps(run, truths, truth_offsets, estimate_offsets):
+    """``run(truth_offsets, estimate_offsets, lo, hi)`` on chunks ``[lo, hi)`` of the steps
+    (the offsets sliced to them), on threads."""
+    _threads.in_chunks(lambda lo, hi: run(truth_offsets[lo:hi + 1],
+                                          estimate_offsets[lo:hi + 1], lo, hi),
+                       truth_offsets.size - 1, SERIAL_BELOW_ASSIGN, work=truths.size,
+                       per_thread=4)

@@ -28,8 +28,7 @@ def gate(z_hats, covariances, detections, order, sorted_keys, axes, angles, orig
          shape, threshold, write, starts, candidates, distances2, log_likelihoods, status):
     d2, ll = _dense_gate(z_hats, covariances, detections, angles, threshold)
     if not write:
-        starts[0] = 0
-        starts[1:] = np.cumsum(np.isfinite(d2).sum(axis=1))
+        starts[1:] = np.isfinite(d2).sum(axis=1)
         status[:] = 0
         return
     rows, cols = np.nonzero(np.isfinite(d2))
