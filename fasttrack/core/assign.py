@@ -161,7 +161,6 @@ def assign2d_batch(costs, maximize=False):
     return [row_to_col[a:b] for a, b in zip(row_offsets[:-1].tolist(), row_offsets[1:].tolist())]
 
 
-
 def _solve(flat, offsets, shapes, row_offsets):
     """``(row_to_col, feasible)``: the problems stored flat (see
     :func:`fasttrack._jit.assign.lsap_batch`), solved in chunks of problems on threads."""
@@ -171,6 +170,7 @@ def _solve(flat, offsets, shapes, row_offsets):
         flat, offsets[lo:hi + 1], shapes[lo:hi], row_offsets[lo:hi + 1], row_to_col,
         feasible[lo:hi]), shapes.shape[0], SERIAL_BELOW_ASSIGN, work=flat.size, per_thread=4)
     return row_to_col, feasible
+
 
 def gnn_assign(cost, missed_cost):
     """Global nearest neighbour association (Stone Soup's ``GNNWith2DAssignment``): each
