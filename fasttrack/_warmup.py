@@ -223,11 +223,15 @@ def _jpda():
     association.jpda_marginals([weights, weights])
 
 
-#: Families, slowest to compile first (so that a pool balances them); unscented starts after
-#: kalman, whose kernels it shares.
-FAMILIES = {"kalman": _kalman, "imm": _imm, "resample": _resample, "unscented": _unscented,
+#: Families, slowest to compile first (so that a pool balances them).
+FAMILIES = {"kalman": _kalman, "unscented": _unscented, "imm": _imm, "resample": _resample,
             "smooth": _smooth, "akkf": _akkf, "mixture": _mixture, "gating": _gating,
             "jpda": _jpda, "assign": _assign, "particle": _particle}
+
+#: Families compiled one after the other in the same worker process: they share kernels
+#: called only from other kernels, which have no cache entries of their own (their code is
+#: linked into each caller's), so another process would compile them again.
+TOGETHER = (("kalman", "unscented"),)
 
 
 @contextlib.contextmanager
@@ -256,6 +260,21 @@ def _run(name):
     with _parallel_builds():
         FAMILIES[name]()
     return name, time.perf_counter() - start
+
+
+def _run_each(names):
+    """:func:`_run` for each of ``names`` in turn: a list of (name, seconds)."""
+    return [_run(name) for name in names]
+
+
+def _tasks(names):
+    """``names`` as the worker processes' tasks (lists of names), a group of
+    :data:`TOGETHER` in one task."""
+    tasks = {}
+    for name in names:
+        group = next((g for g in TOGETHER if name in g), (name,))
+        tasks.setdefault(next(g for g in group if g in names), []).append(name)
+    return list(tasks.values())
 
 
 def warmup(families=None, processes=1, report=None, load=True):
@@ -293,13 +312,16 @@ def warmup(families=None, processes=1, report=None, load=True):
     if unknown:
         raise ValueError(f"unknown families {unknown}; valid: {', '.join(FAMILIES)}")
     start = time.perf_counter()
-    if names and (not load or (processes > 1 and len(names) > 1)):
+    tasks = _tasks(names)
+    if tasks and (not load or (processes > 1 and len(tasks) > 1)):
         context = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(min(processes, len(names)),
+        with concurrent.futures.ProcessPoolExecutor(min(processes, len(tasks)),
                                                     mp_context=context) as pool:
-            for done in concurrent.futures.as_completed([pool.submit(_run, n) for n in names]):
-                if report is not None:
-                    report(*done.result())
+            for done in concurrent.futures.as_completed([pool.submit(_run_each, task)
+                                                         for task in tasks]):
+                for name, seconds in done.result():
+                    if report is not None:
+                        report(name, seconds)
     if load:
         for name in names:
             name, seconds = _run(name)

@@ -477,6 +477,17 @@ def test_warmup_checks_its_arguments():
     assert fasttrack.warmup([]) >= 0
 
 
+def test_warmup_compiles_families_sharing_kernels_in_one_worker():
+    from fasttrack import _warmup
+    tasks = _warmup._tasks(list(_warmup.FAMILIES))
+    assert sorted(sum(tasks, [])) == sorted(_warmup.FAMILIES)
+    for group in _warmup.TOGETHER:
+        assert [t for t in tasks if set(group) & set(t)] == [list(group)]
+    assert _warmup._tasks(["unscented", "resample"]) == [["unscented"], ["resample"]]
+    assert _warmup._tasks(["unscented", "resample", "kalman"]) == [["unscented", "kalman"],
+                                                                   ["resample"]]
+
+
 _EVERY_KERNEL = r"""
 import json, sys
 import numpy as np

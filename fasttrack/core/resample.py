@@ -69,6 +69,12 @@ def _cdf(log_w, log_w_max):
     return cdf
 
 
+def _index_dtype(*sizes):
+    """int32 for indices and counts up to ``max(sizes)`` where they fit (less memory traffic,
+    and one build of each kernel), else int64."""
+    return np.int32 if max(sizes) < 2**31 - 1 else np.int64
+
+
 def _occupancy(n, key, dtype):
     points = _buffers.empty(n + 1)
     _kernels.sorted_uniforms(key, n, points)
@@ -127,8 +133,9 @@ def draw(log_weights, nparts=None, method=ResidualMethod.SYSTEMATIC, residual=Fa
     name : str
         Name of the weights in error messages.
     compact : bool
-        Work with (and return) int32 indices when N and nparts allow: less memory traffic,
-        for callers that only use the indices internally.
+        Return int32 indices when N and nparts allow (less memory traffic), for callers that
+        only use the indices internally. The stratum starts behind them are int32 whenever
+        N and nparts allow, either way (one build of each kernel).
 
     Returns
     -------
@@ -139,7 +146,8 @@ def draw(log_weights, nparts=None, method=ResidualMethod.SYSTEMATIC, residual=Fa
     log_w, log_w_max = _validate.log_weights(log_weights, name)
     n = _validate.count(nparts, "nparts", default=log_w.size)
     key = _random.stream_key(rng)
-    dtype = np.int32 if compact and max(n, log_w.size) < 2**31 - 1 else np.int64
+    starts_dtype = _index_dtype(n, log_w.size)
+    dtype = starts_dtype if compact else np.int64
     if not residual and method is not ResidualMethod.MULTINOMIAL \
             and _jit.numpy_first(_numpy.work(log_w) + n // 4096):
         starts = _numpy.starts(method is ResidualMethod.STRATIFIED, log_w, log_w_max, n, key)
@@ -147,9 +155,9 @@ def draw(log_weights, nparts=None, method=ResidualMethod.SYSTEMATIC, residual=Fa
         return idx if columns is None else (idx, columns[:, idx])
     cdf = _cdf(log_w, log_w_max)
     if residual:
-        starts = _residual_starts(log_w, log_w_max, cdf, n, method, key, dtype)
+        starts = _residual_starts(log_w, log_w_max, cdf, n, method, key, starts_dtype)
     else:
-        starts = _scheme_starts(method, cdf, n, key, dtype)
+        starts = _scheme_starts(method, cdf, n, key, starts_dtype)
     idx = _buffers.empty(n, dtype)
     if columns is None:
         _kernels.expand(starts, idx, _NO_ROWS, _NO_ROWS)
@@ -276,8 +284,8 @@ def resampling_points(nparts, method="systematic", rng=None):
     method = ResidualMethod.parse(method, "method")
     n = _validate.count(nparts, "nparts")
     key = _random.stream_key(rng)
-    occupancy = (_occupancy(n, key, np.int64) if method is ResidualMethod.MULTINOMIAL
-                 else np.zeros(1, np.int64))
+    occupancy = (_occupancy(n, key, _index_dtype(n)) if method is ResidualMethod.MULTINOMIAL
+                 else np.zeros(1, _index_dtype(n)))
     out = _buffers.empty(n)
     _kernels.scheme_points(_SCHEME_CODES[method], key, n, occupancy, out)
     return out
