@@ -75,6 +75,18 @@ def test_cumulate_integer_is_exact_and_float_close():
     assert np.all(np.diff(got) >= 0)
 
 
+def test_stable_argsort_is_numpys_stable_argsort():
+    rng = np.random.default_rng(8)
+    for n in (0, 1, 2, 15, 16, 17, 33, 100, 1000, 4099):
+        for values in (rng.integers(0, 7, n).astype(np.float64), rng.normal(size=n),
+                       np.r_[rng.normal(size=n), np.inf, -np.inf, 0.0, -0.0][:n]):
+            want = reference.numeric.stable_argsort(values)
+            assert np.array_equal(numeric.stable_argsort(values), want), n
+        ints = rng.integers(-3, 3, n)
+        assert np.array_equal(numeric.stable_argsort(ints),
+                              reference.numeric.stable_argsort(ints)), n
+
+
 def test_chunking_mirrors():
     for n in (0, 1, 8191, 8192, 10**6, 10**9):
         k = numeric.n_chunks(n)

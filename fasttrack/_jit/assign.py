@@ -38,6 +38,7 @@ OSPA (Schuhmacher, Vo and Vo, 2008) is ``( (min sum min(d, c)^p + c^p |m - n|) /
 import numpy as np
 
 from .dispatch import jit
+from .numeric import stable_argsort
 
 
 @jit(strict=True)
@@ -313,20 +314,22 @@ def switching_loss(truth_ids, truth_offsets, estimate_offsets, assigned_ids, n_i
 def _bottleneck(cost):
     """The smallest largest entry over the complete assignments of a square ``cost``."""
     n = cost.shape[0]
-    values = np.sort(cost.ravel())
+    values = cost.ravel()
+    order = stable_argsort(values)
     allowed = np.empty((n, n))
     scratch = np.empty(n, dtype=np.int64)
-    lo, hi = 0, values.size - 1  # values[hi] always admits an assignment
+    lo, hi = 0, values.size - 1  # values[order[hi]] always admits an assignment
     while lo < hi:
         mid = (lo + hi) // 2
+        bound = values[order[mid]]
         for i in range(n):
             for j in range(n):
-                allowed[i, j] = 0.0 if cost[i, j] <= values[mid] else np.inf
+                allowed[i, j] = 0.0 if cost[i, j] <= bound else np.inf
         if _shortest_paths(allowed, scratch):
             hi = mid
         else:
             lo = mid + 1
-    return values[hi]
+    return values[order[hi]]
 
 
 @jit(strict=True)

@@ -14,7 +14,7 @@ first pass counts them, a second writes them.
 import numpy as np
 
 from .dispatch import jit
-from .numeric import cholesky, wrap_angle
+from .numeric import cholesky, stable_argsort, wrap_angle
 
 _LOG_2PI = np.log(2.0 * np.pi)
 
@@ -273,7 +273,7 @@ def greedy_assignments(starts, candidates, costs, missed, n_detections, assigned
         for q in range(starts[k], starts[k + 1]):
             owner[q] = k
         owner[n + k] = k
-    order = np.argsort(options, kind="mergesort")
+    order = stable_argsort(options)
     decided = np.zeros(k_tracks, dtype=np.bool_)
     taken = np.zeros(n_detections, dtype=np.bool_)
     for k in range(k_tracks):

@@ -10,7 +10,7 @@ import numpy as np
 from .dispatch import jit, with_constant
 from .linalg import _covariance_code
 from .mixture import _moment_match_group
-from .numeric import cholesky
+from .numeric import cholesky, copy_into
 from .smooth import _rts_prediction, _rts_smoothed
 from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
 
@@ -103,8 +103,8 @@ def _converted(means, covars, has, i, j, x, p):
     covariances with the others i lacks; a component j lacks is 0."""
     d = x.size
     if _every(has):
-        x[:] = means[i]
-        p[:] = covars[i]
+        copy_into(means[i], x)
+        copy_into(covars[i], p)
         return
     for a in range(d):
         x[a] = (means[i, a] if has[i, a] else means[j, a]) if has[j, a] else 0.0
@@ -308,8 +308,8 @@ def _gpb2_step(transitions, noises, mapping, noise, matrix, has, means, covars, 
                 reached[count] = i
                 count += 1
         if count == 0:  # nothing switches into model j: its own state, updated
-            out_means[j] = pair_means[j]
-            out_covars[j] = pair_covars[j]
+            copy_into(pair_means[j], out_means[j])
+            copy_into(pair_covars[j], out_covars[j])
             log_posterior[j] = -np.inf
             continue
         for g in range(count):
@@ -455,9 +455,9 @@ def _smooth_track(d, transitions, noises, step, matrix, means, covars, probs, ou
     xp, inverse, diff = np.empty(d), np.empty(d), np.empty(d)
     pair_means, pair_covars = np.empty((models, d)), np.empty((models, d, d))
     ratio, weights, everyone = np.empty(models), np.empty(models), np.arange(models)
-    out_means[-1] = means[-1]
-    out_covars[-1] = covars[-1]
-    out_probs[-1] = probs[-1]
+    copy_into(means[-1], out_means[-1])
+    copy_into(covars[-1], out_covars[-1])
+    copy_into(probs[-1], out_probs[-1])
     for t in range(n_times - 2, -1, -1):
         u = step[t]
         for j in range(models):  # smoothed over predicted probability of model j at t + 1
@@ -474,8 +474,8 @@ def _smooth_track(d, transitions, noises, step, matrix, means, covars, probs, ou
             out_probs[t, i] = probs[t, i] * total
             norm += out_probs[t, i]
             if not total > 0.0:  # no future reached from model i: its filtered state stays
-                out_means[t, i] = means[t, i]
-                out_covars[t, i] = covars[t, i]
+                copy_into(means[t, i], out_means[t, i])
+                copy_into(covars[t, i], out_covars[t, i])
                 continue
             for j in range(models):
                 if weights[j] == 0.0:

@@ -13,7 +13,7 @@ import numpy as np
 from .dispatch import jit
 from .gating import _distance2
 from .kinds import STONESOUP
-from .numeric import cholesky
+from .numeric import cholesky, stable_argsort
 from .tunables import REDUCE_GRID_FROM, REDUCE_WIDE
 
 
@@ -308,7 +308,7 @@ def _merge(means, covars, weights, stonesoup, threshold, axes, out_means, out_co
     factors, failed = _factors(covars)
     if failed >= 0:
         return -(1 + failed)
-    by_rank = np.argsort(weights, kind="mergesort")
+    by_rank = stable_argsort(weights)
     rank = np.empty(n, dtype=np.int64)
     points = np.empty((n, 2))
     for j in range(n):
@@ -387,10 +387,10 @@ def _merge_grid(covars, points, threshold, stonesoup):
         radii[j] = _radius(covars, j, threshold)
     cell = 0.0
     if n >= REDUCE_GRID_FROM:
-        ordered = np.sort(radii)
-        cell = ordered[n - 1 - min(REDUCE_WIDE, n // 8)]
-        if ordered[n - 1] <= 2.0 * cell:  # no component is much wider: none kept out
-            cell = ordered[n - 1]
+        by_radius = stable_argsort(radii)
+        cell = radii[by_radius[n - 1 - min(REDUCE_WIDE, n // 8)]]
+        if radii[by_radius[n - 1]] <= 2.0 * cell:  # no component is much wider: none kept out
+            cell = radii[by_radius[n - 1]]
     none = np.empty(0, dtype=np.int64)
     if not 0.0 < cell < np.inf:
         return np.zeros(2), np.zeros(2, dtype=np.int64), 0.0, none, none, none
@@ -405,7 +405,7 @@ def _truncate(stonesoup, count, keep, means, covars, weights, source, member):
     """The ``keep`` heaviest of the ``count`` components (ties: the earlier), heaviest
     first, in place; the cut mass added evenly (Stone Soup) or the kept rescaled to the
     whole mass (textbook). Renumbers ``member`` (-1: cut). Returns ``keep``."""
-    order = np.argsort(-weights[:count], kind="mergesort")
+    order = stable_argsort(-weights[:count])
     kept_mass, cut_mass = 0.0, 0.0
     for q in range(keep):
         kept_mass += weights[order[q]]

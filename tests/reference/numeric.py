@@ -64,6 +64,10 @@ def copy_into(source, out):
     out.reshape(-1)[:] = source.reshape(-1)
 
 
+def stable_argsort(values):
+    return np.argsort(values, kind="stable")
+
+
 def n_chunks(n):
     return min(max(n // 8192, 1), 4096)
 
