@@ -231,7 +231,7 @@ FAMILIES = {"kalman": _kalman, "unscented": _unscented, "imm": _imm, "resample":
 #: Families compiled one after the other in the same worker process: they share kernels
 #: called only from other kernels, which have no cache entries of their own (their code is
 #: linked into each caller's), so another process would compile them again.
-TOGETHER = (("kalman", "unscented"),)
+TOGETHER = (("kalman", "unscented"), ("mixture", "gating"))
 
 
 @contextlib.contextmanager
