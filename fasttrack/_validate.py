@@ -21,7 +21,8 @@ def _describe(value):
     return type(value).__name__
 
 
-def _is_real(value):
+def is_real(value):
+    """Whether ``value`` is a real number (Python or NumPy), not a bool."""
     return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
 
 
@@ -46,7 +47,7 @@ def float_array(value, name, ndim=None):
         except (TypeError, ValueError):
             raise TypeError(f"{name} must be a numeric array of real numbers, "
                             f"got {_describe(value)}") from None
-        if a.dtype.kind == "O" and all(_is_real(v) for v in a.flat):
+        if a.dtype.kind == "O" and all(is_real(v) for v in a.flat):
             a = a.astype(np.float64)
         if a.dtype.kind not in "fiu":
             raise TypeError(f"{name} must be a numeric array of real numbers, got "
@@ -197,7 +198,7 @@ def bool_array(value, name, shape):
 
 def real(value, name):
     """A finite real number (not a bool), as a float."""
-    if not _is_real(value):
+    if not is_real(value):
         raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
     if not np.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value}")
@@ -230,7 +231,7 @@ def non_negative(value, name):
 
 def threshold(value, name):
     """A real number >= 0 or +inf, as a float."""
-    if not _is_real(value):
+    if not is_real(value):
         raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
     if not value >= 0:
         raise ValueError(f"{name} must be >= 0, got {value}")

@@ -2,6 +2,8 @@
 :class:`~fasttrack.types.GaussianMixture` of one component a model, with any Kalman-type
 predictors and updaters as the models, and :class:`BatchIMMFilter` on stacks of filters
 (see :mod:`fasttrack.core.imm`)."""
+import math
+
 import numpy as np
 
 from . import _validate
@@ -219,6 +221,18 @@ def _linear(model):
                         f"{type(model).__name__}")
 
 
+def _intervals(time_intervals, k):
+    """(k,) finite seconds from a scalar (every filter's) or one each."""
+    if _validate.is_real(time_intervals) and math.isfinite(time_intervals):
+        return np.full(k, float(time_intervals))
+    intervals = _validate.finite_array(time_intervals, "time_intervals")
+    try:
+        return np.broadcast_to(intervals, (k,)).copy()
+    except ValueError:
+        raise ValueError(f"time_intervals (seconds) must broadcast to ({k},), got shape "
+                         f"{intervals.shape}") from None
+
+
 class BatchIMMFilter:
     """K independent IMM filters, each a bank of M Kalman filters (one a transition model)
     sharing a measurement model: mix, predict and update each model, weigh the models by
@@ -295,19 +309,18 @@ class BatchIMMFilter:
             For arrays of the wrong shape or values, or a step that is undefined (naming
             the filter and the model).
         """
-        means, covars, mode_probs = self._stacks(means, covars, mode_probs, "(K, ")
+        means, covars, mode_probs = self._stacks(means, covars, mode_probs, "(K, ",
+                                                 values=False)
         k = means.shape[0]
         m = self.measurement_model.ndim_meas
-        measurements = _validate.finite_array(measurements, "measurements", 2)
+        measurements = _validate.float_array(measurements, "measurements", 2)
         if measurements.shape != (k, m):
             raise ValueError(f"measurements must have shape ({k}, {m}), got "
                              f"{measurements.shape}")
-        intervals = _validate.finite_array(time_intervals, "time_intervals")
-        try:
-            intervals = np.broadcast_to(intervals, (k,)).copy()
-        except ValueError:
-            raise ValueError(f"time_intervals (seconds) must broadcast to ({k},), got shape "
-                             f"{intervals.shape}") from None
+        if not _imm.values_valid(means, covars, mode_probs, measurements):
+            self._stacks(means, covars, mode_probs, "(K, ")  # raises, naming the argument
+            _validate.finite_array(measurements, "measurements", 2)
+        intervals = _intervals(time_intervals, k)
         if k == 0:
             return means.copy(), covars.copy(), mode_probs.copy()
         return _imm.step(self.transition_models, self.measurement_model,
@@ -388,20 +401,23 @@ class BatchIMMFilter:
             return out_means[0], out_covars[0], out_probs[0]
         return out_means, out_covars, out_probs
 
-    def _stacks(self, means, covars, mode_probs, lead):
+    def _stacks(self, means, covars, mode_probs, lead, values=True):
         """``(means, covars, mode_probs)`` validated: (..., M, d), (..., M, d, d) and
-        (..., M) of equal leading shape; ``lead`` names it ('(K, ' or '(K, T, ')."""
+        (..., M) of equal leading shape (``lead`` names it: '(K, ' or '(K, T, '), and with
+        ``values`` their values (finite; mode probabilities >= 0, rows summing to one)."""
         models, d = len(self.transition_models), self.measurement_model.ndim_state
         ndim = lead.count(",") + 2
-        means = _validate.finite_array(means, "means", ndim)
+        array = _validate.finite_array if values else _validate.float_array
+        means = array(means, "means", ndim)
         head = means.shape[:-2]
         if means.shape[-2:] != (models, d):
             raise ValueError(f"means must have shape {lead}{models}, {d}), got {means.shape}")
-        covars = _validate.finite_array(covars, "covars", ndim + 1)
+        covars = array(covars, "covars", ndim + 1)
         if covars.shape != head + (models, d, d):
             raise ValueError(f"covars must have shape {head + (models, d, d)}, got "
                              f"{covars.shape}")
-        return means, covars, _imm.mode_probabilities(mode_probs, head + (models,))
+        return means, covars, _imm.mode_probabilities(mode_probs, head + (models,),
+                                                      values=values)
 
     @staticmethod
     def combine(means, covars, mode_probs):

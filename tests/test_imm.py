@@ -152,15 +152,26 @@ def test_bad_filters_are_refused_naming_the_argument(change, error, message):
         ft.BatchIMMFilter(**arguments)
 
 
+@pytest.mark.parametrize("kernels", [True, False])
 @pytest.mark.parametrize("change,message", [
     (dict(mode_probs=[[0.5, 0.6]]), r"each row of mode_probs must sum to 1; row 0"),
     (dict(mode_probs=[[1.5, -0.5]]), "mode_probs must have no negative entries"),
+    (dict(mode_probs=[[np.nan, 0.5]]), "mode_probs contains NaN"),
     (dict(mode_probs=[[0.5, 0.5], [0.5, 0.5]]), r"mode_probs must have shape \(1, 2\)"),
     (dict(means=np.zeros((1, 3, 4))), r"means must have shape \(K, 2, 4\)"),
+    (dict(means=np.full((1, 2, 4), np.nan)), "means contains NaN"),
+    (dict(covars=np.full((1, 2, 4, 4), np.inf)), "covars contains infinite values"),
     (dict(measurements=[[0.0, np.nan]]), "measurements contains NaN"),
     (dict(time_intervals=[1.0, 2.0]), r"time_intervals \(seconds\) must broadcast"),
+    (dict(time_intervals=np.nan), "time_intervals contains NaN"),
 ])
-def test_bad_steps_are_refused_naming_the_argument(change, message):
+def test_bad_steps_are_refused_naming_the_argument(change, message, kernels, monkeypatch):
+    """Whether the values are checked in a kernel (the process runs kernels) or in NumPy."""
+    from fasttrack import _jit
+    if kernels:
+        from fasttrack._jit import imm as _loaded  # noqa: F401 (loads the kernels)
+    else:
+        monkeypatch.setattr(_jit, "kernels_loaded", lambda: False)
     filt = ft.BatchIMMFilter([_cv(1.0), _cv(2.0)], SENSOR, [[0.9, 0.1], [0.1, 0.9]])
     means, covars = _priors(1, 2)
     arguments = dict(means=means, covars=covars, mode_probs=[[0.5, 0.5]],
@@ -209,6 +220,25 @@ def test_equals_filterpys_imm_estimator_every_step_of_a_manoeuvring_run():
         np.testing.assert_allclose(p[0], theirs.P, rtol=1e-9, atol=1e-9)
         quiet.append(probs[0, 0])
     assert max(quiet) > 0.9 and min(quiet) < 0.2  # the models switched: not a trivial run
+
+
+def test_the_step_inputs_check_is_its_mirror():
+    from fasttrack._jit import imm as kernels
+    from reference import imm as mirror
+    rng = np.random.default_rng(5)
+    means, covars = rng.normal(size=(6, 3, 4)), rng.normal(size=(6, 3, 4, 4))
+    probs, z = rng.dirichlet(np.ones(3), size=6), rng.normal(size=(6, 2))
+    spoilt = [(0, (2, 1, 3), np.nan), (1, (5, 2, 0, 1), -np.inf), (3, (0, 1), np.inf),
+              (2, (3, 1), np.nan), (2, (1, 0), -0.1), (2, (4, 2), 0.5)]  # (array, entry, value)
+    verdicts = []
+    for which, index, value in [(None, None, None)] + spoilt:
+        arrays = [a.copy() for a in (means, covars, probs, z)]
+        if which is not None:
+            arrays[which][index] = value
+        got = kernels.step_inputs_valid(*arrays, imm.SUM_TOLERANCE)
+        assert got == mirror.step_inputs_valid(*arrays, imm.SUM_TOLERANCE)
+        verdicts.append(got)
+    assert verdicts == [True] + [False] * len(spoilt)
 
 
 @pytest.mark.parametrize("algorithm", imm.ALGORITHMS)

@@ -560,6 +560,11 @@ for mode in ("textbook", "stonesoup"):
     reduced = ft.GaussianMixtureReducer(merge_threshold=4.0, mode=mode).reduce(many)
     out["reduce-" + mode] = np.hstack([reduced.means, reduced.covars.reshape(-1, 4),
                                        reduced.log_weights[:, None]])
+imm = ft.BatchIMMFilter([ft.ConstantVelocity(0.1), ft.ConstantVelocity(1.0)],
+                       ft.LinearGaussian(2, (0,), np.eye(1)), [[0.9, 0.1], [0.1, 0.9]])
+means, covars, probs = imm.step(np.zeros((3, 2, 2)), np.broadcast_to(np.eye(2), (3, 2, 2, 2)),
+                                np.full((3, 2), 0.5), rng.normal(size=(3, 1)), 1.0)
+out["imm"] = np.hstack([means.reshape(3, -1), covars.reshape(3, -1), probs])
 json.dump({k: [np.asarray(v).dtype.kind, np.asarray(v).tolist()] for k, v in out.items()},
           sys.stdout)
 """

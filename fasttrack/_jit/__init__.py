@@ -76,6 +76,12 @@ def lazy(name):
 _numpy_work = NUMPY_WORK
 
 
+def kernels_loaded():
+    """Whether the process runs kernels: one has been loaded (from then on every call
+    does)."""
+    return f"{__name__}.dispatch" in sys.modules
+
+
 def numpy_first(work=1):
     """Whether a call of ``work`` units (the filters, tracks and detections it handles)
     runs in NumPy: while no kernel is loaded, a process's calls do until their work totals
@@ -84,7 +90,7 @@ def numpy_first(work=1):
     slower steps a bounded number of times). The NumPy twins use the kernels' formulas,
     tolerances and status codes: results equal to rounding, the same errors."""
     global _numpy_work
-    if work > _numpy_work or f"{__name__}.dispatch" in sys.modules:
+    if work > _numpy_work or kernels_loaded():
         return False
     _numpy_work -= work
     return True

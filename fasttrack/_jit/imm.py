@@ -323,6 +323,24 @@ def _gpb2_step(transitions, noises, mapping, noise, matrix, has, means, covars, 
 
 
 @jit()
+def step_inputs_valid(means, covars, probs, z, tolerance):
+    """Whether every entry of the (K, M, d), (K, M, d, d), (K, M) and (K, m) arrays is
+    finite and each row of ``probs`` is >= 0 and sums to 1 within ``tolerance``: the
+    checks of a multiple-model step's values, in one pass."""
+    finite = True
+    for a in (means.ravel(), covars.ravel(), z.ravel()):
+        for i in range(a.size):  # a branch-free test, so that the loop vectorises
+            finite &= abs(a[i]) <= 1.7976931348623157e308
+    for k in range(probs.shape[0]):
+        total = 0.0
+        for j in range(probs.shape[1]):
+            finite &= 0.0 <= probs[k, j] <= 1.7976931348623157e308
+            total += probs[k, j]
+        finite &= abs(total - 1.0) <= tolerance
+    return finite
+
+
+@jit()
 def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has, means, covars,
                     probs, z, out_means, out_covars, out_probs, status):
     """One step of K multiple-model filters of M linear models sharing one interval.

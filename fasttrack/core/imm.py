@@ -53,12 +53,15 @@ def transition_matrix(matrix, models):
     return matrix
 
 
-def mode_probabilities(probs, shape, name="mode_probs"):
+def mode_probabilities(probs, shape, name="mode_probs", values=True):
     """Validated mode probabilities of ``shape`` (..., M): finite, >= 0, each row summing
-    to one."""
-    probs = _validate.finite_array(probs, name, len(shape))
+    to one (without ``values``, only a float64 array of that shape)."""
+    probs = (_validate.finite_array if values else _validate.float_array)(probs, name,
+                                                                          len(shape))
     if probs.shape != shape:
         raise ValueError(f"{name} must have shape {shape}, got {probs.shape}")
+    if not values:
+        return probs
     if (probs < 0).any():
         raise ValueError(f"{name} must have no negative entries")
     sums = probs.sum(axis=-1)
@@ -71,6 +74,15 @@ def mode_probabilities(probs, shape, name="mode_probs"):
                          f"{', '.join(str(int(r)) for r in row)} sums to "
                          f"{float(sums[row])!r}")
     return probs
+
+
+def values_valid(means, covars, mode_probs, measurements):
+    """Whether the values of a step's validated (K, M, d), (K, M, d, d), (K, M) and (K, m)
+    arrays are certainly valid: finite, and each row of ``mode_probs`` >= 0 and summing to
+    one. Checked in one kernel pass once the process runs kernels; False before (the
+    caller then runs the checks that say what is wrong)."""
+    return _jit.kernels_loaded() and bool(_imm.step_inputs_valid(
+        means, covars, mode_probs, measurements, SUM_TOLERANCE))
 
 
 def mix(means, covars, mode_probs, matrix, has=None):
@@ -374,7 +386,8 @@ def _fused(transition_models, measurement_model, matrix, means, covars, mode_pro
     sensor = measurement_model.spec
     k, models = mode_probs.shape
     pairs = models if algorithm == "gpb2" else 1
-    if sensor.kind != SELECT or sensor.angles.any() or (intervals != intervals[0]).any() \
+    if sensor.kind != SELECT or sensor.angles.any() \
+            or (k > 1 and (intervals != intervals[0]).any()) \
             or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models * pairs):
         return None
     transitions, noises = _matrices(transition_models, float(intervals[0]))
@@ -383,9 +396,9 @@ def _fused(transition_models, measurement_model, matrix, means, covars, mode_pro
     shared = (ALGORITHMS.index(algorithm), transitions, noises, sensor.mapping,
               sensor.noise_covar, matrix, _mask(has, means.shape[1:]))
     arrays = (means, covars, mode_probs, measurements, *out, status)
-    _threads.in_chunks(lambda lo, hi: _imm.imm_linear_step(*shared,
-                                                           *[a[lo:hi] for a in arrays]),
-                       k, serial_below=SERIAL_BELOW_FILTERS // (models * pairs))
+    _threads.in_chunks(lambda lo, hi: _imm.imm_linear_step(
+        *shared, *(arrays if hi - lo == k else [a[lo:hi] for a in arrays])),
+        k, serial_below=SERIAL_BELOW_FILTERS // (models * pairs))
     return out if not status.any() else None
 
 

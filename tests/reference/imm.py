@@ -5,6 +5,12 @@ import numpy as np
 from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD
 
 
+def step_inputs_valid(means, covars, probs, z, tolerance):
+    arrays = (means, covars, probs, z)
+    return bool(all(np.isfinite(a).all() for a in arrays) and (probs >= 0).all()
+                and (np.abs(probs.sum(axis=1) - 1.0) <= tolerance).all())
+
+
 def _kalman(f, q, h, noise, x0, p0, z):
     """One Kalman step and its log likelihood (None if S is not positive definite)."""
     x, p = f @ x0, f @ p0 @ f.T + q
