@@ -320,9 +320,13 @@ def test_numpys_blas_workers_are_calmed_once_unless_told_not_to(case, env, want)
 
 
 _USER_MODEL_STEP = """
+import json
 import numpy as np
 from numba import njit
 import fasttrack as ft
+from fasttrack import _jit
+from fasttrack._jit.dispatch import compiles
+_jit.kernels_from_now()
 
 @njit
 def shift(states, dt):
@@ -335,26 +339,38 @@ def first_two(states):
 transition = ft.NonlinearGaussianTransitionModel(shift, np.eye(2), ndim_state=2)
 sensor = ft.NonlinearGaussianMeasurement(first_two, ndim_state=2, noise_covar=np.eye(2))
 prior = ft.ParticleState(np.zeros((2, 100)), timestamp=0.0)
-prediction = ft.ParticlePredictor(transition, rng=0).predict(prior, 1.0)
-update = ft.ParticleUpdater(sensor).update(
-    ft.SingleHypothesis(prediction, ft.Detection([1.0, 1.0], timestamp=1.0)))
-print(update.mean.ravel()[0])
+gaussian = ft.GaussianState([0.0, 1.0], np.eye(2), timestamp=0.0)
+detection = ft.Detection([1.0, 1.0], timestamp=1.0)
+with compiles() as found:
+    for predictor, updater, state in (
+            (ft.ParticlePredictor(transition, rng=0), ft.ParticleUpdater(sensor), prior),
+            (ft.ExtendedKalmanPredictor(transition), ft.ExtendedKalmanUpdater(sensor), gaussian),
+            (ft.UnscentedKalmanPredictor(transition), ft.UnscentedKalmanUpdater(sensor),
+             gaussian)):
+        updater.update(ft.SingleHypothesis(predictor.predict(state, 1.0), detection))
+print(json.dumps(sorted({c.name.split("._jit.")[1] for c in found})))
 """
 
 
 @pytest.mark.slow
-def test_kernels_compiled_for_user_functions_do_not_pile_up_in_the_cache(tmp_path):
+def test_kernels_taking_user_functions_compile_once_and_load_in_later_processes(tmp_path):
+    """Typed by the functions' signature, not the functions: the second process loads every
+    kernel, and the cache holds the same files after it (nothing piles up)."""
     script = tmp_path / "model.py"
     script.write_text(_USER_MODEL_STEP)
-    env = dict(os.environ, FASTTRACK_CACHE_DIR=str(tmp_path / "cache"))
-    listings = []
+    env = dict(os.environ, FASTTRACK_CACHE_DIR=str(tmp_path / "cache"),
+               FASTTRACK_SHIPPED_KERNELS="0")
+    listings, compiled = [], []
     for _ in range(2):
         done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
                               env=env, timeout=600)
         assert done.returncode == 0, done.stderr
+        compiled.append(json.loads(done.stdout.splitlines()[-1]))
         listings.append(sorted(p.name for p in (tmp_path / "cache").rglob("*.nb[ic]")))
-    assert listings[0] and listings[0] == listings[1]
-    assert not [name for name in listings[0] if "_function" in name]
+    assert {"kalman.predict_function", "unscented.unscented_predict_function",
+            "propagate.propagate_function_serial"} <= set(compiled[0])
+    assert compiled[1] == []
+    assert listings[0] == listings[1]
 
 
 @pytest.mark.slow

@@ -257,3 +257,27 @@ def test_user_models_track_like_the_built_in_ones():
     np.testing.assert_allclose(sensor.function(x), built_in.function(x), rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(transition.function(x, time_interval=1.0),
                                coordinated_turn(x, 1.0), rtol=1e-15)
+
+
+@njit(cache=False)
+def refuses_long_steps(states, dt):
+    if dt > 1.5:
+        raise ValueError("refuses_long_steps: dt too long")
+    return states + 0.1 * dt
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")  # Numba's print
+def test_an_exception_inside_the_function_reaches_the_caller():
+    """Raised inside a kernel's call, it is printed by Numba and the kernel sees no output;
+    the error then calls the function from Python, which raises it to the caller."""
+    from fasttrack import _jit
+    _jit.kernels_from_now()
+    model = ft.NonlinearGaussianTransitionModel(refuses_long_steps, np.eye(2) * 0.01, 2)
+    prior = ft.GaussianState([0.0, 0.0], np.eye(2), timestamp=0.0)
+    assert np.allclose(ft.ExtendedKalmanPredictor(model).predict(prior, 1.0).state_vector, 0.1)
+    particles = ft.ParticleState(np.zeros((2, 50)), timestamp=0.0)
+    for predict in (ft.ExtendedKalmanPredictor(model).predict,
+                    ft.UnscentedKalmanPredictor(model).predict,
+                    ft.ParticlePredictor(model, rng=1).predict):
+        with pytest.raises(ValueError, match="dt too long"):
+            predict(particles if "Particle" in predict.__qualname__ else prior, 2.0)

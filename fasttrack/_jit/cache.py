@@ -31,9 +31,10 @@ Every entry is keyed by Numba's key (signature, CPU, bytecode) plus :func:`setti
 stamped with a digest of all the kernel sources (a kernel's compiled code contains the
 helpers it calls, so an edited helper invalidates its callers). A damaged entry (truncated,
 empty, garbage) is compiled again into the per-user directory, with a warning, instead of
-failing every call. A kernel compiled for a user's function (an argument of a function type)
-is kept in memory only: the function is part of its type, and no later process could find
-the entry again.
+failing every call. Users' functions reach kernels as first-class functions typed by their
+signature (``UserFunction.callee``), so those kernels are cached like any other; a kernel
+compiled for a dispatcher argument is kept in memory only: the function is part of its
+type, and no later process could find the entry again.
 """
 import contextlib
 import functools

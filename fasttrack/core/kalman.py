@@ -47,7 +47,7 @@ def predict(model, dt, x, covar, jacobian="forward"):
     d = x.shape[0]
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
     if spec.kind == FUNCTION:
-        status = _kalman.predict_function(spec.function.function, dt, spec.noise,
+        status = _kalman.predict_function(spec.function.callee, dt, spec.noise,
                                           jacobian == "central", x, covar, x_out, covar_out)
     else:
         status = _kalman.predict_one(*spec.kalman(), dt, x, covar, x_out, covar_out)
@@ -64,7 +64,7 @@ def transition_jacobian(model, dt, x, jacobian="forward"):
     d = x.shape[0]
     out = np.empty((d, d))
     status = _jacobian.transition_jacobian_function(
-        spec.function.function, dt, np.ascontiguousarray(x[:, 0]), jacobian == "central", out)
+        spec.function.callee, dt, np.ascontiguousarray(x[:, 0]), jacobian == "central", out)
     if status:
         _errors.check(status, spec.function, x, dt)
     return out
@@ -95,7 +95,7 @@ def update(model, x, covar, z, jacobian="analytic", joseph=True, strict=True):
     z_hat, s, cross = np.empty((m, 1)), np.empty((m, m)), np.empty((d, m))
     arguments = (x, covar, z, x_out, covar_out, z_hat, s, cross)
     if spec.kind == FUNCTION:
-        status = _kalman.update_function(spec.function.function, spec.noise_covar,
+        status = _kalman.update_function(spec.function.callee, spec.noise_covar,
                                          spec.angles, jacobian == "central", joseph,
                                          *arguments)
     else:

@@ -30,7 +30,7 @@ def propagate(spec, x, key):
         return _numpy.propagate(spec, x, key)
     out = _buffers.empty_like(x)
     if spec.kind == FUNCTION:
-        code = _propagate.propagate_function(spec.function.function, spec.dt, x,
+        code = _propagate.propagate_function(spec.function.callee, spec.dt, x,
                                              spec.noise_root, key, out)
         _errors.check(code, spec.function, x, spec.dt)
     else:
@@ -45,7 +45,7 @@ def measure(spec, x):
         return _numpy.measure(spec, x)
     out = np.empty((spec.ndim_meas, x.shape[1]))
     if spec.kind == FUNCTION:
-        code = _likelihood.measure_function(spec.function.function, x, spec.angles, out)
+        code = _likelihood.measure_function(spec.function.callee, x, spec.angles, out)
         _errors.check(code, spec.function, x)
     else:
         _likelihood.measure(spec.kind, x, spec.mapping, spec.offset, spec.rotation, out)
@@ -63,7 +63,7 @@ def log_likelihood(spec, z, x, log_w, out):
         return _likelihood.log_likelihood(spec.kind, z, x, spec.mapping, spec.offset,
                                           spec.rotation, spec.angles, whiten, log_norm,
                                           log_w, out)
-    top, code = _likelihood.log_likelihood_function(spec.function.function, z, x,
+    top, code = _likelihood.log_likelihood_function(spec.function.callee, z, x,
                                                     spec.angles, whiten, log_norm, log_w,
                                                     out)
     _errors.check(code, spec.function, x)

@@ -110,7 +110,7 @@ def _through_function(spec, x, covar, alpha, beta, kappa, cross):
     d = x.shape[0]
     x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
     status = _unscented.unscented_predict_function(
-        spec.function.function, spec.dt, spec.noise, alpha, beta, kappa, x, covar, x_out,
+        spec.function.callee, spec.dt, spec.noise, alpha, beta, kappa, x, covar, x_out,
         covar_out, cross)
     if status:
         _function_error(status, spec.function, x, covar, alpha, beta, kappa, spec.dt)
@@ -135,7 +135,7 @@ def update(model, x, covar, z, alpha, beta, kappa, joseph=False, strict=True):
     outputs = (x, covar, z, x_out, covar_out, z_hat, s, cross)
     if spec.kind == FUNCTION:
         status = _unscented.unscented_update_function(
-            spec.function.function, spec.noise_covar, spec.angles, alpha, beta, kappa,
+            spec.function.callee, spec.noise_covar, spec.angles, alpha, beta, kappa,
             joseph, *outputs)
     else:
         status = _unscented.unscented_update(*spec.sensor, alpha, beta, kappa, joseph,

@@ -111,6 +111,23 @@ def scalar_or_array(values):
     return float(values[0]) if values.size == 1 else values
 
 
+class _FirstClassFunction:
+    """A ``numba.cfunc`` as Numba's first-class function protocol (its address and
+    signature), with its Numba type given (``_numba_type_``): a kernel call then types it
+    at once, where typing the cfunc object itself costs about 6 us a call."""
+
+    def __init__(self, compiled, signature):
+        from numba import typeof
+        self._compiled, self._signature = compiled, signature
+        self._numba_type_ = typeof(compiled)
+
+    def __wrapper_address__(self):
+        return self._compiled.address
+
+    def signature(self):
+        return self._signature
+
+
 class UserFunction:
     """A user's ``@numba.njit`` model function, checked before anything is read from its
     output.
@@ -138,6 +155,7 @@ class UserFunction:
         self.ndim_state, self.interval = ndim_state, interval
         from numba import types  # the user's function is Numba's: Numba is loaded
         from numba.core import config
+        self._signature = None
         if config.DISABLE_JIT and callable(function):  # run by Python: only the probe
             self.name = getattr(function, "__name__", repr(function))
             self._probe()
@@ -163,6 +181,28 @@ class UserFunction:
             raise TypeError(f"{self._label} must return a 2-D float64 array of shape "
                             f"({rows}, n), one column per state; it returns {returned}")
         self._probe()
+        self._signature = returned(*arguments)
+
+    @functools.cached_property
+    def callee(self):
+        """What kernels call: a first-class function of the checked signature (a
+        ``numba.cfunc`` calling the function, whose compiled code it links, as a
+        :class:`_FirstClassFunction`), so that the kernels taking it are typed by the
+        signature alone and load from the on-disk cache in later processes (typed by the
+        function itself, they would compile in every process). An exception raised inside
+        it cannot cross into the kernel: Numba prints it, the kernel finds no output, and
+        the error then raised calls the function again from Python, which raises it."""
+        if self._signature is None:  # run by Python
+            return self.function
+        from numba import cfunc
+        function = self.function
+        if self.interval:
+            def call(states, dt):
+                return function(states, dt)
+        else:
+            def call(states):
+                return function(states)
+        return _FirstClassFunction(cfunc(self._signature)(call), self._signature)
 
     def _probe(self):
         """A call on 3 states must return ``(rows, 3)``."""
@@ -173,6 +213,11 @@ class UserFunction:
             return
         if np.shape(values) != (self.rows, 3):
             raise ValueError(self._shape_message(np.shape(values), probe.shape))
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.pop("callee", None)  # compiled code: made again on first use
+        return state
 
     @property
     def _label(self):
