@@ -5,6 +5,7 @@ Numbers are strict: arrays must hold real numbers (integer or floating dtypes, o
 that are real numbers), so complex values, strings and booleans are rejected rather than
 truncated, parsed or cast; counts and indices must be integers (not floats or booleans).
 """
+import math
 import numbers
 
 import numpy as np
@@ -67,6 +68,19 @@ def finite_array(value, name, ndim=None):
         bad = "NaN" if np.isnan(a).any() else "infinite values"
         raise ValueError(f"{name} contains {bad}")
     return a
+
+
+def intervals(value, shape):
+    """Finite ``time_intervals`` (seconds) as a new float64 array of ``shape``: one scalar
+    for every entry, or values that broadcast to it."""
+    if is_real(value) and math.isfinite(value):
+        return np.full(shape, float(value))
+    a = finite_array(value, "time_intervals")
+    try:
+        return np.broadcast_to(a, shape).copy()
+    except ValueError:
+        raise ValueError(f"time_intervals (seconds) must broadcast to {shape}, "
+                         f"got shape {a.shape}") from None
 
 
 def square_matrix(value, name, size):

@@ -60,14 +60,6 @@ class _BatchFilter:
                              f"got {measurements.shape}")
         return means, covars, measurements
 
-    def _intervals(self, time_intervals, shape):
-        intervals = _validate.finite_array(time_intervals, "time_intervals")
-        try:
-            return np.broadcast_to(intervals, shape).copy()
-        except ValueError:
-            raise ValueError(f"time_intervals (seconds) must broadcast to {shape}, "
-                             f"got shape {intervals.shape}") from None
-
     def predict(self, means, covars, time_intervals):
         """Predict every filter and its measurement, for gating and association.
 
@@ -96,7 +88,7 @@ class _BatchFilter:
             If a filter's prediction is undefined (naming the first such filter and why).
         """
         means, covars, _ = self._arrays(means, covars, None, ())
-        intervals = self._intervals(time_intervals, (means.shape[0],))
+        intervals = _validate.intervals(time_intervals, (means.shape[0],))
         return self._predict(intervals, means, covars)
 
     def update(self, means, covars, measurements):
@@ -147,7 +139,7 @@ class _BatchFilter:
         """
         means, covars, measurements = self._arrays(means, covars, measurements, ())
         k, d = means.shape
-        intervals = self._intervals(time_intervals, (k,))
+        intervals = _validate.intervals(time_intervals, (k,))
         means_out, covars_out = np.empty_like(means), np.empty_like(covars)
         if k == 0:
             return means_out, covars_out
@@ -182,7 +174,7 @@ class _BatchFilter:
         intervals = _validate.float_array(time_intervals, "time_intervals")
         if intervals.ndim == 1:
             intervals = intervals[:, None]
-        intervals = self._intervals(intervals, (steps, means.shape[0]))
+        intervals = _validate.intervals(intervals, (steps, means.shape[0]))
         transition = (_stack.transition(self.transition_model, intervals)
                       if steps and means.shape[0] else None)
         return _stack.run(self._step, transition, intervals, means, covars, measurements)

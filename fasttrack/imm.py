@@ -2,8 +2,6 @@
 :class:`~fasttrack.types.GaussianMixture` of one component a model, with any Kalman-type
 predictors and updaters as the models, and :class:`BatchIMMFilter` on stacks of filters
 (see :mod:`fasttrack.core.imm`)."""
-import math
-
 import numpy as np
 
 from . import _validate
@@ -221,18 +219,6 @@ def _linear(model):
                         f"{type(model).__name__}")
 
 
-def _intervals(time_intervals, k):
-    """(k,) finite seconds from a scalar (every filter's) or one each."""
-    if _validate.is_real(time_intervals) and math.isfinite(time_intervals):
-        return np.full(k, float(time_intervals))
-    intervals = _validate.finite_array(time_intervals, "time_intervals")
-    try:
-        return np.broadcast_to(intervals, (k,)).copy()
-    except ValueError:
-        raise ValueError(f"time_intervals (seconds) must broadcast to ({k},), got shape "
-                         f"{intervals.shape}") from None
-
-
 class BatchIMMFilter:
     """K independent IMM filters, each a bank of M Kalman filters (one a transition model)
     sharing a measurement model: mix, predict and update each model, weigh the models by
@@ -320,7 +306,7 @@ class BatchIMMFilter:
         if not _imm.values_valid(means, covars, mode_probs, measurements):
             self._stacks(means, covars, mode_probs, "(K, ")  # raises, naming the argument
             _validate.finite_array(measurements, "measurements", 2)
-        intervals = _intervals(time_intervals, k)
+        intervals = _validate.intervals(time_intervals, (k,))
         if k == 0:
             return means.copy(), covars.copy(), mode_probs.copy()
         return _imm.step(self.transition_models, self.measurement_model,
