@@ -94,13 +94,17 @@ def test_bad_mixtures_are_refused_naming_the_argument(arguments, message):
 
 # -- Reduction: prune, merge, cap ---------------------------------------------------------
 
-def _clustered(rng, j, d, spread=30.0, clusters=None):
+def _clustered(rng, j, d, spread=30.0, clusters=None, stretched=False):
     """``j`` components around ``clusters`` centres (default j // 3 + 1), with linear
-    weights spanning 1e-12 to 1."""
+    weights spanning 1e-12 to 1; ``stretched``: each covariance's axes scaled by factors
+    from 0.03 to 30 (variances over six decades)."""
     centres = rng.uniform(-spread, spread, size=(clusters or j // 3 + 1, d))
     means = centres[rng.integers(0, centres.shape[0], size=j)] + rng.normal(size=(j, d))
     a = rng.standard_normal((j, d, d)) * 0.5
     covars = a @ a.transpose(0, 2, 1) + np.eye(d) * rng.uniform(0.2, 2.0, size=(j, 1, 1))
+    if stretched:
+        scale = 10.0 ** rng.uniform(-1.5, 1.5, size=(j, d))
+        covars = covars * scale[:, :, None] * scale[:, None, :]
     return means, covars, 10.0 ** rng.uniform(-12, 0, size=j)
 
 
@@ -117,10 +121,10 @@ def _reduced(reduce, means, covars, weights, mode, prune, merging, threshold, ca
 @given(st.integers(0, 160), st.integers(1, 4), st.sampled_from(["textbook", "stonesoup"]),
        st.sampled_from([-np.inf, 0.0, 1e-6, 1e-3]), st.booleans(),
        st.sampled_from([0.5, 4.0, 16.0, 200.0]), st.sampled_from([1, 5, 40, 2**40]),
-       st.integers(0, 2**31))
-def test_reduce_matches_its_mirror(j, d, mode, prune, merging, threshold, cap, seed):
+       st.integers(0, 2**31), st.booleans())
+def test_reduce_matches_its_mirror(j, d, mode, prune, merging, threshold, cap, seed, stretched):
     """Above 64 components the kernel gates merges by a grid; the mirror tests every pair."""
-    means, covars, weights = _clustered(np.random.default_rng(seed), j, d)
+    means, covars, weights = _clustered(np.random.default_rng(seed), j, d, stretched=stretched)
     count, got = _reduced(kernels.reduce, means, covars, weights, mode, prune, merging,
                           threshold, cap)
     want_count, want = _reduced(reference.mixture.reduce, means, covars, weights, mode, prune,

@@ -233,13 +233,11 @@ def _sort_small(values, count):
 
 
 @jit()
-def _radius(covars, i, threshold):
-    """``sqrt(threshold * trace P_i)``: no point farther than this from a mean is within
-    ``threshold`` of it (squared Mahalanobis distance by P_i) on any axes."""
-    trace = 0.0
-    for r in range(covars.shape[1]):
-        trace += covars[i, r, r]
-    return math.sqrt(threshold * trace)
+def _radius(covars, i, threshold, axes):
+    """``sqrt(threshold * max(P_i[a, a]))`` over the grid ``axes``: no point farther than
+    this from a mean along either axis is within ``threshold`` of it (squared Mahalanobis
+    distance by P_i; a coordinate's own distance is at most the whole vector's)."""
+    return math.sqrt(threshold * max(covars[i, axes[0], axes[0]], covars[i, axes[1], axes[1]]))
 
 
 @jit()
@@ -314,7 +312,7 @@ def _merge(means, covars, weights, stonesoup, threshold, axes, out_means, out_co
     for j in range(n):
         rank[by_rank[j]] = j
         points[j, 0], points[j, 1] = means[j, axes[0]], means[j, axes[1]]
-    grid = _merge_grid(covars, points, threshold, stonesoup)
+    grid = _merge_grid(covars, points, threshold, stonesoup, axes)
     no_grid = grid[:2] + (0.0,) + grid[3:]
     alive = np.ones(n, dtype=np.bool_)
     candidates, merged, diff = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64), \
@@ -355,7 +353,7 @@ def _merge(means, covars, weights, stonesoup, threshold, axes, out_means, out_co
                 g = no_grid
             out_weights[count] = weight
         else:
-            radius = _radius(covars, b, threshold)
+            radius = _radius(covars, b, threshold, axes)
             m = _candidates(grid if radius <= 4.0 * grid[2] else no_grid, radius, x, y, alive,
                             rank, by_rank, top, candidates)
             merged[0], n_merged = b, 1
@@ -372,19 +370,19 @@ def _merge(means, covars, weights, stonesoup, threshold, axes, out_means, out_co
 
 
 @jit()
-def _merge_grid(covars, points, threshold, stonesoup):
+def _merge_grid(covars, points, threshold, stonesoup, axes):
     """The grid that gates the merge tests: ``(low, shape, cell, starts, order, wide)``
     (:func:`_grid`), ``cell`` 0 for none (below ``REDUCE_GRID_FROM`` components, or when no
-    grid fits). A pair within ``threshold`` lies within ``sqrt(threshold * trace P)`` on
-    any axes, P the covariance that measures it; the cell is the largest radius, or if
-    that is over twice the radius that at most ``REDUCE_WIDE`` (or an eighth) of the
-    components exceed, the latter. By Stone Soup's rule the candidate's covariance
+    grid fits). A pair within ``threshold`` lies within :func:`_radius` of each other
+    along the grid axes, by the covariance that measures it; the cell is the largest
+    radius, or if that is over twice the radius that at most ``REDUCE_WIDE`` (or an
+    eighth) of the components exceed, the latter. By Stone Soup's rule the candidate's covariance
     measures, so the components of larger radius (``wide``) are kept out of the cells and
     tested for every merge."""
     n = points.shape[0]
     radii = np.empty(n)
     for j in range(n):
-        radii[j] = _radius(covars, j, threshold)
+        radii[j] = _radius(covars, j, threshold, axes)
     cell = 0.0
     if n >= REDUCE_GRID_FROM:
         by_radius = stable_argsort(radii)

@@ -40,6 +40,7 @@ from . import predictor as _predictor
 from . import updater as _updater
 from ._convert import fast_model, floats, typed_measurement, zero_control
 from ._fallback import keywords, unknown_model
+from ._objects import builder, from_state
 from .measures import _measure_kind
 
 
@@ -48,6 +49,13 @@ from .measures import _measure_kind
 #: Priors whose prediction is a plain ``GaussianStatePrediction`` (built directly; a
 #: weighted or tagged prior's through ``Prediction.from_state``, which carries them on).
 _PLAIN_GAUSSIAN = (GaussianState, GaussianStatePrediction, GaussianStateUpdate)
+
+_gaussian_prediction = builder(GaussianStatePrediction)
+_measurement_prediction = builder(GaussianMeasurementPrediction)
+_missed_detection = builder(MissedDetection)
+_distance_hypothesis = builder(SingleDistanceHypothesis)
+_probability_hypothesis = builder(SingleProbabilityHypothesis)
+_multiple_hypothesis = builder(MultipleHypothesis)
 
 #: The ``hypothesise`` functions the vectorised path computes (those of the drop-in gater
 #: and hypothesisers, not a subclass's own), each with what it computes: "gate",
@@ -350,17 +358,20 @@ class _Scan:
         ``GaussianStatePrediction``, or the prediction type of a weighted or tagged prior,
         with its weight and tag)."""
         prediction = self._predictions[k]
-        if prediction is None:  # views of the scan's own arrays, one row each
-            mean = self.means[k, :, None].view(StateVector)
-            covar = self.covars[k].view(CovarianceMatrix)
+        if prediction is None:
+            mean, covar = self.predicted(k)
             prior, model = self.priors[k], self.recipe.predictor.transition_model
-            if type(prior) in _PLAIN_GAUSSIAN:
-                prediction = GaussianStatePrediction(mean, covar, self.timestamp, model, prior)
-            else:
-                prediction = Prediction.from_state(prior, mean, covar, timestamp=self.timestamp,
-                                                   transition_model=model, prior=prior)
+            values = dict(state_vector=mean, covar=covar, timestamp=self.timestamp,
+                          transition_model=model, prior=prior)
+            prediction = _gaussian_prediction(**values) if type(prior) in _PLAIN_GAUSSIAN \
+                else from_state(Prediction, prior, **values)
             self._predictions[k] = prediction
         return prediction
+
+    def predicted(self, k):
+        """Track k's predicted mean (d, 1) ``StateVector`` and covariance (d, d)
+        ``CovarianceMatrix``: views of the scan's own arrays."""
+        return self.means[k, :, None].view(StateVector), self.covars[k].view(CovarianceMatrix)
 
     def measurement_prediction(self, k):
         """Track k's ``GaussianMeasurementPrediction`` with its cross covariance (as the
@@ -377,49 +388,67 @@ class _Scan:
                 z_hat, covar, cross = ft_kalman.update(
                     fast, x, self.covars[k].copy(), np.zeros((fast.ndim_meas, 1)), "forward",
                     self.recipe.updater.use_joseph_cov, strict=False)[2:]
-            measurement_prediction = GaussianMeasurementPrediction(
-                typed_measurement(z_hat, fast), covar, self.timestamp, cross)
+                covar = covar.view(CovarianceMatrix)
+            measurement_prediction = _measurement_prediction(
+                state_vector=typed_measurement(z_hat, fast), covar=covar,
+                timestamp=self.timestamp, cross_covar=cross)
             self._measurement_predictions[k] = measurement_prediction
         return measurement_prediction
 
-    def _missed_detection(self):
-        return MissedDetection(None, self.timestamp)
+    def _measurement(self, j):
+        """Detection j, or for -1 a new missed detection."""
+        return _missed_detection(timestamp=self.timestamp) if j < 0 else self.detections[j]
 
-    def hypotheses(self, k, normalised=False):
+    def _single(self, prediction, measurement, score, measurement_prediction=None):
+        """A hypothesis of the recipe's kind: ``score`` its distance, or the log of its
+        probability."""
+        if self.recipe.kind == "distance":
+            return _distance_hypothesis(prediction=prediction, measurement=measurement,
+                                        distance=score,
+                                        measurement_prediction=measurement_prediction)
+        return _probability_hypothesis(prediction=prediction, measurement=measurement,
+                                       probability=Probability(score, log_value=True),
+                                       measurement_prediction=measurement_prediction)
+
+    def hypotheses(self, k, normalised=False, predict=None):
         """Track k's ``MultipleHypothesis``, as the hypothesiser (and its gaters) return
         it; ``normalised``: its probabilities then normalised to total 1 (as ``PDA``
-        does)."""
+        does); ``predict``: a function of a hypothesis' measurement giving the hypothesis'
+        prediction (by default all take the track's :meth:`prediction`)."""
         lo, hi = self.starts[k], self.starts[k + 1]
-        prediction = self.prediction(k)
+        if predict is None:
+            def predict(_, prediction=self.prediction(k)):
+                return prediction
         measurement_prediction = self.measurement_prediction(k) if hi > lo else None
-        detections = self.detections
         base = self.recipe.base
-        if self.recipe.kind == "distance":
-            hypotheses = [SingleDistanceHypothesis(prediction, self._missed_detection(),
-                                                   base.missed_distance)]
-            hypotheses += [SingleDistanceHypothesis(prediction, detections[j], distance,
-                                                    measurement_prediction)
-                           for j, distance in zip(self.candidates[lo:hi],
-                                                  self.distances[lo:hi])]
-            order = np.argsort(np.r_[float(base.missed_distance), self.distances[lo:hi]],
-                               kind="stable")
-            return MultipleHypothesis([hypotheses[i] for i in order])
-        log_weights = np.r_[self.missed_log_weight, self.log_weights[lo:hi]]
-        if normalised:
-            log_weights = log_weights - self.final_normaliser()[k]
-        elif base.normalise:
-            log_weights = log_weights - self._base_normaliser[k]
-        hypotheses = [SingleProbabilityHypothesis(
-            prediction, self._missed_detection(), Probability(log_weights[0], log_value=True))]
-        hypotheses += [SingleProbabilityHypothesis(
-            prediction, detections[j], Probability(log_weight, log_value=True),
-            measurement_prediction)
-            for j, log_weight in zip(self.candidates[lo:hi], log_weights[1:])]
-        if not self.recipe.gates:
-            # normalised above as MultipleHypothesis(normalise=True) normalises (log-sum-exp)
-            return _multiple(hypotheses, normalise=base.normalise)
-        order = np.argsort(-log_weights, kind="stable")  # the gaters' sorting, stable
-        return MultipleHypothesis([hypotheses[i] for i in order])
+        distance = self.recipe.kind == "distance"
+        scores = np.empty(hi - lo + 1)
+        if distance:
+            scores[0], scores[1:] = base.missed_distance, self.distances[lo:hi]
+            order = np.argsort(scores, kind="stable").tolist()
+        else:
+            scores[0], scores[1:] = self.missed_log_weight, self.log_weights[lo:hi]
+            if normalised:
+                scores = scores - self.final_normaliser()[k]
+            elif base.normalise:
+                scores = scores - self._base_normaliser[k]
+            # ungated, normalised here as MultipleHypothesis(normalise=True) normalises;
+            # the gaters sort by probability (stable)
+            order = np.argsort(-scores, kind="stable").tolist() if self.recipe.gates \
+                else range(hi - lo + 1)
+        hypotheses = []
+        for i in order:
+            if i == 0:
+                measurement = self._measurement(-1)
+                hypotheses.append(self._single(
+                    predict(measurement), measurement,
+                    base.missed_distance if distance else scores[0]))
+            else:
+                measurement = self._measurement(self.candidates[lo + i - 1])
+                hypotheses.append(self._single(predict(measurement), measurement, scores[i],
+                                               measurement_prediction))
+        return _multiple(hypotheses, normalise=not distance and not self.recipe.gates
+                         and base.normalise)
 
     def final_normaliser(self):
         """Per track, ``log`` of the total weight of its hypotheses (after the gaters)."""
@@ -434,20 +463,14 @@ class _Scan:
         prediction = self.prediction(k)
         lo, hi = self.starts[k], self.starts[k + 1]
         q = lo + np.searchsorted(self.candidates[lo:hi], j)
+        measurement_prediction = None if j < 0 else self.measurement_prediction(k)
         if self.recipe.kind == "distance":
-            if j < 0:
-                return SingleDistanceHypothesis(prediction, self._missed_detection(),
-                                                self.recipe.base.missed_distance)
-            return SingleDistanceHypothesis(prediction, self.detections[j], self.distances[q],
-                                            self.measurement_prediction(k))
-        log_weight = self.missed_log_weight if j < 0 else self.log_weights[q]
-        if self.recipe.base.normalise:
-            log_weight -= self._base_normaliser[k]
-        probability = Probability(log_weight, log_value=True)
-        if j < 0:
-            return SingleProbabilityHypothesis(prediction, self._missed_detection(), probability)
-        return SingleProbabilityHypothesis(prediction, self.detections[j], probability,
-                                           self.measurement_prediction(k))
+            score = self.recipe.base.missed_distance if j < 0 else self.distances[q]
+        else:
+            score = self.missed_log_weight if j < 0 else self.log_weights[q]
+            if self.recipe.base.normalise:
+                score -= self._base_normaliser[k]
+        return self._single(prediction, self._measurement(j), score, measurement_prediction)
 
     def chosen(self, assigned):
         """``{track: hypothesis}`` of an assignment (K,) of detection indices (-1 missed)."""
@@ -516,12 +539,10 @@ class _Scan:
             lo, hi = self.starts[k], self.starts[k + 1]
             prediction = self.prediction(k)
             measurement_prediction = self.measurement_prediction(k) if hi > lo else None
-            hypotheses = [SingleProbabilityHypothesis(
-                prediction, self._missed_detection(), Probability(log_missed[k], log_value=True))]
-            hypotheses += [SingleProbabilityHypothesis(
-                prediction, self.detections[j], Probability(log_p, log_value=True),
-                measurement_prediction)
-                for j, log_p in zip(self.candidates[lo:hi], log_marginal[lo:hi])]
+            hypotheses = [self._single(prediction, self._measurement(-1), log_missed[k])]
+            hypotheses += [self._single(prediction, self.detections[j], log_p,
+                                        measurement_prediction)
+                           for j, log_p in zip(self.candidates[lo:hi], log_marginal[lo:hi])]
             if gated:  # the hypothesiser's order: the gaters sort by probability
                 order = list(np.argsort(-np.r_[self.missed_log_weight,
                                                self.log_weights[lo:hi]], kind="stable"))
@@ -539,6 +560,6 @@ def _multiple(hypotheses, normalise):
     """``MultipleHypothesis(hypotheses, normalise, 1)`` of hypotheses whose probabilities
     are already normalised (Stone Soup's ``Probability`` arithmetic would only repeat the
     log-sum-exp, at a few microseconds a hypothesis)."""
-    multiple = MultipleHypothesis(hypotheses, False, 1)
+    multiple = _multiple_hypothesis(single_hypotheses=hypotheses, total_weight=1)
     multiple.normalise = normalise
     return multiple

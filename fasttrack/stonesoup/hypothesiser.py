@@ -2,6 +2,8 @@
 ``PDAHypothesiser``, vectorised over the detections (see ``_scan``), and the
 ``GaussianMixtureHypothesiser`` and its kd-tree variant, vectorised over the components
 too."""
+import functools
+
 import numpy as np
 from scipy.spatial import KDTree
 from stonesoup.dataassociator.tree import DetectionKDTreeMixIn
@@ -15,6 +17,7 @@ from stonesoup.types.prediction import (Prediction, TaggedWeightedGaussianStateP
 from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianState
 
 from ._fallback import fall_back
+from ._objects import builder
 from ._scan import _scan, vectorised
 
 __all__ = ["DistanceHypothesiser", "GaussianMixtureHypothesiser",
@@ -107,13 +110,9 @@ class GaussianMixtureHypothesiser(ss_gaussianmixture.GaussianMixtureHypothesiser
     def hypothesise(self, components, detections, timestamp, **kwargs):
         if len({detection.timestamp for detection in detections}) > 1:
             raise ValueError("All detections must have the same timestamp")
-        hypotheses = []
-        for component, multiple in self.generate_hypotheses(components, detections, timestamp,
-                                                            **kwargs).items():
-            for hypothesis in multiple:
-                hypothesis.prediction = _prediction(component, hypothesis)
-            if len(multiple) > 0:
-                hypotheses.append(MultipleHypothesis(multiple))
+        hypotheses = [_multiple_hypothesis(single_hypotheses=multiple) for multiple
+                      in self._component_hypotheses(components, detections, timestamp, kwargs)
+                      if len(multiple) > 0]
         if not self.order_by_detection:
             return hypotheses
         by_detection = {id(detection): [] for detection in detections}
@@ -124,8 +123,29 @@ class GaussianMixtureHypothesiser(ss_gaussianmixture.GaussianMixtureHypothesiser
                     missed.append(hypothesis)
                 if id(hypothesis.measurement) in by_detection:
                     by_detection[id(hypothesis.measurement)].append(hypothesis)
-        return [MultipleHypothesis(by_detection[id(detection)]) for detection in detections] \
-            + [MultipleHypothesis(missed)]
+        return [_multiple_hypothesis(single_hypotheses=by_detection[id(detection)])
+                for detection in detections] + [_multiple_hypothesis(single_hypotheses=missed)]
+
+    def _component_hypotheses(self, components, detections, timestamp, kwargs):
+        """Each component's hypotheses, each with its own prediction of the component (as
+        Stone Soup's ``hypothesise`` replaces the predictions ``generate_hypotheses``
+        gives); on the scan's path (this class's own ``generate_hypotheses``) built with
+        them at once."""
+        components = list(components)
+        if type(self).generate_hypotheses is GaussianMixtureHypothesiser.generate_hypotheses:
+            scan = _scan(self.hypothesiser, components, detections, timestamp, kwargs)
+            if not isinstance(scan, str):
+                return {component: scan.hypotheses(k, predict=functools.partial(
+                    _prediction, component, *scan.predicted(k), scan.timestamp))
+                    for k, component in enumerate(components)}.values()
+        out = self.generate_hypotheses(components, detections, timestamp, **kwargs)
+        for component, multiple in out.items():
+            for hypothesis in multiple:
+                predicted = hypothesis.prediction
+                hypothesis.prediction = _prediction(component, predicted.state_vector,
+                                                    predicted.covar, predicted.timestamp,
+                                                    hypothesis.measurement)
+        return out.values()
 
 
 class GaussianMixtureKDTreeHypothesiser(ss_gaussianmixture.GaussianMixtureKDTreeHypothesiser,
@@ -153,7 +173,7 @@ class GaussianMixtureKDTreeHypothesiser(ss_gaussianmixture.GaussianMixtureKDTree
         for k, component in enumerate(components):
             kept = [hypothesis for hypothesis in scan.hypotheses(k)
                     if not hypothesis or id(hypothesis.measurement) in near[k]]
-            out[component] = MultipleHypothesis(kept)
+            out[component] = _multiple_hypothesis(single_hypotheses=kept)
         return out
 
     def _reason(self, scan):
@@ -184,34 +204,31 @@ class GaussianMixtureKDTreeHypothesiser(ss_gaussianmixture.GaussianMixtureKDTree
         return near
 
 
+_multiple_hypothesis = builder(MultipleHypothesis)
+
 #: The prediction type of each weighted state type, for the hypothesiser's predictions.
-_PREDICTIONS = {TaggedWeightedGaussianState: TaggedWeightedGaussianStatePrediction,
-                WeightedGaussianState: WeightedGaussianStatePrediction}
+_PREDICTIONS = {TaggedWeightedGaussianState: builder(TaggedWeightedGaussianStatePrediction),
+                WeightedGaussianState: builder(WeightedGaussianStatePrediction)}
 
 
-def _prediction(component, hypothesis):
-    """The component's prediction on ``hypothesis``, as Stone Soup's hypothesiser makes it
-    (``Prediction.from_state`` of the component, with the hypothesis' predicted state and
-    time and the component's tag by :func:`_tag`); built directly for the two weighted
-    state types, whose every property that call sets is given here (a third of its
-    time)."""
-    predicted = hypothesis.prediction
+def _prediction(component, mean, covar, timestamp, measurement):
+    """The component's prediction (``mean``, ``covar`` at ``timestamp``) on its hypothesis
+    of ``measurement``, as Stone Soup's hypothesiser makes it (``Prediction.from_state`` of
+    the component, with the component's tag by :func:`_tag`); built directly for the two
+    weighted state types, whose every property that call sets is given here."""
     kind = _PREDICTIONS.get(type(component))
     if kind is None:
-        return Prediction.from_state(component, state_vector=predicted.state_vector,
-                                     covar=predicted.covar, timestamp=predicted.timestamp,
-                                     **_tag(component, hypothesis))
-    return kind(state_vector=predicted.state_vector, covar=predicted.covar,
-                timestamp=predicted.timestamp, weight=component.weight,
-                **_tag(component, hypothesis))
+        return Prediction.from_state(component, state_vector=mean, covar=covar,
+                                     timestamp=timestamp, **_tag(component, measurement))
+    return kind(state_vector=mean, covar=covar, timestamp=timestamp, weight=component.weight,
+                **_tag(component, measurement))
 
 
-def _tag(component, hypothesis):
-    """The ``tag`` keyword of a component's hypothesis, by Stone Soup's rule: a birth
-    component keeps 'birth' when missed and gets a new tag when detected."""
+def _tag(component, measurement):
+    """The ``tag`` keyword of a component's hypothesis of ``measurement``, by Stone Soup's
+    rule: a birth component keeps 'birth' when missed and gets a new tag when detected."""
     if not isinstance(component, TaggedWeightedGaussianState):
         return {}
     if component.tag == component.BIRTH:
-        return {"tag": component.BIRTH if isinstance(hypothesis.measurement, MissedDetection)
-                else None}
+        return {"tag": component.BIRTH if isinstance(measurement, MissedDetection) else None}
     return {"tag": component.tag}

@@ -22,6 +22,7 @@ from stonesoup.types.time import TimeRange
 
 from ..metrics import gospa, gospa_over_time, ospa_over_time
 from ._fallback import fall_back
+from ._objects import builder
 
 __all__ = ["GOSPAMetric", "OSPAMetric"]
 
@@ -245,38 +246,7 @@ def _cut_off(generator):
 
 # -- Stone Soup metric objects ---------------------------------------------------------------
 
-def _builder(cls):
-    """A function building ``cls(**values)`` for the keyword values of all of ``cls``'s
-    properties: the instance's ``__dict__`` set directly, as ``Base.__init__`` sets it, when
-    ``cls`` and its bases have only generated initialisers and plain properties; else the
-    constructor."""
-    names = tuple(cls.properties)
-    plain = all(prop._setter is None and not prop.readonly and not prop._clear_cached
-                for prop in cls.properties.values())
-    for base in cls.__mro__:
-        if base is Base:
-            break
-        init = vars(base).get("__init__")
-        if init is not None and init.__qualname__ != "BaseMeta.__new__.<locals>.__init__":
-            plain = False
-    keys = tuple(f"_property_{name}" for name in names)
-
-    def build(**values):
-        state = cls.__new__(cls)
-        state.__dict__.update(zip(keys, map(values.__getitem__, names)))
-        return state
-
-    def construct(**values):
-        return cls(**values)
-
-    if plain:
-        reference = cls(**{name: index for index, name in enumerate(names)})
-        candidate = build(**{name: index for index, name in enumerate(names)})
-        plain = list(vars(reference).items()) == list(vars(candidate).items())
-    return build if plain else construct
-
-
-_single_time_metric = _builder(SingleTimeMetric)
+_single_time_metric = builder(SingleTimeMetric)
 
 
 def _over_time(generator, title, metrics, unique):

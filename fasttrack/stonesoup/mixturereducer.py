@@ -14,56 +14,67 @@ mode "stonesoup"), gated by a grid instead of testing every pair.
   states of one dimension, and a subclass's own ``prune``, ``merge``, ``merge_components``
   or ``truncate`` run Stone Soup's code.
 """
+import functools
+import operator
 import uuid
 
 import numpy as np
 from stonesoup.mixturereducer import gaussianmixture as ss
+from stonesoup.types.array import CovarianceMatrix, StateVector
 from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianState
 
 from ..core import mixture as _mixture
 from ._fallback import fall_back
+from ._objects import builder
 
 __all__ = ["GaussianMixtureReducer"]
 
 _OWN_METHODS = ("prune", "merge", "merge_components", "truncate")
+
+_tagged_state = builder(TaggedWeightedGaussianState)
+_weighted_state = builder(WeightedGaussianState)
 
 
 class GaussianMixtureReducer(ss.GaussianMixtureReducer):
     """Stone Soup's ``GaussianMixtureReducer``, compiled."""
 
     def reduce(self, components_list):
-        reason = self._reason(components_list)
+        components = list(components_list)
+        reason = self._reason(components)
         if reason:
             fall_back(self, "reduce", reason)
             return super().reduce(components_list)
-        if not components_list:
+        if not components:
             return components_list
+        weights = np.array([c.weight for c in components], dtype=np.float64)
         if self.pruning:
-            components_list = self.prune(components_list)
-        if not components_list:
-            return components_list
-        means = np.hstack([c.state_vector for c in components_list]).T.astype(np.float64)
-        covars = np.array([c.covar for c in components_list], dtype=np.float64)
-        weights = np.array([c.weight for c in components_list], dtype=np.float64)
+            components, weights = _prune(components, weights, self.prune_threshold)
+            if not components:
+                return components
+        means = np.hstack([c.state_vector for c in components]).T.astype(np.float64)
+        covars = np.array([c.covar for c in components], dtype=np.float64)
         cap = self.max_number_components
         means, covars, weights, source, member = _mixture.reduce(
             means, covars, weights, "stonesoup", None, self.merge_threshold,
-            cap if self.truncating and cap < len(components_list) else None, self.merging)
+            cap if self.truncating and cap < len(components) else None, self.merging)
         alone = np.bincount(member[member >= 0], minlength=weights.size) == 1
         reduced = []
+        weights = weights.tolist()
         for o, i in enumerate(source):
-            heaviest = components_list[i]
+            heaviest = components[i]
             if alone[o]:
-                heaviest.weight = float(weights[o])
+                heaviest.weight = weights[o]
                 reduced.append(heaviest)
+            elif isinstance(heaviest, TaggedWeightedGaussianState):
+                reduced.append(_tagged_state(
+                    state_vector=means[o][:, None].view(StateVector),
+                    covar=covars[o].view(CovarianceMatrix), weight=weights[o],
+                    timestamp=heaviest.timestamp, tag=heaviest.tag))
             else:
-                kind = (TaggedWeightedGaussianState
-                        if isinstance(heaviest, TaggedWeightedGaussianState)
-                        else WeightedGaussianState)
-                extra = {"tag": heaviest.tag} if kind is TaggedWeightedGaussianState else {}
-                reduced.append(kind(state_vector=means[o][:, None], covar=covars[o],
-                                    weight=float(weights[o]), timestamp=heaviest.timestamp,
-                                    **extra))
+                reduced.append(_weighted_state(
+                    state_vector=means[o][:, None].view(StateVector),
+                    covar=covars[o].view(CovarianceMatrix), weight=weights[o],
+                    timestamp=heaviest.timestamp))
         _rename_shared_tags(reduced)
         return reduced
 
@@ -80,6 +91,22 @@ class GaussianMixtureReducer(ss.GaussianMixtureReducer):
         if len({c.state_vector.shape for c in components_list}) > 1:
             return "components of different dimensions"
         return None
+
+
+def _prune(components, weights, threshold):
+    """Stone Soup's ``prune`` of ``components`` of ``weights``: those of weight below
+    ``threshold`` dropped, their total weight (summed in order) shared evenly by the others,
+    whose ``weight`` is set; the kept components and their weights."""
+    low = weights < threshold
+    if not low.any():
+        return components, weights
+    kept = [c for c, dropped in zip(components, low.tolist()) if not dropped]
+    if not kept:
+        return kept, weights[:0]
+    weights = weights[~low] + functools.reduce(operator.add, weights[low].tolist()) / len(kept)
+    for component, weight in zip(kept, weights.tolist()):
+        component.weight = weight
+    return kept, weights
 
 
 def _rename_shared_tags(components):

@@ -12,7 +12,7 @@ from functools import lru_cache
 import numpy as np
 from stonesoup.models.base import GaussianModel
 from stonesoup.types.angle import Bearing
-from stonesoup.types.array import StateVectors
+from stonesoup.types.array import CovarianceMatrix, StateVector, StateVectors
 from stonesoup.models.measurement.linear import LinearGaussian as SSLinearGaussian
 from stonesoup.types.prediction import MeasurementPrediction
 from stonesoup.types.state import TaggedWeightedGaussianState
@@ -32,6 +32,7 @@ from ._convert import (angle_rows, fast_kernel, fast_model, fits, floats, global
                        mod_bearing, plain_particles, sigma_parameters, typed_measurement,
                        uncached)
 from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
+from ._objects import builder
 from .state import kernel_factors, remember_factors
 
 
@@ -335,6 +336,9 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
         return remember_factors(update, factors)
 
 
+_tagged_state = builder(TaggedWeightedGaussianState)
+
+
 class _PointProcess:
     """Stone Soup's ``PointProcessUpdater.update``: the Kalman updates and likelihoods of
     every (component, detection) pair computed at once on arrays, for a ``KalmanUpdater``
@@ -359,18 +363,19 @@ class _PointProcess:
             weight_sums = np.bincount(detection, weights, minlength=len(hypotheses) - 1)
             if self.normalisation:
                 weights = weights / (weight_sums[detection] + self.clutter_spatial_density)
-            for hypothesis, mean, covar, weight in zip(pairs, means, covars, weights):
+            for hypothesis, mean, covar, weight in zip(pairs, means[:, :, None], covars,
+                                                       weights.tolist()):
                 tag = hypothesis.prediction.tag
-                updated.append(TaggedWeightedGaussianState(
-                    tag=tag if tag != "birth" else None, weight=float(weight),
-                    state_vector=mean[:, None], covar=covar,
+                updated.append(_tagged_state(
+                    tag=tag if tag != "birth" else None, weight=weight,
+                    state_vector=mean.view(StateVector), covar=covar.view(CovarianceMatrix),
                     timestamp=hypothesis.measurement.timestamp))
         l1 = self._calculate_update_terms(list(weight_sums), hypotheses)
         missed = (1 - self.prob_detection) * l1 * self.prob_survival
         for hypothesis in hypotheses[-1]:
             prediction = hypothesis.prediction
             if prediction.tag != "birth":
-                updated.append(TaggedWeightedGaussianState(
+                updated.append(_tagged_state(
                     tag=prediction.tag, weight=prediction.weight * missed,
                     state_vector=prediction.mean, covar=prediction.covar,
                     timestamp=prediction.timestamp))
