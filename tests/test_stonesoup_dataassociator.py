@@ -419,7 +419,8 @@ def test_other_configurations_run_stone_soup_code():
 STONE_SOUP_TESTS = DATA / "stonesoup_tests"
 #: The Stone Soup test files run here, by package.
 OWN_TESTS = {"dataassociator": ["conftest", "test_neighbour", "test_probability"],
-             "hypothesiser": ["conftest", "test_distance", "test_probability"],
+             "hypothesiser": ["conftest", "test_distance", "test_probability",
+                              "test_gaussianmixture"],
              "gater": ["conftest", "test_distance"]}
 #: Tests deselected because they pin an implementation detail (none so far).
 DESELECTED = []
@@ -502,6 +503,9 @@ def test_stone_soups_own_tests_pass_on_the_drop_ins(tmp_path):
     assert switched["dataassociator/test_probability"] == ["JPDA", "JPDAwithEHM", "PDA"]
     assert switched["hypothesiser/test_distance"] == ["DistanceHypothesiser"]
     assert switched["hypothesiser/test_probability"] == ["PDAHypothesiser"]
+    assert switched["hypothesiser/test_gaussianmixture"] == [
+        "DistanceHypothesiser", "GaussianMixtureHypothesiser",
+        "GaussianMixtureKDTreeHypothesiser"]
     assert switched["gater/test_distance"] == [
         "DistanceGater", "DistanceHypothesiser", "ExtendedKalmanPredictor",
         "ExtendedKalmanUpdater", "PDAHypothesiser"]

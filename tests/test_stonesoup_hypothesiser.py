@@ -10,13 +10,11 @@ import pytest
 pytest.importorskip("stonesoup")
 from stonesoup.types.angle import Bearing  # noqa: E402
 from stonesoup.types.array import StateVector  # noqa: E402
-from stonesoup.types.detection import Detection, MissedDetection  # noqa: E402
+from stonesoup.types.detection import Detection  # noqa: E402
 from stonesoup.types.hypothesis import (SingleDistanceHypothesis,  # noqa: E402
                                         SingleProbabilityHypothesis)
-from stonesoup.types.multihypothesis import MultipleHypothesis  # noqa: E402
 from stonesoup.types.numeric import Probability  # noqa: E402
-from stonesoup.types.prediction import (GaussianMeasurementPrediction,  # noqa: E402
-                                        GaussianStatePrediction)
+from stonesoup.types.prediction import GaussianMeasurementPrediction  # noqa: E402
 from stonesoup.types.state import GaussianState  # noqa: E402
 from stonesoup.updater import kalman as ss_kalman_updater  # noqa: E402
 
@@ -76,23 +74,6 @@ def test_updater_uses_the_measurement_prediction_on_the_hypothesis():
     theirs = ss_kalman_updater.ExtendedKalmanUpdater(POLAR).update(hypothesis)
     assert_close(ours.state_vector, theirs.state_vector)  # the innovation wrapped to 0.02
     assert_close(ours.covar, theirs.covar)
-
-
-def test_stone_soup_property_orders_the_fast_path_relies_on():
-    """The vectorised path builds Stone Soup's objects with positional arguments (as Stone
-    Soup's own hypothesisers do, and faster than keywords)."""
-    orders = {GaussianStatePrediction: ["state_vector", "covar", "timestamp",
-                                        "transition_model", "prior"],
-              GaussianMeasurementPrediction: ["state_vector", "covar", "timestamp",
-                                              "cross_covar"],
-              SingleDistanceHypothesis: ["prediction", "measurement", "distance",
-                                         "measurement_prediction"],
-              SingleProbabilityHypothesis: ["prediction", "measurement", "probability",
-                                            "measurement_prediction"],
-              MissedDetection: ["state_vector", "timestamp", "measurement_model", "metadata"],
-              MultipleHypothesis: ["single_hypotheses", "normalise", "total_weight"]}
-    for cls, order in orders.items():
-        assert list(cls.properties) == order, cls.__name__
 
 
 def test_gm_phd_tutorial_tracks_the_same_with_the_drop_ins():

@@ -170,3 +170,67 @@ def test_the_kd_tree_drop_in_with_another_predictor_runs_stone_soups_code():
     assert len(got) == len(components)
     assert [reason for (_, _, reason) in fallbacks()][0] == \
         "a kd-tree predictor or updater other than the hypothesiser's"
+
+
+def _scans(seed, n=6, clutter=5, steps=10):
+    """(time, detections) of ``n`` targets moving at constant velocity, with clutter."""
+    rng = np.random.default_rng(seed)
+    x = np.c_[rng.uniform(-40, 40, n), rng.normal(0, 1, n), rng.uniform(-40, 40, n),
+              rng.normal(0, 1, n)]
+    f = TRANSITION.matrix(time_interval=datetime.timedelta(seconds=1))
+    out = []
+    for k in range(1, steps + 1):
+        x = x @ f.T
+        time = T0 + datetime.timedelta(seconds=k)
+        z = np.vstack([x[:, [0, 2]] + rng.normal(0, 0.8, (n, 2)),
+                       rng.uniform(-60, 60, (clutter, 2))])
+        out.append((time, {Detection(zi[:, None], timestamp=time, measurement_model=SENSOR)
+                           for zi in z}))
+    return out
+
+
+def _flat(mixture):
+    """A mixture's weights and states, sorted, as rows."""
+    return [(weight, *state) for weight, state in sorted(map(_key, mixture))]
+
+
+def test_the_drop_in_point_process_tracker_tracks_as_stone_soups():
+    """Stone Soup's GM-PHD tracker with its own components, and the drop-in tracker with
+    the drop-ins: the same mixture each step (weights and states to 1e-9, up to order and
+    fresh tags) and tracks of the same lengths, without a fallback."""
+    from stonesoup.mixturereducer.gaussianmixture import GaussianMixtureReducer
+    from stonesoup.tracker.pointprocess import PointProcessMultiTargetTracker
+
+    import fasttrack.stonesoup as fss
+
+    def tracker(kind, hypothesiser, distance, reducer, updater, kalman_predictor,
+                kalman_updater, measure):
+        return kind(
+            detector=_scans(5),
+            hypothesiser=hypothesiser(distance(kalman_predictor(TRANSITION),
+                                               kalman_updater(SENSOR), measure(),
+                                               missed_distance=3), order_by_detection=True),
+            updater=updater(kalman_updater(SENSOR), clutter_spatial_density=3e-4,
+                            prob_detection=0.9, prob_survival=0.99),
+            reducer=reducer(prune_threshold=1e-6, merge_threshold=4),
+            birth_component=TaggedWeightedGaussianState(
+                np.zeros((4, 1)), np.diag([1e3, 2.0, 1e3, 2.0]), weight=0.3, tag="birth",
+                timestamp=T0),
+            extraction_threshold=0.5)
+
+    theirs = tracker(PointProcessMultiTargetTracker, GaussianMixtureHypothesiser,
+                     DistanceHypothesiser, GaussianMixtureReducer, Original, KalmanPredictor,
+                     KalmanUpdater, Mahalanobis)
+    ours = tracker(fss.PointProcessMultiTargetTracker, fss.GaussianMixtureHypothesiser,
+                   fss.DistanceHypothesiser, fss.GaussianMixtureReducer, PHDUpdater,
+                   fss.KalmanPredictor, fss.KalmanUpdater, fss.Mahalanobis)
+    fallbacks(clear=True)
+    for (time, want), (_, got) in zip(theirs, ours):
+        np.testing.assert_allclose(_flat(ours.gaussian_mixture), _flat(theirs.gaussian_mixture),
+                                   rtol=1e-9, atol=1e-9)
+        assert sorted(map(len, got)) == sorted(map(len, want))
+        assert ours.estimated_number_of_targets == pytest.approx(
+            theirs.estimated_number_of_targets, rel=1e-9)
+        assert len(ours.extracted_target_states) == len(theirs.extracted_target_states)
+    assert time == T0 + datetime.timedelta(seconds=10) and len(got) >= 4
+    assert fallbacks() == {}

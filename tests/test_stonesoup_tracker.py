@@ -33,6 +33,7 @@ from stonesoup.initiator import simple as ss_initiator  # noqa: E402
 from stonesoup.models.transition.linear import (  # noqa: E402
     CombinedLinearGaussianTransitionModel, ConstantVelocity)
 from stonesoup.predictor.kalman import KalmanPredictor  # noqa: E402
+from stonesoup.tracker import pointprocess as ss_pointprocess  # noqa: E402
 from stonesoup.tracker import simple as ss_tracker  # noqa: E402
 from stonesoup.types.array import StateVector  # noqa: E402
 from stonesoup.types.state import GaussianState  # noqa: E402
@@ -197,7 +198,9 @@ def test_tracking_drop_ins_are_stonesoup_subclasses_with_the_same_properties():
              ("SimpleMeasurementInitiator", ss_initiator.SimpleMeasurementInitiator),
              ("MultiMeasurementInitiator", ss_initiator.MultiMeasurementInitiator),
              ("MultiTargetTracker", ss_tracker.MultiTargetTracker),
-             ("MultiTargetMixtureTracker", ss_tracker.MultiTargetMixtureTracker)]
+             ("MultiTargetMixtureTracker", ss_tracker.MultiTargetMixtureTracker),
+             ("PointProcessMultiTargetTracker",
+              ss_pointprocess.PointProcessMultiTargetTracker)]
     for name, theirs in pairs:
         ours = getattr(fss, name)
         assert issubclass(ours, theirs) and ours.__name__ == theirs.__name__
@@ -213,10 +216,11 @@ STONESOUP_TESTS = {
     "deleter": ["test_time.py", "test_error.py"],
     "initiator": ["test_simple.py"],
     "metricgenerator": ["conftest.py", "test_ospametric.py"],
+    "mixturereducer": ["test_gaussian_mixture_reducer.py"],
     "predictor": ["test_kalman.py"],
     "smoother": ["test_kalman.py"],
-    "tracker": ["conftest.py", "test_simple.py"],
-    "updater": ["test_kalman.py"],
+    "tracker": ["conftest.py", "test_simple.py", "test_pointprocess.py"],
+    "updater": ["conftest.py", "test_kalman.py", "test_pointprocess.py"],
 }
 
 #: Tests that pin an implementation detail rather than the replaced classes' behaviour.
@@ -277,11 +281,15 @@ def stonesoup_test_run(tmp_path_factory):
     ("initiator", {"SimpleMeasurementInitiator", "MultiMeasurementInitiator",
                    "UpdateTimeStepsDeleter"}),
     ("metricgenerator", {"GOSPAMetric", "OSPAMetric"}),
+    ("mixturereducer", {"GaussianMixtureReducer"}),
     ("predictor", {"KalmanPredictor", "ExtendedKalmanPredictor", "UnscentedKalmanPredictor"}),
     ("smoother", {"KalmanPredictor", "KalmanUpdater", "KalmanSmoother",
                   "ExtendedKalmanSmoother", "UnscentedKalmanSmoother"}),
-    ("tracker", {"MultiTargetTracker", "MultiTargetMixtureTracker"}),
-    ("updater", {"KalmanUpdater", "ExtendedKalmanUpdater", "UnscentedKalmanUpdater"})])
+    ("tracker", {"MultiTargetTracker", "MultiTargetMixtureTracker",
+                 "PointProcessMultiTargetTracker", "GaussianMixtureHypothesiser",
+                 "DistanceHypothesiser", "PHDUpdater", "GaussianMixtureReducer"}),
+    ("updater", {"KalmanUpdater", "ExtendedKalmanUpdater", "UnscentedKalmanUpdater",
+                 "PHDUpdater", "LCCUpdater"})])
 def test_stonesoups_own_tests_pass_on_the_drop_ins(stonesoup_test_run, package, replaced):
     returncode, output, outcomes, switched = stonesoup_test_run
     names = {name for file, found in switched.items() if file.startswith(f"{package}/")

@@ -1,24 +1,28 @@
-"""Stone Soup's ``stonesoup.tracker``: the ``MultiTargetTracker`` and
-``MultiTargetMixtureTracker``.
+"""Stone Soup's ``stonesoup.tracker``: the ``MultiTargetTracker``,
+``MultiTargetMixtureTracker`` and ``PointProcessMultiTargetTracker``.
 
 ``MultiTargetTracker`` is Stone Soup's: it gets faster through the drop-in associators,
 updaters, initiators and deleters it is given. ``MultiTargetMixtureTracker`` reduces each
 track's mixture of hypotheses in float arithmetic on log weights (Stone Soup's reduction runs
 on arrays of ``Probability`` objects, about 0.5 ms a track; with the drop-in JPDA that is
 most of a step); weights it cannot read that way go through Stone Soup's reduction.
+``PointProcessMultiTargetTracker`` reads its mixture's component list directly.
 """
 import numpy as np
 from stonesoup.functions import gm_reduce_single
+from stonesoup.tracker import pointprocess as ss_pointprocess
 from stonesoup.tracker import simple as ss_tracker
 from stonesoup.types.array import CovarianceMatrix, StateVector, StateVectors
+from stonesoup.types.mixture import GaussianMixture
 from stonesoup.types.numeric import Probability
 from stonesoup.types.prediction import GaussianStatePrediction
+from stonesoup.types.track import Track
 from stonesoup.types.update import GaussianStateUpdate
 
 from ..core.mixture import moment_match
 from ._fallback import fall_back
 
-__all__ = ["MultiTargetMixtureTracker", "MultiTargetTracker"]
+__all__ = ["MultiTargetMixtureTracker", "MultiTargetTracker", "PointProcessMultiTargetTracker"]
 
 
 class MultiTargetTracker(ss_tracker.MultiTargetTracker):
@@ -96,3 +100,53 @@ class MultiTargetMixtureTracker(ss_tracker.MultiTargetMixtureTracker):
         self._tracks -= self.deleter.delete_tracks(self.tracks)
         self._tracks |= self.initiator.initiate(unassociated, time)
         return time, self.tracks
+
+
+class PointProcessMultiTargetTracker(ss_pointprocess.PointProcessMultiTargetTracker):
+    """Stone Soup's ``PointProcessMultiTargetTracker`` (GM-PHD and GM-LCC): each step adds
+    the birth component, hypothesises, updates and reduces the mixture, then extends the
+    track of each component's tag (a new track for a tag whose component weighs more than
+    ``extraction_threshold``) and ends the tracks whose tag has no component. It runs its
+    components' code, so it gets faster with the drop-in ``GaussianMixtureHypothesiser``,
+    ``PHDUpdater`` or ``LCCUpdater`` and ``GaussianMixtureReducer``; the tracks are kept
+    from the mixture's component list directly (Stone Soup's code indexes the mixture
+    component by component)."""
+
+    def update_tracks(self):
+        tracks = self.target_tracks
+        for component in _components(self.gaussian_mixture):
+            tag = component.tag
+            if tag == component.BIRTH:
+                continue
+            track = tracks.get(tag)
+            if track is not None:
+                track.states.append(component)
+            elif component.weight > self.extraction_threshold:
+                tracks[tag] = Track([component], id=tag)
+
+    def end_tracks(self):
+        tags = {component.tag for component in _components(self.gaussian_mixture)}
+        for tag in self.target_tracks.keys() - tags:
+            del self.target_tracks[tag]
+
+    @property
+    def extracted_target_states(self):
+        return [component for component in _components(self.gaussian_mixture)
+                if component.weight > self.extraction_threshold]
+
+    @property
+    def estimated_number_of_targets(self):
+        return sum(component.weight for component in _components(self.gaussian_mixture)) \
+            if self.gaussian_mixture else 0
+
+
+def _components(mixture):
+    """The components of a Stone Soup ``GaussianMixture`` as its iteration gives them (its
+    component list itself where the mixture's class iterates and indexes as Stone Soup's
+    does)."""
+    kind = type(mixture)
+    if (kind.__iter__, kind.__getitem__) == (GaussianMixture.__iter__,
+                                             GaussianMixture.__getitem__) \
+            and isinstance(mixture.components, list):
+        return mixture.components
+    return list(mixture)
