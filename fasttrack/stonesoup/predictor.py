@@ -9,7 +9,7 @@ from stonesoup.predictor import kernel as ss_kernel
 from stonesoup.predictor import particle as ss_particle
 from stonesoup.predictor._utils import predict_lru_cache
 from stonesoup.proposal.simple import DynamicsProposal
-from stonesoup.types.array import StateVectors
+from stonesoup.types.array import CovarianceMatrix, StateVector, StateVectors
 from stonesoup.types import prediction as ss_prediction
 from stonesoup.types import state as ss_state
 from stonesoup.types import update as ss_update
@@ -24,6 +24,7 @@ from ..types import dense_kernel_covar
 from ._convert import (fast_kernel, fast_model, fits, floats, model_rng, plain_particles,
                        sigma_parameters, uncached, zero_control)
 from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
+from ._objects import from_state
 from .state import kernel_factors, remember_factors
 
 #: Gaussian state types whose predictions the Kalman kernel builds, with the weight and tag
@@ -128,8 +129,10 @@ class _Kalman:
             fall_back(self, "predict", moments)
             return uncached(self._stonesoup.predict)(self, prior, timestamp, control_input,
                                                      **kwargs)
-        return Prediction.from_state(prior, *moments, timestamp=timestamp,
-                                     transition_model=self.transition_model, prior=prior)
+        mean, covar = moments
+        return from_state(Prediction, prior, state_vector=mean.view(StateVector),
+                          covar=covar.view(CovarianceMatrix), timestamp=timestamp,
+                          transition_model=self.transition_model, prior=prior)
 
 
 class KalmanPredictor(_Kalman, ss_kalman.KalmanPredictor):

@@ -32,7 +32,7 @@ from ._convert import (angle_rows, fast_kernel, fast_model, fits, floats, global
                        mod_bearing, plain_particles, sigma_parameters, typed_measurement,
                        uncached)
 from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
-from ._objects import builder
+from ._objects import builder, from_state
 from .state import kernel_factors, remember_factors
 
 
@@ -170,8 +170,9 @@ class _Kalman:
         z_hat, s, cross = moments[2:]
         if not measurement_noise:
             s = s - fast.noise_covar
-        return MeasurementPrediction.from_state(predicted_state, typed_measurement(z_hat, fast),
-                                                s, cross_covar=cross)
+        return from_state(MeasurementPrediction, predicted_state,
+                          state_vector=typed_measurement(z_hat, fast),
+                          covar=s.view(CovarianceMatrix), cross_covar=cross)
 
     def _update_given(self, model, fast, hypothesis):
         """Stone Soup's update from the hypothesis's own measurement prediction (its mean,
@@ -211,8 +212,9 @@ class _Kalman:
             covar_out = prior_covar - gain @ floats(covar) @ gain.T
         if self.force_symmetric_covariance:
             covar_out = (covar_out + covar_out.T) / 2
-        return Update.from_state(prediction, x, covar_out, timestamp=measurement.timestamp,
-                                 hypothesis=hypothesis)
+        return from_state(Update, prediction, state_vector=x.view(StateVector),
+                          covar=covar_out.view(CovarianceMatrix),
+                          timestamp=measurement.timestamp, hypothesis=hypothesis)
 
     def _stonesoup_update(self, hypothesis, kwargs, reason):
         fall_back(self, "update", reason)
@@ -235,10 +237,12 @@ class _Kalman:
         if isinstance(moments, str):
             return self._stonesoup_update(hypothesis, kwargs, moments)
         x, covar, z_hat, s, cross = moments
-        hypothesis.measurement_prediction = MeasurementPrediction.from_state(
-            prediction, typed_measurement(z_hat, fast), s, cross_covar=cross)
-        return Update.from_state(prediction, x, covar, timestamp=hypothesis.measurement.timestamp,
-                                 hypothesis=hypothesis)
+        hypothesis.measurement_prediction = from_state(
+            MeasurementPrediction, prediction, state_vector=typed_measurement(z_hat, fast),
+            covar=s.view(CovarianceMatrix), cross_covar=cross)
+        return from_state(Update, prediction, state_vector=x.view(StateVector),
+                          covar=covar.view(CovarianceMatrix),
+                          timestamp=hypothesis.measurement.timestamp, hypothesis=hypothesis)
 
 
 class KalmanUpdater(_Kalman, ss_kalman.KalmanUpdater):
