@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fasttrack._jit import mixture as kernels
-from fasttrack.core import mixture
+from fasttrack.core import mixture, mixture_numpy
 from fasttrack.types import GaussianMixture
 
 import reference.mixture
@@ -121,12 +121,14 @@ def _reduced(reduce, means, covars, weights, mode, prune, merging, threshold, ca
 @given(st.integers(0, 160), st.integers(1, 4), st.sampled_from(["textbook", "stonesoup"]),
        st.sampled_from([-np.inf, 0.0, 1e-6, 1e-3]), st.booleans(),
        st.sampled_from([0.5, 4.0, 16.0, 200.0]), st.sampled_from([1, 5, 40, 2**40]),
-       st.integers(0, 2**31), st.booleans())
-def test_reduce_matches_its_mirror(j, d, mode, prune, merging, threshold, cap, seed, stretched):
-    """Above 64 components the kernel gates merges by a grid; the mirror tests every pair."""
+       st.integers(0, 2**31), st.booleans(), st.sampled_from(["kernel", "numpy"]))
+def test_reduce_matches_its_mirror(j, d, mode, prune, merging, threshold, cap, seed, stretched,
+                                   implementation):
+    """Above 64 components the kernel gates merges by a grid; the NumPy twin tests the live
+    candidates at once; the mirror tests every pair in turn."""
     means, covars, weights = _clustered(np.random.default_rng(seed), j, d, stretched=stretched)
-    count, got = _reduced(kernels.reduce, means, covars, weights, mode, prune, merging,
-                          threshold, cap)
+    reduce = kernels.reduce if implementation == "kernel" else mixture_numpy.reduce
+    count, got = _reduced(reduce, means, covars, weights, mode, prune, merging, threshold, cap)
     want_count, want = _reduced(reference.mixture.reduce, means, covars, weights, mode, prune,
                                 merging, threshold, cap)
     assert count == want_count
@@ -146,8 +148,9 @@ def test_reduce_follows_a_merged_mean_that_drifts_out_of_the_gate():
     covars = np.broadcast_to(np.eye(2), (n, 2, 2)).copy()
     weights = 0.5 + 0.001 * np.arange(n)
     weights[0] = 1.0
-    for mode in ("stonesoup", "textbook"):
-        got = _reduced(kernels.reduce, means, covars, weights, mode, -np.inf, True, 4.0, 2**40)
+    for mode, reduce in [(mode, reduce) for mode in ("stonesoup", "textbook")
+                         for reduce in (kernels.reduce, mixture_numpy.reduce)]:
+        got = _reduced(reduce, means, covars, weights, mode, -np.inf, True, 4.0, 2**40)
         want = _reduced(reference.mixture.reduce, means, covars, weights, mode, -np.inf, True,
                         4.0, 2**40)
         assert got[0] == want[0]
@@ -223,6 +226,21 @@ def test_bad_reductions_are_refused_naming_the_argument(change, message):
     arguments.update(change)
     with pytest.raises(ValueError, match=message):
         mixture.reduce(**arguments)
+
+
+@pytest.mark.parametrize("bad, code", [([[1.0, 0.5], [0.0, 1.0]], -(2 + 2 * 2)),
+                                       (-np.eye(2), -(1 + 2 * 2)),
+                                       (np.array([[1.0, 2.0], [2.0, 1.0]]), -(1 + 2 * 2))])
+def test_the_numpy_twin_names_a_bad_covariance_as_the_kernel_does(bad, code):
+    """Status codes: -(2 + 2 i) for input i not symmetric, -(1 + 2 i) not positive
+    definite (a pruned component is not checked)."""
+    covars = np.array([np.eye(2), np.eye(2), bad, np.eye(2)], dtype=np.float64)
+    means = np.arange(8.0).reshape(4, 2)
+    weights = np.array([0.5, 1e-12, 0.5, 0.5])
+    for covar in (covars, np.where(np.arange(4)[:, None, None] == 1, bad, covars)):
+        got = [_reduced(reduce, means, covar, weights, "stonesoup", 1e-6, True, 4.0, 8)[0]
+               for reduce in (kernels.reduce, mixture_numpy.reduce)]
+        assert got == [code, code]
 
 
 def test_zero_weights_merged_without_pruning_are_an_error():

@@ -19,6 +19,7 @@ from fasttrack.association import (clusters, gate, global_nearest_neighbour, jpd
                                    nearest_neighbour)
 from fasttrack.core import akkf_numpy, kalman, particle, particle_numpy
 from fasttrack.core.kinds import GAUSSIAN, MATRIX, SELECT
+from fasttrack.core.mixture import reduce as reduce_mixture
 from fasttrack.core.mixture import segment_logsumexp
 from fasttrack.core.resample import ResidualMethod, draw
 
@@ -149,6 +150,33 @@ def test_segment_logsumexp_is_the_kernels(monkeypatch):
     starts = np.array([0, 0, 3, 5, 7, 9, 11])
     found = _both(monkeypatch, lambda: segment_logsumexp(values, starts))
     np.testing.assert_allclose(found[1], found[0], rtol=1e-14)
+
+
+@pytest.mark.parametrize("mode", ["stonesoup", "textbook"])
+@pytest.mark.parametrize("cap", [None, 7])
+def test_mixture_reductions_are_the_kernels(monkeypatch, mode, cap):
+    rng = np.random.default_rng(3)
+    centres = rng.uniform(-20.0, 20.0, (12, 4))
+    means = centres[rng.integers(0, 12, 90)] + rng.normal(size=(90, 4))
+    a = rng.standard_normal((90, 4, 4)) * 0.5
+    covars = a @ a.transpose(0, 2, 1) + np.eye(4)
+    weights = 10.0 ** rng.uniform(-9, 0, 90)
+    found = _both(monkeypatch, lambda: reduce_mixture(means, covars, weights, mode, 1e-6, 4.0,
+                                                      cap))
+    assert 7 <= found[0][2].size < 60
+    for got, want in zip(found[1], found[0]):
+        np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("bad, message", [(-np.eye(4), "not positive definite"),
+                                          (np.triu(np.ones((4, 4))), "not symmetric")])
+def test_a_bad_covariance_in_a_reduction_is_named_as_the_kernel_names_it(monkeypatch, bad,
+                                                                         message):
+    covars = np.broadcast_to(np.eye(4), (6, 4, 4)).copy()
+    covars[3] = bad
+    errors = _both(monkeypatch, lambda: _error(
+        lambda: reduce_mixture(np.zeros((6, 4)), covars, np.full(6, 0.5))))
+    assert errors[0] == errors[1] == f"covars[3] is {message}"
 
 
 @pytest.mark.parametrize("sensor", [

@@ -1,0 +1,140 @@
+"""The mixture reducer in NumPy, for a process's first small calls (see
+:func:`fasttrack._jit.numpy_first`): ``fasttrack._jit.mixture.reduce``'s rules, arguments,
+outputs and status codes, its candidate tests vectorised (each merge tests the live
+candidates against the merged mean at once, resuming after the one merged)."""
+import functools
+import operator
+
+import numpy as np
+
+from .._jit.kinds import STONESOUP
+
+
+def reduce(means, covars, weights, mode, prune_threshold, merging, merge_threshold,
+           max_components, axes, out_means, out_covars, out_weights, source, member):
+    """:func:`fasttrack._jit.mixture.reduce` (``axes``, the kernel's grid rows, unused)."""
+    stonesoup = mode == STONESOUP
+    keep = weights >= prune_threshold if stonesoup else weights > prune_threshold
+    kept = np.flatnonzero(keep)
+    work = weights[kept].astype(np.float64)
+    if stonesoup and kept.size:
+        work = work + _sum(weights[~keep]) / kept.size
+    means, covars = means[kept], covars[kept]
+    n = kept.size
+    local_member = np.arange(n)
+    if merging and n > 1:
+        failed = _first_bad_covariance(covars)
+        if failed >= 0:
+            j, kind = divmod(failed, 2)
+            return -(1 + 2 * int(kept[j]) + kind)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            groups = _merge(means, covars, work, stonesoup, merge_threshold, local_member)
+    else:
+        groups = [(j, means[j], covars[j], work[j]) for j in range(n)]
+    count = len(groups)
+    for o, (heaviest, mean, covar, weight) in enumerate(groups):
+        out_means[o], out_covars[o], out_weights[o] = mean, covar, weight
+        source[o] = kept[heaviest]
+    member[:] = -1
+    member[kept] = local_member
+    if count > max_components:
+        count = _truncate(stonesoup, count, max_components, out_means, out_covars,
+                          out_weights, source, member)
+    return count
+
+
+def _sum(values):
+    """The sum of ``values`` added in order (as the kernel adds them)."""
+    return functools.reduce(operator.add, values.tolist(), 0.0)
+
+
+def _first_bad_covariance(covars):
+    """``2 j + 1`` for the first covariance j not symmetric (to 1e-9 of its largest
+    entry), ``2 j`` for one not positive definite, else -1."""
+    largest = np.abs(covars).max(axis=(1, 2))
+    asymmetric = ~(np.abs(covars - covars.transpose(0, 2, 1))
+                   <= 1e-9 * largest[:, None, None]).all(axis=(1, 2))
+    for j in range(covars.shape[0]):
+        if asymmetric[j]:
+            return 2 * j + 1
+        try:
+            np.linalg.cholesky(covars[j])
+        except np.linalg.LinAlgError:
+            return 2 * j
+    return -1
+
+
+def _merge(means, covars, weights, stonesoup, threshold, member):
+    """The greedy merges (the kernel's ``_merge`` rules), heaviest first: a list of
+    (heaviest, mean, covariance, weight); ``member[j]`` set to component j's merge."""
+    precisions = np.linalg.inv(covars)
+    by_rank = np.argsort(weights, kind="stable")
+    alive = np.ones(weights.size, dtype=bool)
+    groups = []
+    for top in range(weights.size - 1, -1, -1):
+        b = by_rank[top]
+        if not alive[b]:
+            continue
+        alive[b] = False
+        member[b] = len(groups)
+        candidates = by_rank[:top][alive[by_rank[:top]]]  # ascending weight
+        if stonesoup:
+            merged = _merge_running(means, covars, weights, precisions, b, candidates,
+                                    threshold)
+            groups.append((b, *merged[:3]))
+            taken = merged[3]
+        else:
+            v = means[candidates] - means[b]
+            taken = candidates[np.einsum("ki,ij,kj->k", v, precisions[b], v) <= threshold]
+            group = np.r_[b, taken]
+            total = _sum(weights[group])
+            w = weights[group] / total
+            mean = w @ means[group]
+            spread = means[group] - mean
+            groups.append((b, mean, np.einsum("k,kij->ij", w, covars[group])
+                           + (spread.T * w) @ spread, total))
+        alive[taken] = False
+        member[taken] = len(groups) - 1
+    return groups
+
+
+def _merge_running(means, covars, weights, precisions, b, candidates, threshold):
+    """Stone Soup's merge into component b: each candidate in turn (ascending weight)
+    measured by its own covariance from the running merged mean, ``<``, merged pairwise
+    (spread included, weight capped at 1). Returns the mean, covariance, weight and the
+    candidates taken."""
+    mean, covar, weight = means[b].copy(), covars[b].copy(), weights[b]
+    taken, start = [], 0
+    while start < candidates.size:
+        rest = candidates[start:]
+        v = means[rest] - mean
+        hits = np.flatnonzero(np.einsum("ki,kij,kj->k", v, precisions[rest], v) < threshold)
+        if not hits.size:
+            break
+        c = rest[hits[0]]
+        total = weight + weights[c]
+        w1, w2 = weight / total, weights[c] / total
+        diff = mean - means[c]
+        mean = mean * w1 + means[c] * w2
+        covar = covar * w1 + covars[c] * w2 + np.outer(diff, diff) * (w1 * w2)
+        weight = min(total, 1.0)
+        taken.append(c)
+        start += hits[0] + 1
+    return mean, covar, weight, np.array(taken, dtype=np.int64)
+
+
+def _truncate(stonesoup, count, keep, means, covars, weights, source, member):
+    """The kernel's ``_truncate``: the ``keep`` heaviest (ties: the earlier), heaviest
+    first, in place; returns ``keep``."""
+    order = np.argsort(-weights[:count], kind="stable")
+    kept_mass, cut_mass = _sum(weights[order[:keep]]), _sum(weights[order[keep:count]])
+    first = order[:keep]
+    new_weights = (weights[first] + cut_mass / keep if stonesoup
+                   else weights[first] * ((kept_mass + cut_mass) / kept_mass))
+    means[:keep], covars[:keep], source[:keep] = means[first], covars[first], source[first]
+    weights[:keep] = new_weights
+    position = np.full(count, -1)
+    position[first] = np.arange(keep)
+    inside = member >= 0
+    member[inside] = position[member[inside]]
+    return keep
