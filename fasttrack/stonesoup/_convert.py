@@ -11,6 +11,7 @@ from stonesoup.models.measurement import nonlinear as ss_nonlinear
 from stonesoup.models.transition import linear as ss_transition_linear
 from stonesoup.types.angle import Angle, Bearing
 from stonesoup.types.array import StateVector
+from stonesoup.types.mixture import GaussianMixture
 from stonesoup.types.state import ParticleState
 
 from .. import kernel as ft_kernel
@@ -181,3 +182,15 @@ def uncached(method):
     while hasattr(method, "__wrapped__"):
         method = method.__wrapped__
     return method
+
+
+def mixture_components(mixture):
+    """The components of a Stone Soup ``GaussianMixture`` (or any sequence of them) as its
+    iteration gives them: the mixture's own component list where its class iterates and
+    indexes as Stone Soup's does."""
+    kind = type(mixture)
+    if isinstance(mixture, GaussianMixture) and isinstance(mixture.components, list) \
+            and (kind.__iter__, kind.__getitem__) == (GaussianMixture.__iter__,
+                                                      GaussianMixture.__getitem__):
+        return mixture.components
+    return list(mixture)

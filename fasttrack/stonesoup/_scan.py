@@ -561,5 +561,6 @@ def _multiple(hypotheses, normalise):
     are already normalised (Stone Soup's ``Probability`` arithmetic would only repeat the
     log-sum-exp, at a few microseconds a hypothesis)."""
     multiple = _multiple_hypothesis(single_hypotheses=hypotheses, total_weight=1)
-    multiple.normalise = normalise
+    if normalise:  # marked only: normalising again would change nothing
+        multiple.normalise = True
     return multiple

@@ -2,8 +2,6 @@
 ``PDAHypothesiser``, vectorised over the detections (see ``_scan``), and the
 ``GaussianMixtureHypothesiser`` and its kd-tree variant, vectorised over the components
 too."""
-import functools
-
 import numpy as np
 from scipy.spatial import KDTree
 from stonesoup.dataassociator.tree import DetectionKDTreeMixIn
@@ -121,8 +119,9 @@ class GaussianMixtureHypothesiser(ss_gaussianmixture.GaussianMixtureHypothesiser
             for hypothesis in multiple:
                 if not hypothesis:
                     missed.append(hypothesis)
-                if id(hypothesis.measurement) in by_detection:
-                    by_detection[id(hypothesis.measurement)].append(hypothesis)
+                group = by_detection.get(id(hypothesis.measurement))
+                if group is not None:
+                    group.append(hypothesis)
         return [_multiple_hypothesis(single_hypotheses=by_detection[id(detection)])
                 for detection in detections] + [_multiple_hypothesis(single_hypotheses=missed)]
 
@@ -135,16 +134,16 @@ class GaussianMixtureHypothesiser(ss_gaussianmixture.GaussianMixtureHypothesiser
         if type(self).generate_hypotheses is GaussianMixtureHypothesiser.generate_hypotheses:
             scan = _scan(self.hypothesiser, components, detections, timestamp, kwargs)
             if not isinstance(scan, str):
-                return {component: scan.hypotheses(k, predict=functools.partial(
-                    _prediction, component, *scan.predicted(k), scan.timestamp))
+                return {component: scan.hypotheses(k, predict=_predictor(
+                    component, *scan.predicted(k), scan.timestamp))
                     for k, component in enumerate(components)}.values()
         out = self.generate_hypotheses(components, detections, timestamp, **kwargs)
         for component, multiple in out.items():
             for hypothesis in multiple:
                 predicted = hypothesis.prediction
-                hypothesis.prediction = _prediction(component, predicted.state_vector,
-                                                    predicted.covar, predicted.timestamp,
-                                                    hypothesis.measurement)
+                hypothesis.prediction = _predictor(
+                    component, predicted.state_vector, predicted.covar,
+                    predicted.timestamp)(hypothesis.measurement)
         return out.values()
 
 
@@ -211,24 +210,27 @@ _PREDICTIONS = {TaggedWeightedGaussianState: builder(TaggedWeightedGaussianState
                 WeightedGaussianState: builder(WeightedGaussianStatePrediction)}
 
 
-def _prediction(component, mean, covar, timestamp, measurement):
-    """The component's prediction (``mean``, ``covar`` at ``timestamp``) on its hypothesis
-    of ``measurement``, as Stone Soup's hypothesiser makes it (``Prediction.from_state`` of
-    the component, with the component's tag by :func:`_tag`); built directly for the two
-    weighted state types, whose every property that call sets is given here."""
+def _predictor(component, mean, covar, timestamp):
+    """A function of a hypothesis' measurement giving the component's prediction (``mean``,
+    ``covar`` at ``timestamp``) on that hypothesis, as Stone Soup's hypothesiser makes it
+    (``Prediction.from_state`` of the component) with the component's tag by Stone Soup's
+    rule: a birth component keeps 'birth' when missed and gets a new tag when detected.
+    Built directly for the two weighted state types, whose every property that call sets is
+    given here."""
     kind = _PREDICTIONS.get(type(component))
+    values = dict(state_vector=mean, covar=covar, timestamp=timestamp)
     if kind is None:
-        return Prediction.from_state(component, state_vector=mean, covar=covar,
-                                     timestamp=timestamp, **_tag(component, measurement))
-    return kind(state_vector=mean, covar=covar, timestamp=timestamp, weight=component.weight,
-                **_tag(component, measurement))
+        def build(**tag):
+            return Prediction.from_state(component, **values, **tag)
+    else:
+        values["weight"] = component.weight
 
-
-def _tag(component, measurement):
-    """The ``tag`` keyword of a component's hypothesis of ``measurement``, by Stone Soup's
-    rule: a birth component keeps 'birth' when missed and gets a new tag when detected."""
+        def build(**tag):
+            return kind(**values, **tag)
     if not isinstance(component, TaggedWeightedGaussianState):
-        return {}
+        return lambda measurement: build()
     if component.tag == component.BIRTH:
-        return {"tag": component.BIRTH if isinstance(measurement, MissedDetection) else None}
-    return {"tag": component.tag}
+        return lambda measurement: build(
+            tag=component.BIRTH if isinstance(measurement, MissedDetection) else None)
+    tag = component.tag
+    return lambda measurement: build(tag=tag)

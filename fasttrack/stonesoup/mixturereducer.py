@@ -24,6 +24,7 @@ from stonesoup.types.array import CovarianceMatrix, StateVector
 from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianState
 
 from ..core import mixture as _mixture
+from ._convert import mixture_components
 from ._fallback import fall_back
 from ._objects import builder
 
@@ -39,7 +40,7 @@ class GaussianMixtureReducer(ss.GaussianMixtureReducer):
     """Stone Soup's ``GaussianMixtureReducer``, compiled."""
 
     def reduce(self, components_list):
-        components = list(components_list)
+        components = mixture_components(components_list)
         reason = self._reason(components)
         if reason:
             fall_back(self, "reduce", reason)

@@ -13,13 +13,13 @@ from stonesoup.functions import gm_reduce_single
 from stonesoup.tracker import pointprocess as ss_pointprocess
 from stonesoup.tracker import simple as ss_tracker
 from stonesoup.types.array import CovarianceMatrix, StateVector, StateVectors
-from stonesoup.types.mixture import GaussianMixture
 from stonesoup.types.numeric import Probability
 from stonesoup.types.prediction import GaussianStatePrediction
 from stonesoup.types.track import Track
 from stonesoup.types.update import GaussianStateUpdate
 
 from ..core.mixture import moment_match
+from ._convert import mixture_components
 from ._fallback import fall_back
 
 __all__ = ["MultiTargetMixtureTracker", "MultiTargetTracker", "PointProcessMultiTargetTracker"]
@@ -114,7 +114,7 @@ class PointProcessMultiTargetTracker(ss_pointprocess.PointProcessMultiTargetTrac
 
     def update_tracks(self):
         tracks = self.target_tracks
-        for component in _components(self.gaussian_mixture):
+        for component in mixture_components(self.gaussian_mixture):
             tag = component.tag
             if tag == component.BIRTH:
                 continue
@@ -125,28 +125,16 @@ class PointProcessMultiTargetTracker(ss_pointprocess.PointProcessMultiTargetTrac
                 tracks[tag] = Track([component], id=tag)
 
     def end_tracks(self):
-        tags = {component.tag for component in _components(self.gaussian_mixture)}
+        tags = {component.tag for component in mixture_components(self.gaussian_mixture)}
         for tag in self.target_tracks.keys() - tags:
             del self.target_tracks[tag]
 
     @property
     def extracted_target_states(self):
-        return [component for component in _components(self.gaussian_mixture)
+        return [component for component in mixture_components(self.gaussian_mixture)
                 if component.weight > self.extraction_threshold]
 
     @property
     def estimated_number_of_targets(self):
-        return sum(component.weight for component in _components(self.gaussian_mixture)) \
-            if self.gaussian_mixture else 0
-
-
-def _components(mixture):
-    """The components of a Stone Soup ``GaussianMixture`` as its iteration gives them (its
-    component list itself where the mixture's class iterates and indexes as Stone Soup's
-    does)."""
-    kind = type(mixture)
-    if (kind.__iter__, kind.__getitem__) == (GaussianMixture.__iter__,
-                                             GaussianMixture.__getitem__) \
-            and isinstance(mixture.components, list):
-        return mixture.components
-    return list(mixture)
+        components = mixture_components(self.gaussian_mixture)
+        return sum(component.weight for component in components) if components else 0

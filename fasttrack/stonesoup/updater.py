@@ -36,9 +36,9 @@ from ._objects import builder, from_state
 from .state import kernel_factors, remember_factors
 
 
-def _measurement_model(updater, hypothesis):
+def _measurement_model(updater, measurement):
     """The detection's own measurement model, else the updater's (as Stone Soup picks)."""
-    return hypothesis.measurement.measurement_model or updater.measurement_model
+    return measurement.measurement_model or updater.measurement_model
 
 
 class ParticleUpdater(ss_particle.ParticleUpdater):
@@ -62,7 +62,7 @@ class ParticleUpdater(ss_particle.ParticleUpdater):
 
     def update(self, hypothesis, **kwargs):
         prediction = hypothesis.prediction
-        model = _measurement_model(self, hypothesis)
+        model = _measurement_model(self, hypothesis.measurement)
         reason = self._refusal(model, prediction, kwargs)
         if reason:
             fall_back(self, "update", reason)
@@ -353,27 +353,28 @@ class _PointProcess:
     updater or measurement model goes through Stone Soup's code."""
 
     def update(self, hypotheses):
-        reason = self._reason(hypotheses)
+        pairs = [hypothesis for multiple in hypotheses[:-1] for hypothesis in multiple]
+        measurements = [hypothesis.measurement for hypothesis in pairs]
+        reason = self._reason(measurements)
         if reason:
             fall_back(self, "update", reason)
             return super().update(hypotheses)
-        pairs = [hypothesis for multiple in hypotheses[:-1] for hypothesis in multiple]
         detection = np.repeat(np.arange(len(hypotheses) - 1),
                               [len(multiple) for multiple in hypotheses[:-1]])
         updated = []
         weight_sums = np.zeros(len(hypotheses) - 1)
         if pairs:
-            means, covars, weights = self._pair_updates(pairs)
+            means, covars, weights = self._pair_updates(pairs, measurements)
             weight_sums = np.bincount(detection, weights, minlength=len(hypotheses) - 1)
             if self.normalisation:
                 weights = weights / (weight_sums[detection] + self.clutter_spatial_density)
-            for hypothesis, mean, covar, weight in zip(pairs, means[:, :, None], covars,
-                                                       weights.tolist()):
+            for hypothesis, measurement, mean, covar, weight in zip(
+                    pairs, measurements, means[:, :, None], covars, weights.tolist()):
                 tag = hypothesis.prediction.tag
                 updated.append(_tagged_state(
                     tag=tag if tag != "birth" else None, weight=weight,
                     state_vector=mean.view(StateVector), covar=covar.view(CovarianceMatrix),
-                    timestamp=hypothesis.measurement.timestamp))
+                    timestamp=measurement.timestamp))
         l1 = self._calculate_update_terms(list(weight_sums), hypotheses)
         missed = (1 - self.prob_detection) * l1 * self.prob_survival
         for hypothesis in hypotheses[-1]:
@@ -388,14 +389,17 @@ class _PointProcess:
                 component.weight = np.finfo(float).eps
         return GaussianMixtureUpdate(hypothesis=hypotheses, components=updated)
 
-    def _pair_updates(self, pairs):
+    def _pair_updates(self, pairs, measurements):
         """Posterior means (n, d), covariances (n, d, d) and unnormalised weights
-        ``P_D w q (P_S)`` of the pairs, as Stone Soup's ``KalmanUpdater`` computes them."""
-        model = _measurement_model(self.updater, pairs[0])
+        ``P_D w q (P_S)`` of the pairs (and their measurements), as Stone Soup's
+        ``KalmanUpdater`` computes them."""
+        model = _measurement_model(self.updater, measurements[0])
         h, r = model.matrix(), model.covar()
-        means = np.array([p.prediction.state_vector[:, 0] for p in pairs], dtype=np.float64)
-        covars = np.array([p.prediction.covar for p in pairs], dtype=np.float64)
-        z = np.array([p.measurement.state_vector[:, 0] for p in pairs], dtype=np.float64)
+        predictions = [p.prediction for p in pairs]
+        means = np.array([p.state_vector[:, 0] for p in predictions], dtype=np.float64)
+        covars = np.array([p.covar for p in predictions], dtype=np.float64)
+        rows = {id(m): m.state_vector[:, 0] for m in measurements}
+        z = np.array([rows[id(m)] for m in measurements], dtype=np.float64)
         cross = covars @ h.T
         innovation = h @ cross + r
         gains = cross @ np.linalg.inv(innovation)
@@ -408,18 +412,19 @@ class _PointProcess:
         _, log_det = np.linalg.slogdet(2 * np.pi * innovation)
         mahalanobis = np.einsum("ki,ki->k", v, np.linalg.solve(innovation, v[..., None])[..., 0])
         q = np.exp(-0.5 * (mahalanobis + log_det))
-        prior = np.array([float(p.prediction.weight) for p in pairs])
+        prior = np.array([float(p.weight) for p in predictions])
         weights = self.prob_detection * prior * q
-        born = np.array([p.prediction.tag == "birth" for p in pairs])
+        born = np.array([p.tag == "birth" for p in predictions])
         weights = np.where(born, weights, weights * self.prob_survival)
         return means + np.einsum("kij,kj->ki", gains, v), post, weights
 
-    def _reason(self, hypotheses):
-        """Why Stone Soup's code must run, or None."""
+    def _reason(self, measurements):
+        """Why Stone Soup's code must update the pairs of these measurements, or None."""
         if type(self.updater) not in (ss_kalman.KalmanUpdater, KalmanUpdater):
             return f"an updater of type {type(self.updater).__name__}"
-        models = {id(_measurement_model(self.updater, h)): _measurement_model(self.updater, h)
-                  for multiple in hypotheses[:-1] for h in multiple}
+        detections = {id(m): m for m in measurements}.values()
+        models = {id(model): model for model in (_measurement_model(self.updater, m)
+                                                 for m in detections)}
         if len(models) > 1:
             return "detections of several measurement models"
         if models and type(next(iter(models.values()))) is not SSLinearGaussian:
