@@ -183,13 +183,15 @@ def test_a_bad_covariance_in_a_reduction_is_named_as_the_kernel_names_it(monkeyp
     ft.LinearGaussian(4, (0, 2), np.diag([2.0, 3.0])),
     ft.CartesianToBearingRange(4, (0, 2), np.diag([1e-4, 1.0]), translation_offset=[50, 0])])
 @pytest.mark.parametrize("jacobian", ["analytic", "forward", "central"])
-def test_stack_predictions_are_the_kernels(monkeypatch, sensor, jacobian):
+@pytest.mark.parametrize("intervals", [[1.0, 2.0, 1.0, 0.5, 3.0], [1.5] * 5])
+def test_stack_predictions_are_the_kernels(monkeypatch, sensor, jacobian, intervals):
+    """Mixed intervals, and one interval for all (with a linear sensor, one stacked pass)."""
     transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
     rng = np.random.default_rng(4)
     means = rng.normal(0, 20, (5, 4))
     roots = rng.normal(size=(5, 4, 4))
     covars = roots @ roots.transpose(0, 2, 1) + np.eye(4)
-    intervals = np.array([1.0, 2.0, 1.0, 0.5, 3.0])
+    intervals = np.array(intervals)
     found = _both(monkeypatch, lambda: kalman.stack_predict(transition, sensor, intervals,
                                                             means, covars, jacobian))
     # finite differences turn an ulp of the predicted mean into more: Stone Soup's forward

@@ -51,9 +51,25 @@ def covariance_status(a, asymmetric, indefinite):
     return OK
 
 
+def _all_positive_definite(covars):
+    """Whether each of the (K, n, n) ``covars`` is one :func:`covariance_status` passes at
+    once (symmetric, every Cholesky pivot well clear of its tolerance); False if any needs
+    a closer look."""
+    largest = np.abs(covars).max(axis=(1, 2))
+    if not np.all(np.abs(covars - covars.transpose(0, 2, 1)) <= 1e-9 * largest[:, None, None]):
+        return False
+    try:
+        pivots = np.linalg.cholesky(covars).diagonal(axis1=1, axis2=2).min(axis=1)
+    except np.linalg.LinAlgError:
+        return False
+    top = np.maximum(covars.diagonal(axis1=1, axis2=2).max(axis=1), 0.0)
+    return bool(np.all(pivots**2 > 2.0 * PSD_TOLERANCE * top))
+
+
 def _symmetric(a):
-    """``a``'s lower triangle, mirrored (the kernels compute only that)."""
-    return np.where(_upper(a.shape[0]), a.T, a)
+    """``a``'s lower triangle, mirrored (the kernels compute only that), of one matrix or
+    of a stack of them."""
+    return np.where(_upper(a.shape[-1]), np.swapaxes(a, -1, -2), a)
 
 
 @functools.lru_cache(maxsize=None)
@@ -188,6 +204,14 @@ def stack_predict(transition_model, sensor, method, intervals, means, covars):
     filter (the prior's covariance, then the Jacobian)."""
     k, d = means.shape
     m = sensor.ndim_meas
+    if sensor.kind == SELECT and k > 1 and np.all(intervals == intervals[0]) \
+            and _all_positive_definite(covars):
+        spec = transition_model.spec(float(intervals[0]))
+        x = means @ spec.matrix.T
+        covar = _symmetric(spec.matrix @ covars @ spec.matrix.T + spec.noise)
+        h = jacobian(sensor, method, x[0, :, None])
+        return (np.zeros(k, dtype=np.int64), x, covar, x[:, sensor.mapping],
+                _symmetric(h @ covar @ h.T + sensor.noise_covar))
     status = np.zeros(k, dtype=np.int64)
     out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))
     for t in range(k):
