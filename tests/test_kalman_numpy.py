@@ -74,8 +74,11 @@ def test_update_matches_the_kernel(seed, joseph, method):
         numpy_out = kalman_numpy.update(spec, method, joseph, x, covar, z)
         kernel_out = _kernel_update(spec, method, joseph, x, covar, z)
         assert numpy_out[0] == kernel_out[0] == 0
+        # central differences (steps of 6e-6) turn the last bit of NumPy's vectorised
+        # arctan2, which the kernels' libm call need not share, into about 1e-7
+        rtol = 1e-7 if method == CENTRAL else 1e-8
         for ours, theirs in zip(numpy_out[1:], kernel_out[1:]):
-            np.testing.assert_allclose(ours, theirs, rtol=1e-8, atol=1e-9)
+            np.testing.assert_allclose(ours, theirs, rtol=rtol, atol=1e-9)
 
 
 @settings(max_examples=40, deadline=None)

@@ -204,16 +204,19 @@ def stack_predict(transition_model, sensor, method, intervals, means, covars):
     filter (the prior's covariance, then the Jacobian)."""
     k, d = means.shape
     m = sensor.ndim_meas
-    if sensor.kind == SELECT and k > 1 and np.all(intervals == intervals[0]) \
-            and _all_positive_definite(covars):
-        spec = transition_model.spec(float(intervals[0]))
-        x = means @ spec.matrix.T
-        covar = _symmetric(spec.matrix @ covars @ spec.matrix.T + spec.noise)
-        h = jacobian(sensor, method, x[0, :, None])
-        return (np.zeros(k, dtype=np.int64), x, covar, x[:, sensor.mapping],
-                _symmetric(h @ covar @ h.T + sensor.noise_covar))
     status = np.zeros(k, dtype=np.int64)
     out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))
+    if sensor.kind == SELECT and k > 1 and _all_positive_definite(covars):
+        h = jacobian(sensor, method, means[0, :, None])
+        for interval in np.unique(intervals):  # a stacked pass for each interval
+            rows = intervals == interval
+            spec = transition_model.spec(float(interval))
+            x = means[rows] @ spec.matrix.T
+            covar = _symmetric(spec.matrix @ covars[rows] @ spec.matrix.T + spec.noise)
+            for whole, value in zip(out, (x, covar, x[:, sensor.mapping],
+                                          _symmetric(h @ covar @ h.T + sensor.noise_covar))):
+                whole[rows] = value
+        return (status, *out)
     for t in range(k):
         status[t], x, covar = predict(transition_model.spec(float(intervals[t])),
                                       means[t, :, None], covars[t])
