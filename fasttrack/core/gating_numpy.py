@@ -16,28 +16,27 @@ _LOG_2PI = np.log(2.0 * np.pi)
 def gate(z_hats, covars, detections, threshold, angles):
     """``(starts, candidates, distances2, log_likelihoods)`` of the detections with
     ``v^T S^-1 v < threshold``, or the index of the first track whose S is not positive
-    definite."""
+    definite. Every (track, detection) pair at once."""
     k, m = z_hats.shape
+    try:
+        lower = np.linalg.cholesky(covars)
+    except np.linalg.LinAlgError:
+        for t in range(k):
+            try:
+                np.linalg.cholesky(covars[t])
+            except np.linalg.LinAlgError:
+                return t
+    innovations = detections[None] - z_hats[:, None]  # (K, M, m)
+    innovations[:, :, angles] = wrap(innovations[:, :, angles])
+    whitened = np.linalg.solve(lower, innovations.transpose(0, 2, 1))  # (K, m, M)
+    distances2 = np.einsum("kij,kij->kj", whitened, whitened)
+    tracks, candidates = np.nonzero(distances2 < threshold)  # by track, then detection
     starts = np.zeros(k + 1, dtype=np.int64)
-    found = [], [], []
-    for t in range(k):
-        try:
-            lower = np.linalg.cholesky(covars[t])
-        except np.linalg.LinAlgError:
-            return t
-        innovations = detections - z_hats[t]
-        innovations[:, angles] = wrap(innovations[:, angles])
-        whitened = np.linalg.solve(lower, innovations.T)
-        distances2 = np.einsum("ij,ij->j", whitened, whitened)
-        inside = np.flatnonzero(distances2 < threshold)
-        log_norm = 0.5 * m * _LOG_2PI + np.log(lower.diagonal()).sum()
-        for values, new in zip(found, (inside, distances2[inside],
-                                       -0.5 * distances2[inside] - log_norm)):
-            values.append(new)
-        starts[t + 1] = starts[t] + inside.size
-    if k == 0:
-        return starts, np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0)
-    return (starts, *(np.concatenate(values) for values in found))
+    np.cumsum(np.bincount(tracks, minlength=k), out=starts[1:])
+    log_norm = 0.5 * m * _LOG_2PI + np.log(lower.diagonal(axis1=1, axis2=2)).sum(axis=1)
+    inside = distances2[tracks, candidates]
+    return (starts, candidates.astype(np.int64), inside,
+            -0.5 * inside - log_norm[tracks])
 
 
 def clusters(starts, candidates, n_detections):
