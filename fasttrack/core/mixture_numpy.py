@@ -54,6 +54,12 @@ def _first_bad_covariance(covars):
     largest = np.abs(covars).max(axis=(1, 2))
     asymmetric = ~(np.abs(covars - covars.transpose(0, 2, 1))
                    <= 1e-9 * largest[:, None, None]).all(axis=(1, 2))
+    if not asymmetric.any():
+        try:
+            np.linalg.cholesky(covars)
+            return -1
+        except np.linalg.LinAlgError:
+            pass
     for j in range(covars.shape[0]):
         if asymmetric[j]:
             return 2 * j + 1
