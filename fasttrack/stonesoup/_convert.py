@@ -52,8 +52,13 @@ _BUILDERS = {
 _FAST_MODELS = weakref.WeakKeyDictionary()
 
 
+_PLAIN_VALUES = {float, int, bool, str, type(None)}
+
+
 def _snapshot(value):
     """A comparable copy of a model's parameters (arrays by value)."""
+    if type(value) in _PLAIN_VALUES:
+        return value
     if isinstance(value, Base):  # its properties are stored as ``_property_<name>``
         return type(value), tuple(_snapshot(item) for name, item in vars(value).items()
                                   if name.startswith("_property_"))
