@@ -252,11 +252,17 @@ def threshold(value, name):
     return float(value)
 
 
+def asymmetric(stack):
+    """(K,) bool: which matrices of a (K, n, n) float array are not symmetric to 1e-9 of
+    their largest entry (the kernels' rule; one with a NaN counts as not symmetric)."""
+    largest = np.abs(stack).max(axis=(1, 2), initial=0.0)
+    return ~(np.abs(stack - stack.transpose(0, 2, 1)) <= 1e-9 * largest[:, None, None]).all(
+        axis=(1, 2))
+
+
 def symmetric_stack(value, name):
     """ValueError naming the first matrix of a (K, n, n) float array that is not symmetric
     (to 1e-9 of its largest entry)."""
-    scale = np.abs(value).max(axis=(1, 2), initial=0.0)
-    asymmetric = np.abs(value - value.transpose(0, 2, 1)).max(axis=(1, 2), initial=0.0) \
-        > 1e-9 * scale
-    if asymmetric.any():
-        raise ValueError(f"{name}[{np.argmax(asymmetric)}] is not symmetric")
+    bad = asymmetric(value)
+    if bad.any():
+        raise ValueError(f"{name}[{np.argmax(bad)}] is not symmetric")

@@ -133,8 +133,7 @@ def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
     angles = (np.zeros(m, dtype=np.bool_) if angles is None
               else _validate.bool_array(angles, "angles", (m,)))
     if n_tracks:
-        scale = np.maximum(np.abs(covars).max(axis=(1, 2)), np.finfo(float).tiny)
-        asym = np.abs(covars - covars.transpose(0, 2, 1)).max(axis=(1, 2)) > 1e-9 * scale
+        asym = _validate.asymmetric(covars)
         if asym.any():
             raise ValueError(f"covars[{int(np.argmax(asym))}] must be symmetric")
 

@@ -19,6 +19,7 @@ from .._jit.status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEAN_AT_SENSOR
                            PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC,
                            UPDATE_NOT_PSD)
 from .._jit.tunables import PSD_TOLERANCE
+from .._validate import asymmetric
 from .kinds import ANALYTIC, BEARING_RANGE, CENTRAL, FORWARD, SELECT
 
 
@@ -55,8 +56,7 @@ def _all_positive_definite(covars):
     """Whether each of the (K, n, n) ``covars`` is one :func:`covariance_status` passes at
     once (symmetric, every Cholesky pivot well clear of its tolerance); False if any needs
     a closer look."""
-    largest = np.abs(covars).max(axis=(1, 2))
-    if not np.all(np.abs(covars - covars.transpose(0, 2, 1)) <= 1e-9 * largest[:, None, None]):
+    if asymmetric(covars).any():
         return False
     try:
         pivots = np.linalg.cholesky(covars).diagonal(axis1=1, axis2=2).min(axis=1)

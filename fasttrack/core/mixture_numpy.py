@@ -8,6 +8,7 @@ import operator
 import numpy as np
 
 from .._jit.kinds import STONESOUP
+from .._validate import asymmetric
 
 
 def reduce(means, covars, weights, mode, prune_threshold, merging, merge_threshold,
@@ -18,7 +19,7 @@ def reduce(means, covars, weights, mode, prune_threshold, merging, merge_thresho
     kept = np.flatnonzero(keep)
     work = weights[kept].astype(np.float64)
     if stonesoup and kept.size:
-        work = work + _sum(weights[~keep]) / kept.size
+        work = work + ordered_sum(weights[~keep]) / kept.size
     means, covars = means[kept], covars[kept]
     n = kept.size
     local_member = np.arange(n)
@@ -43,25 +44,24 @@ def reduce(means, covars, weights, mode, prune_threshold, merging, merge_thresho
     return count
 
 
-def _sum(values):
-    """The sum of ``values`` added in order (as the kernel adds them)."""
+def ordered_sum(values):
+    """The sum of a float array's ``values`` added in order (as the kernel, and Stone
+    Soup's reducer, add them)."""
     return functools.reduce(operator.add, values.tolist(), 0.0)
 
 
 def _first_bad_covariance(covars):
     """``2 j + 1`` for the first covariance j not symmetric (to 1e-9 of its largest
     entry), ``2 j`` for one not positive definite, else -1."""
-    largest = np.abs(covars).max(axis=(1, 2))
-    asymmetric = ~(np.abs(covars - covars.transpose(0, 2, 1))
-                   <= 1e-9 * largest[:, None, None]).all(axis=(1, 2))
-    if not asymmetric.any():
+    bad = asymmetric(covars)
+    if not bad.any():
         try:
             np.linalg.cholesky(covars)
             return -1
         except np.linalg.LinAlgError:
             pass
     for j in range(covars.shape[0]):
-        if asymmetric[j]:
+        if bad[j]:
             return 2 * j + 1
         try:
             np.linalg.cholesky(covars[j])
@@ -93,7 +93,7 @@ def _merge(means, covars, weights, stonesoup, threshold, member):
             v = means[candidates] - means[b]
             taken = candidates[np.einsum("ki,ij,kj->k", v, precisions[b], v) <= threshold]
             group = np.r_[b, taken]
-            total = _sum(weights[group])
+            total = ordered_sum(weights[group])
             w = weights[group] / total
             mean = w @ means[group]
             spread = means[group] - mean
@@ -133,7 +133,8 @@ def _truncate(stonesoup, count, keep, means, covars, weights, source, member):
     """The kernel's ``_truncate``: the ``keep`` heaviest (ties: the earlier), heaviest
     first, in place; returns ``keep``."""
     order = np.argsort(-weights[:count], kind="stable")
-    kept_mass, cut_mass = _sum(weights[order[:keep]]), _sum(weights[order[keep:count]])
+    kept_mass = ordered_sum(weights[order[:keep]])
+    cut_mass = ordered_sum(weights[order[keep:count]])
     first = order[:keep]
     new_weights = (weights[first] + cut_mass / keep if stonesoup
                    else weights[first] * ((kept_mass + cut_mass) / kept_mass))

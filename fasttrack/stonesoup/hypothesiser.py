@@ -131,13 +131,17 @@ class GaussianMixtureHypothesiser(ss_gaussianmixture.GaussianMixtureHypothesiser
         gives); on the scan's path (this class's own ``generate_hypotheses``) built with
         them at once."""
         components = list(components)
-        if type(self).generate_hypotheses is GaussianMixtureHypothesiser.generate_hypotheses:
+        if type(self).generate_hypotheses is not GaussianMixtureHypothesiser.generate_hypotheses:
+            out = self.generate_hypotheses(components, detections, timestamp, **kwargs)
+        else:
             scan = _scan(self.hypothesiser, components, detections, timestamp, kwargs)
             if not isinstance(scan, str):
                 return {component: scan.hypotheses(k, predict=_predictor(
                     component, *scan.predicted(k), scan.timestamp))
                     for k, component in enumerate(components)}.values()
-        out = self.generate_hypotheses(components, detections, timestamp, **kwargs)
+            fall_back(self, "generate_hypotheses", scan)  # (not scanned a second time)
+            out = ss_gaussianmixture.GaussianMixtureHypothesiser.generate_hypotheses(
+                self, components, detections, timestamp, **kwargs)
         for component, multiple in out.items():
             for hypothesis in multiple:
                 predicted = hypothesis.prediction

@@ -14,8 +14,6 @@ mode "stonesoup"), gated by a grid instead of testing every pair.
   states of one dimension, and a subclass's own ``prune``, ``merge``, ``merge_components``
   or ``truncate`` run Stone Soup's code.
 """
-import functools
-import operator
 import uuid
 
 import numpy as np
@@ -24,6 +22,7 @@ from stonesoup.types.array import CovarianceMatrix, StateVector
 from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianState
 
 from ..core import mixture as _mixture
+from ..core.mixture_numpy import ordered_sum
 from ._convert import mixture_components
 from ._fallback import fall_back
 from ._objects import builder
@@ -104,7 +103,7 @@ def _prune(components, weights, threshold):
     kept = [c for c, dropped in zip(components, low.tolist()) if not dropped]
     if not kept:
         return kept, weights[:0]
-    weights = weights[~low] + functools.reduce(operator.add, weights[low].tolist()) / len(kept)
+    weights = weights[~low] + ordered_sum(weights[low]) / len(kept)
     for component, weight in zip(kept, weights.tolist()):
         component.weight = weight
     return kept, weights
