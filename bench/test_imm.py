@@ -1,6 +1,7 @@
 """Multiple-model steps on stacks: one filter and 10^4 filters of 3 constant-velocity models
 (noise 0.01, 1 and 10; d = 4, a position sensor), one step of the IMM (order 0), GPB1 or
-GPB2 (order 1, 2) per call of ``step``; one IMM step through the predictor and updater
+GPB2 (order 1, 2) per call of ``step``; one IMM step of a constant-velocity and a
+constant-turn model (the extended Kalman filter's prediction); one IMM step through the predictor and updater
 classes; the IMM smoother over 1 and 100 tracks of 1000 steps; one IMM-GNN scan of 1000
 tracks and one IMM-JPDA step of 100 tracks."""
 import numpy as np
@@ -31,6 +32,26 @@ def test_imm_step(benchmark, k, order):
     probs = np.full((k, 3), 1.0 / 3.0)
     z = rng.normal(size=(k, 2)) * 10.0
     out = benchmark(_filter(order).step, means, covars, probs, z, 1.0)
+    assert np.allclose(out[2].sum(axis=1), 1.0)
+
+
+@pytest.mark.parametrize("k", [1, 10_000])
+def test_imm_step_turn_model(benchmark, k):
+    """A constant-velocity model embedded in the turn state (x, vx, y, vy, w) and
+    ``ConstantTurn`` (the extended Kalman filter's prediction) in one batch IMM step."""
+    from fasttrack.models.transition import EmbeddedTransitionModel
+    benchmark.group = f"imm-step-turn K={k} M=2"
+    cv = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.01)] * 2)
+    imm = ft.BatchIMMFilter([EmbeddedTransitionModel(cv, (0, 1, 2, 3), 5),
+                             ft.ConstantTurn([0.01, 0.01], 1e-4)],
+                            ft.LinearGaussian(5, (0, 2), np.eye(2)), [[0.95, 0.05], [0.05, 0.95]])
+    rng = np.random.default_rng(0)
+    means = np.repeat(rng.normal(size=(k, 1, 5)) * [10.0, 1.0, 10.0, 1.0, 0.05], 2, axis=1)
+    means[:, 0, 4] = 0.0
+    covars = np.broadcast_to(np.diag([1.0, 1.0, 1.0, 1.0, 1e-3]), (k, 2, 5, 5)).copy()
+    covars[:, 0, 4, 4] = 0.0
+    z = means[:, 0, [0, 2]] + rng.normal(size=(k, 2))
+    out = benchmark(imm.step, means, covars, np.full((k, 2), 0.5), z, 1.0)
     assert np.allclose(out[2].sum(axis=1), 1.0)
 
 

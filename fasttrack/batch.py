@@ -14,13 +14,15 @@ from .models.transition import TransitionModel
 __all__ = ["BatchExtendedKalmanFilter", "BatchUnscentedKalmanFilter"]
 
 
-def check_models(transition_model, measurement_model):
-    """A TypeError unless the models are a linear-Gaussian transition and a built-in
+def check_models(transition_model, measurement_model, nonlinear=False):
+    """A TypeError unless the models are a linear-Gaussian transition (or with
+    ``nonlinear`` any TransitionModel, e.g. one built from a function) and a built-in
     measurement model (what the stack kernels know), a ValueError if their state
     dimensions differ."""
     if not isinstance(transition_model, TransitionModel) \
-            or not hasattr(transition_model, "matrix"):
-        raise TypeError(f"transition_model must be a linear-Gaussian TransitionModel, "
+            or not (nonlinear or hasattr(transition_model, "matrix")):
+        kind = "TransitionModel" if nonlinear else "linear-Gaussian TransitionModel"
+        raise TypeError(f"transition_model must be a {kind}, "
                         f"got {type(transition_model).__name__}")
     if not isinstance(measurement_model, MeasurementModel) \
             or isinstance(measurement_model, NonlinearGaussianMeasurement):

@@ -227,8 +227,11 @@ class BatchIMMFilter:
     Parameters
     ----------
     transition_models : sequence of TransitionModel
-        M linear-Gaussian models of the state's dimension d (e.g. constant velocity with two
-        noise levels). A model of fewer components sits in the state through an explicit
+        M models of the state's dimension d (e.g. constant velocity with two noise levels,
+        or constant velocity and :class:`~fasttrack.ConstantTurn`): linear-Gaussian, or
+        built from a function and then linearised at each model's mixed prior mean by
+        forward finite differences (the extended Kalman filter's prediction, as
+        :class:`~fasttrack.ExtendedKalmanPredictor`). A model of fewer components sits in the state through an explicit
         map, :class:`~fasttrack.models.transition.EmbeddedTransitionModel` (e.g. constant
         velocity (x, vx, y, vy) in a constant-acceleration state (x, vx, ax, y, vy, ay)
         with ``state_map=(0, 1, 3, 4)``): a model entering another's prior brings the
@@ -264,7 +267,7 @@ class BatchIMMFilter:
             raise ValueError("transition_models must hold at least one model")
         self._has = _imm.components(models, measurement_model.ndim_state)
         for model in models:
-            check_models(model, measurement_model)
+            check_models(model, measurement_model, nonlinear=True)
         self.transition_models = models
         self.measurement_model = measurement_model
         self.transition_matrix = _imm.transition_matrix(transition_matrix, len(models))

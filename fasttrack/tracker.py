@@ -58,13 +58,16 @@ class MultiTargetTracker:
         Global or greedy nearest neighbour.
     """
 
+    #: Whether the transition model may be one built from a function (the IMM's models).
+    _nonlinear_transitions = False
+
     def __init__(self, transition_model, measurement_model, prior_mean, prior_covar,
                  missed_distance=3.0, min_points=2, delete_after_misses=3, tentative_misses=1,
                  max_covar_trace=None, association="gnn", confirm_within=None):
         if not isinstance(measurement_model, LinearGaussian):
             raise TypeError(f"measurement_model must be a LinearGaussian (tracks start from "
                             f"its inverse), got {type(measurement_model).__name__}")
-        check_models(transition_model, measurement_model)
+        check_models(transition_model, measurement_model, self._nonlinear_transitions)
         self.transition_model = transition_model
         self.measurement_model = measurement_model
         d = transition_model.ndim_state
@@ -227,8 +230,9 @@ class IMMTracker(MultiTargetTracker):
     Parameters
     ----------
     transition_models : sequence of TransitionModel
-        M linear-Gaussian models of the state's dimension (a model of fewer components
-        embedded, as :class:`~fasttrack.BatchIMMFilter` describes).
+        M models of the state's dimension, linear or built from a function (linearised as
+        :class:`~fasttrack.BatchIMMFilter` describes; a model of fewer components
+        embedded).
     measurement_model : LinearGaussian
     transition_matrix : (M, M) array_like
         ``transition_matrix[i, j]``: the probability of switching from model i to model j
@@ -259,6 +263,8 @@ class IMMTracker(MultiTargetTracker):
     confirmed, tentative : IMMTrackSet
     """
 
+    _nonlinear_transitions = True
+
     def __init__(self, transition_models, measurement_model, transition_matrix, prior_mean,
                  prior_covar, mode_probs=None, association="gnn", prob_detect=0.9,
                  clutter_density=None, **options):
@@ -280,7 +286,7 @@ class IMMTracker(MultiTargetTracker):
             self.prob_gate = float(gammainc(measurement_model.ndim_meas / 2,
                                             self.missed_distance ** 2 / 2))
         for model in models[1:]:
-            check_models(model, measurement_model)
+            check_models(model, measurement_model, self._nonlinear_transitions)
         self.transition_models = models
         self.transition_matrix = _imm.transition_matrix(transition_matrix, len(models))
         self.mode_probs = (np.full(len(models), 1.0 / len(models)) if mode_probs is None

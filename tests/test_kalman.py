@@ -123,6 +123,16 @@ def test_kalman_kernels_match_mirrors():
     reference.kalman.predict_function(coordinated_turn, 1.0, q, False, x, covariance, *outs[1])
     for a, b in zip(*outs):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-14)
+    means = np.array([x[:, 0], x[:, 0] * 0.5, [np.nan] * 4])
+    covariances = np.array([covariance, covariance * 2.0, covariance])
+    outs = [(np.empty((3, 4)), np.empty((3, 4, 4)), np.empty(3, dtype=np.int64))
+            for _ in range(2)]
+    for module, out in zip((kernels, reference.kalman), outs):
+        module.stack_predict_function(coordinated_turn, 1.0, q, True, means, covariances, *out)
+    np.testing.assert_array_equal(outs[0][2], [0, 0, reference.status.FUNCTION_NOT_FINITE])
+    np.testing.assert_array_equal(outs[1][2], outs[0][2])
+    for a, b in zip(outs[0][:2], outs[1][:2]):
+        np.testing.assert_allclose(a[:2], b[:2], rtol=1e-12, atol=1e-14)
     outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
              np.empty((4, 2))) for _ in range(2)]
     z_ub = np.array([[0.05], [48.0]])

@@ -458,6 +458,24 @@ def linear_update(mapping, noise, angles, joseph, means, covariances, measuremen
                                          UPDATE_NOT_PSD)
 
 
+@jit()
+def stack_predict_function(function, dt, covar, central, means, covariances, means_out,
+                           covariances_out, status):
+    """K filters (means (K, d), covariances (K, d, d)) through a user transition
+    ``f((d, n), dt)`` with noise ``covar`` (d, d), each as :func:`predict_function` (the
+    function's outputs checked, F its finite-difference Jacobian at the filter's mean);
+    ``status[k]`` is filter k's status."""
+    k_filters, d = means.shape
+    x, x_out = np.empty((d, 1)), np.empty((d, 1))
+    for t in range(k_filters):
+        for r in range(d):
+            x[r, 0] = means[t, r]
+        status[t] = predict_function(function, dt, covar, central, x, covariances[t], x_out,
+                                     covariances_out[t])
+        for r in range(d):
+            means_out[t, r] = x_out[r, 0]
+
+
 # --- one filter: a state's (d, 1) column, its (d, d) covariance (a block of one) -----------
 
 

@@ -148,7 +148,8 @@ def step(transition_models, measurement_model, matrix, means, covars, mode_probs
 
     Parameters
     ----------
-    transition_models : sequence of M linear TransitionModel
+    transition_models : sequence of M TransitionModel
+        Linear, or built from a function (linearised by forward differences).
     measurement_model : MeasurementModel
         A built-in model.
     matrix : (M, M) ndarray
@@ -379,14 +380,16 @@ def _normalised(log_weights):
 
 def _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
            measurements, intervals, algorithm, has):
-    """:func:`step` in one kernel call (:func:`fasttrack._jit.imm.imm_linear_step`) for a
-    sensor that selects state components and one interval for every filter, once the
+    """:func:`step` in one kernel call (:func:`fasttrack._jit.imm.imm_linear_step`) for
+    linear models, a sensor that selects state components and one interval for every
+    filter, once the
     process runs kernels; None where it does not apply or a filter's step is undefined
     (the general path then names the filter and the model)."""
     sensor = measurement_model.spec
     k, models = mode_probs.shape
     pairs = models if algorithm == "gpb2" else 1
     if sensor.kind != SELECT or sensor.angles.any() \
+            or not all(hasattr(model, "matrix") for model in transition_models) \
             or (k > 1 and (intervals != intervals[0]).any()) \
             or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models * pairs):
         return None

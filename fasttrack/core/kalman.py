@@ -117,14 +117,16 @@ def _check_update(status, strict, spec, x):
 def stack_predict(transition_model, model, intervals, means, covars, jacobian="analytic",
                   by_interval=False):
     """``(means, covars, z_hats, S)``: K filters predicted ``intervals`` (K,) seconds ahead
-    through a linear ``transition_model``, and their measurements by ``model``: (K, d),
-    (K, d, d), (K, m) and the innovation covariances ``H P H^T + R`` (K, m, m), H the
-    measurement Jacobian (``jacobian``) at each predicted mean.
+    through ``transition_model``, and their measurements by ``model``: (K, d), (K, d, d),
+    (K, m) and the innovation covariances ``H P H^T + R`` (K, m, m), H the measurement
+    Jacobian (``jacobian``) at each predicted mean. A transition built from a function is
+    linearised at each filter's mean by finite differences (central for ``jacobian``
+    'central', else forward, as :func:`predict`).
 
     A transition whose F depends on the interval outside constant-velocity blocks needs
     one interval for all filters: ``by_interval`` predicts each group of equal intervals in
     turn, else it is a ValueError. Raises ValueError naming the first filter whose
-    prediction is undefined."""
+    prediction is undefined, or the user's function for a bad output."""
     if by_interval and means.shape[0] and not _stack.one_transition(transition_model,
                                                                      intervals):
         out = None
@@ -138,7 +140,14 @@ def stack_predict(transition_model, model, intervals, means, covars, jacobian="a
         return tuple(out)
     k, d = means.shape
     sensor = model.spec
-    if k and sensor.kind != FUNCTION and _jit.numpy_first(k):
+    spec = transition_model.spec(float(intervals[0])) if k else None
+    if spec is not None and spec.kind == FUNCTION:
+        if not np.all(intervals == intervals[0]):
+            raise ValueError(f"{type(transition_model).__name__} is a function of the "
+                             f"interval, so its filters need one common time interval")
+        means, covars = _function_predict(spec, means, covars, jacobian)
+        spec = None  # the measurement of the predictions remains
+    elif k and sensor.kind != FUNCTION and _jit.numpy_first(k):
         _stack.transition(transition_model, intervals)  # refuses what the kernels refuse
         status, *out = _numpy.stack_predict(transition_model, sensor, JACOBIANS[jacobian],
                                             intervals, means, covars)
@@ -149,8 +158,7 @@ def stack_predict(transition_model, model, intervals, means, covars, jacobian="a
     status = np.zeros(k, dtype=np.int64)
     if k == 0:
         return out
-    if sensor.kind == SELECT and np.all(intervals == intervals[0]):
-        spec = transition_model.spec(float(intervals[0]))
+    if spec is not None and sensor.kind == SELECT and np.all(intervals == intervals[0]):
         fixed = (spec.matrix, spec.noise, sensor.mapping, sensor.noise_covar)
 
         def run(lo, hi):
@@ -158,7 +166,8 @@ def stack_predict(transition_model, model, intervals, means, covars, jacobian="a
                                    *[a[lo:hi] for a in out], status[lo:hi])
 
     else:
-        transition = _stack.transition(transition_model, intervals)
+        transition = (_stack.transition(transition_model, intervals) if spec is not None
+                      else _stack.identity(d))
         measurement = (*sensor.sensor[:5], JACOBIANS[jacobian])
 
         def run(lo, hi):
@@ -166,6 +175,27 @@ def stack_predict(transition_model, model, intervals, means, covars, jacobian="a
                                   covars[lo:hi], *[a[lo:hi] for a in out], status[lo:hi])
 
     _stack.in_chunks(k, run)
+    _stack.check(status)
+    return out
+
+
+def _function_predict(spec, means, covars, jacobian):
+    """``(means, covars)``: K filters (K, d), (K, d, d) through the user transition of a
+    FUNCTION ``spec``, linearised by finite differences (central for ``jacobian``
+    'central', else forward). Raises ValueError naming the first failed filter, or the
+    user's function for a bad output."""
+    out = np.empty_like(means), np.empty_like(covars)
+    status = np.zeros(means.shape[0], dtype=np.int64)
+    fixed = (spec.function.callee, spec.dt, spec.noise, jacobian == "central")
+    _stack.in_chunks(means.shape[0], lambda lo, hi: _kalman.stack_predict_function(
+        *fixed, means[lo:hi], covars[lo:hi], *[a[lo:hi] for a in out], status[lo:hi]))
+    bad = np.flatnonzero(np.isin(status, _errors.FUNCTION_CODES)) if status.any() else ()
+    if len(bad):
+        try:
+            _errors.check(status[bad[0]], spec.function, means[bad[0]][:, None], spec.dt)
+        except ValueError as error:
+            raise ValueError(f"{np.count_nonzero(status)} of {status.size} filters failed; "
+                             f"filter {bad[0]}: {error}") from None
     _stack.check(status)
     return out
 

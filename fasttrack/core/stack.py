@@ -10,7 +10,7 @@ from .. import _errors
 from .. import _jit
 from .. import threads as _threads
 from .._jit import status as _status
-from .kinds import FIXED
+from .kinds import CV, FIXED
 from .._jit.tunables import SERIAL_BELOW_FILTERS
 
 _kalman = _jit.lazy("kalman")
@@ -32,14 +32,14 @@ def identity(d):
 
 
 def one_transition(model, intervals):
-    """Whether one kernel transition of a linear ``model`` serves every interval (seconds)
-    of ``intervals``: CV blocks (built per interval), a time-invariant model, or equal
-    intervals."""
+    """Whether one kernel transition of ``model`` serves every interval (seconds) of
+    ``intervals``: CV blocks (built per interval), a time-invariant model, or equal
+    intervals (a function of the interval needs them equal)."""
     return _serves(model.spec(float(intervals.flat[0])), intervals)
 
 
 def _serves(spec, intervals):
-    return spec.kind != FIXED or spec.time_invariant or np.all(intervals == spec.dt)
+    return spec.kind == CV or spec.time_invariant or np.all(intervals == spec.dt)
 
 
 def transition(model, intervals):

@@ -72,6 +72,15 @@ def predict_function(function, dt, covar, central, x, covariance, x_out, covaria
     return _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
 
 
+def stack_predict_function(function, dt, covar, central, means, covariances, means_out,
+                           covariances_out, status):
+    for t in range(means.shape[0]):
+        x_out = np.empty((means.shape[1], 1))
+        status[t] = predict_function(function, dt, covar, central, means[t][:, None].copy(),
+                                     covariances[t], x_out, covariances_out[t])
+        means_out[t] = x_out[:, 0]
+
+
 def _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out, covariance_out,
                    innovation_covar, cross):
     cross[:] = covariance @ h.T
