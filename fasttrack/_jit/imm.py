@@ -41,7 +41,6 @@ def _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, 
         total += weights[i]
     if _every(has):  # no conversion: the plain moment match
         _moment_match_group(means, covars, weights, everyone, models, x0, p0)
-        _symmetrise(p0)
     else:
         _converted_match(means, covars, has, j, weights, total, x0, p0)
 
@@ -125,14 +124,6 @@ def _prior(algorithm, matrix, probs, means, covars, has, j, space):
     _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, everyone, x0,
            p0)
     return predicted, _covariance_code(p0, check, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
-
-
-@jit()
-def _symmetrise(p):
-    """``p`` (d, d) replaced by ``(p + p^T) / 2``."""
-    for a in range(p.shape[0]):
-        for b in range(a):
-            p[a, b] = p[b, a] = 0.5 * (p[a, b] + p[b, a])
 
 
 @jit(inline=True)
@@ -316,7 +307,6 @@ def _gpb2_step(transitions, noises, mapping, noise, matrix, has, means, covars, 
             weights[reached[g]] = math.exp(log_pair[reached[g]] - top)
         total = _moment_match_group(pair_means, pair_covars, weights, reached, count,
                                     out_means[j], out_covars[j])
-        _symmetrise(out_covars[j])
         log_posterior[j] = top + math.log(total)
     _normalised(log_posterior, out_probs)
     return OK
@@ -506,7 +496,6 @@ def _smooth_track(d, transitions, noises, step, matrix, means, covars, probs, ou
                     return 1 + t
             _moment_match_group(pair_means, pair_covars, weights, everyone, models,
                                 out_means[t, i], out_covars[t, i])
-            _symmetrise(out_covars[t, i])
         for i in range(models):
             out_probs[t, i] /= norm
     return 0

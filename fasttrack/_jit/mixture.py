@@ -148,7 +148,8 @@ def _merge_pair(mean, covar, weight, other_mean, other_covar, other_weight, diff
 @jit()
 def _moment_match_group(means, covars, weights, group, count, mean, covar):
     """``group[:count]``'s components merged into one Gaussian of the same moments (spread
-    included) into ``mean`` and ``covar``; returns their total weight."""
+    included) into ``mean`` and ``covar`` (its lower triangle computed and mirrored, so
+    exactly symmetric); returns their total weight."""
     d = means.shape[1]
     total = 0.0
     for r in range(d):
@@ -160,15 +161,18 @@ def _moment_match_group(means, covars, weights, group, count, mean, covar):
         for r in range(d):
             mean[r] += w * means[group[g], r]
     for r in range(d):
-        for c in range(d):
+        for c in range(r + 1):
             covar[r, c] = 0.0
     for g in range(count):
         i = group[g]
         w = weights[i] / total
         for r in range(d):
             spread = means[i, r] - mean[r]
-            for c in range(d):
+            for c in range(r + 1):
                 covar[r, c] += w * (covars[i, r, c] + spread * (means[i, c] - mean[c]))
+    for r in range(d):
+        for c in range(r):
+            covar[c, r] = covar[r, c]
     return total
 
 
