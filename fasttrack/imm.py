@@ -85,6 +85,7 @@ class IMMPredictor(_Models):
         fast = self._kernel_prediction(prior, probs, timestamp, has)
         if fast is not None:
             return fast
+        _imm.covariances(prior.covars, "prior.covars")  # named here: mixing would hide it
         means, covars, predicted = _imm.mix(prior.means[None], prior.covars[None], probs[None],
                                             self.transition_matrix, has)
         states = [predictor.predict(GaussianState(means[0, j], covars[0, j],
@@ -309,6 +310,7 @@ class BatchIMMFilter:
         if not _imm.values_valid(means, covars, mode_probs, measurements):
             self._stacks(means, covars, mode_probs, "(K, ")  # raises, naming the argument
             _validate.finite_array(measurements, "measurements", 2)
+            _imm.covariances(covars)
         intervals = _validate.intervals(time_intervals, (k,))
         if k == 0:
             return means.copy(), covars.copy(), mode_probs.copy()

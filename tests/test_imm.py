@@ -161,18 +161,27 @@ def test_bad_filters_are_refused_naming_the_argument(change, error, message):
     (dict(means=np.zeros((1, 3, 4))), r"means must have shape \(K, 2, 4\)"),
     (dict(means=np.full((1, 2, 4), np.nan)), "means contains NaN"),
     (dict(covars=np.full((1, 2, 4, 4), np.inf)), "covars contains infinite values"),
+    (dict(covars=np.stack([np.eye(4), np.triu(np.ones((4, 4)))])[None]),
+     r"covars\[0, 1\] is not symmetric"),
+    (dict(covars=np.stack([np.diag([-1.0, 1.0, 1.0, 1.0]), np.eye(4)])[None]),
+     r"covars\[0, 0\] is not positive semi-definite"),
     (dict(measurements=[[0.0, np.nan]]), "measurements contains NaN"),
     (dict(time_intervals=[1.0, 2.0]), r"time_intervals \(seconds\) must broadcast"),
     (dict(time_intervals=np.nan), "time_intervals contains NaN"),
 ])
-def test_bad_steps_are_refused_naming_the_argument(change, message, kernels, monkeypatch):
-    """Whether the values are checked in a kernel (the process runs kernels) or in NumPy."""
+@pytest.mark.parametrize("order", [0, 2])
+def test_bad_steps_are_refused_naming_the_argument(change, message, kernels, order,
+                                                   monkeypatch):
+    """Whether the values are checked in a kernel (the process runs kernels) or in NumPy,
+    for the IMM and GPB2 (an asymmetric covariance is not mixed away)."""
     from fasttrack import _jit
     if kernels:
         from fasttrack._jit import imm as _loaded  # noqa: F401 (loads the kernels)
     else:
         monkeypatch.setattr(_jit, "kernels_loaded", lambda: False)
-    filt = ft.BatchIMMFilter([_cv(1.0), _cv(2.0)], SENSOR, [[0.9, 0.1], [0.1, 0.9]])
+    models, matrix = [_cv(1.0), _cv(2.0)], [[0.9, 0.1], [0.1, 0.9]]
+    filt = ft.BatchGPBFilter(models, SENSOR, matrix, order=order) if order \
+        else ft.BatchIMMFilter(models, SENSOR, matrix)
     means, covars = _priors(1, 2)
     arguments = dict(means=means, covars=covars, mode_probs=[[0.5, 0.5]],
                      measurements=[[0.0, 1.0]], time_intervals=1.0)
@@ -226,10 +235,15 @@ def test_the_step_inputs_check_is_its_mirror():
     from fasttrack._jit import imm as kernels
     from reference import imm as mirror
     rng = np.random.default_rng(5)
-    means, covars = rng.normal(size=(6, 3, 4)), rng.normal(size=(6, 3, 4, 4))
+    means, a = rng.normal(size=(6, 3, 4)), rng.normal(size=(6, 3, 4, 4))
+    covars = a @ a.swapaxes(-1, -2)
+    covars[2, 1] = 0.0
+    covars[2, 1, :2, :2] = [[1.0, 0.5], [0.5, 2.0]]  # singular is legal
     probs, z = rng.dirichlet(np.ones(3), size=6), rng.normal(size=(6, 2))
     spoilt = [(0, (2, 1, 3), np.nan), (1, (5, 2, 0, 1), -np.inf), (3, (0, 1), np.inf),
-              (2, (3, 1), np.nan), (2, (1, 0), -0.1), (2, (4, 2), 0.5)]  # (array, entry, value)
+              (2, (3, 1), np.nan), (2, (1, 0), -0.1), (2, (4, 2), 0.5),
+              (1, (4, 0, 3, 1), 100.0), (1, (2, 1, 3, 3), -1e-3),
+              (1, (2, 1, 0, 3), 1e-3)]  # (array, entry, value)
     verdicts = []
     for which, index, value in [(None, None, None)] + spoilt:
         arrays = [a.copy() for a in (means, covars, probs, z)]
@@ -396,6 +410,12 @@ def test_mixtures_and_the_pair_refuse_what_they_cannot_use():
         predictor.predict(ft.GaussianMixture([component, heavy]), 1.0)  # 0.5 + 0.9
     with pytest.raises(TypeError, match="prior must be a GaussianMixture"):
         predictor.predict(component, 1.0)
+    indefinite = ft.WeightedGaussianState([0.0] * 4, np.diag([1.0, -1.0, 1.0, 1.0]),
+                                          weight=0.5, timestamp=0.0)
+    for pair in (predictor, ft.IMMPredictor([ft.ExtendedKalmanPredictor(_cv(1.0))] * 2,
+                                            [[0.9, 0.1], [0.1, 0.9]])):
+        with pytest.raises(ValueError, match=r"prior.covars\[1\] is not positive semi-def"):
+            pair.predict(ft.GaussianMixture([component, indefinite]), 1.0)
     with pytest.raises(ValueError, match="predictors must hold at least one"):
         ft.IMMPredictor([], [[1.0]])
     updater = ft.IMMUpdater([ft.KalmanUpdater(SENSOR)] * 2, [[0.9, 0.1], [0.1, 0.9]])

@@ -128,14 +128,19 @@ def test_covariance_status_matches_the_kernels_decisions():
              "indefinite": good - 20 * np.eye(4),
              "hidden negative": np.array([[1.0, 2.0], [2.0, 1.0]]),
              "zero pivot, nonzero column": np.array([[0.0, 1e-3], [1e-3, 1.0]])}
+    codes = (status.PRIOR_NOT_SYMMETRIC, status.PRIOR_NOT_PSD)
     for name, a in cases.items():
         x, d = np.zeros((a.shape[0], 1)), a.shape[0]
         model = ft.LinearGaussianTransitionModel(np.eye(d), np.eye(d))
         expected = kernels.predict_one(*model.spec(1.0).kalman(), 1.0, x, a, np.empty((d, 1)),
                                        np.empty((d, d)))
-        found = kalman_numpy.covariance_status(a, status.PRIOR_NOT_SYMMETRIC,
-                                               status.PRIOR_NOT_PSD)
+        found = kalman_numpy.covariance_status(a, *codes)
         assert found == expected, name
+    fours = [a for a in cases.values() if a.shape == (4, 4)]
+    stack = np.array(fours * 3)  # decided together as one by one
+    np.testing.assert_array_equal(kalman_numpy.covariance_statuses(stack, *codes),
+                                  [kalman_numpy.covariance_status(a, *codes) for a in stack])
+    assert set(kalman_numpy.covariance_statuses(stack, *codes)) == {0, *codes}
 
 
 @pytest.mark.parametrize("case", ["at the sensor", "infinite measurement",

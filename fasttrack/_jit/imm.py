@@ -114,16 +114,27 @@ def _converted(means, covars, has, i, j, x, p):
 
 @jit(inline=True)
 def _prior(algorithm, matrix, probs, means, covars, has, j, space):
-    """``(c_j, status)``: model j's prior of one filter (:func:`_mixed`) into ``space``'s
-    prior arrays, its predicted probability ``c_j = sum_i p_ij mu_i``, and OK or why the
-    prior is not a covariance. ``space`` is :func:`_workspace`'s."""
+    """Model j's prior of one filter (:func:`_mixed`) into ``space``'s prior arrays; returns
+    its predicted probability ``c_j = sum_i p_ij mu_i``. ``space`` is :func:`_workspace`'s.
+    (A mixture of covariances is one: the models' own are what is checked.)"""
     predicted = 0.0
     for i in range(means.shape[0]):
         predicted += matrix[i, j] * probs[i]
-    x0, p0, check, weights, everyone = space[1], space[2], space[3], space[5], space[7]
+    x0, p0, weights, everyone = space[1], space[2], space[5], space[7]
     _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, everyone, x0,
            p0)
-    return predicted, _covariance_code(p0, check, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    return predicted
+
+
+@jit(inline=True)
+def _covariances_code(covars, check):
+    """OK, or why the first of one filter's model covariances (M, d, d) is not symmetric
+    positive semi-definite; ``check`` (d, d) is scratch."""
+    for i in range(covars.shape[0]):
+        code = _covariance_code(covars[i], check, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+        if code != OK:
+            return code
+    return OK
 
 
 @jit(inline=True)
@@ -257,9 +268,7 @@ def _mixing_step(algorithm, transitions, noises, mapping, noise, matrix, has, me
     ``space`` is :func:`_workspace`'s."""
     scratch, x0, p0, log_posterior = space[0], space[1], space[2], space[4]
     for j in range(means.shape[0]):
-        predicted, code = _prior(algorithm, matrix, probs, means, covars, has, j, space)
-        if code != OK:
-            return code
+        predicted = _prior(algorithm, matrix, probs, means, covars, has, j, space)
         log_likelihood = _model_step(transitions[j], noises[j], mapping, noise, x0, p0, z,
                                      out_means[j], out_covars[j], scratch)
         if log_likelihood != log_likelihood:
@@ -275,13 +284,9 @@ def _gpb2_step(transitions, noises, mapping, noise, matrix, has, means, covars, 
                out_means, out_covars, out_probs, space):
     """One filter's GPB2 step (see :func:`imm_linear_step`); returns its status.
     ``space`` is :func:`_workspace`'s."""
-    scratch, x0, p0, check, log_posterior, weights, log_pair = space[:7]
+    scratch, x0, p0, _, log_posterior, weights, log_pair = space[:7]
     pair_means, pair_covars, reached = space[8:]
     models = means.shape[0]
-    for i in range(models):
-        code = _covariance_code(covars[i], check, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
-        if code != OK:
-            return code
     for j in range(models):
         count, top = 0, -np.inf
         for i in range(models):
@@ -315,8 +320,9 @@ def _gpb2_step(transitions, noises, mapping, noise, matrix, has, means, covars, 
 @jit()
 def step_inputs_valid(means, covars, probs, z, tolerance):
     """Whether every entry of the (K, M, d), (K, M, d, d), (K, M) and (K, m) arrays is
-    finite and each row of ``probs`` is >= 0 and sums to 1 within ``tolerance``: the
-    checks of a multiple-model step's values, in one pass."""
+    finite, each row of ``probs`` is >= 0 and sums to 1 within ``tolerance``, and each
+    covariance is symmetric positive semi-definite: the checks of a multiple-model step's
+    values, which :func:`imm_linear_step` takes as done."""
     finite = True
     for a in (means.ravel(), covars.ravel(), z.ravel()):
         for i in range(a.size):  # a branch-free test, so that the loop vectorises
@@ -327,7 +333,13 @@ def step_inputs_valid(means, covars, probs, z, tolerance):
             finite &= 0.0 <= probs[k, j] <= 1.7976931348623157e308
             total += probs[k, j]
         finite &= abs(total - 1.0) <= tolerance
-    return finite
+    if not finite:
+        return False
+    check = np.empty(covars.shape[2:])
+    for k in range(covars.shape[0]):
+        if _covariances_code(covars[k], check) != OK:
+            return False
+    return True
 
 
 @jit()
@@ -357,7 +369,9 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has,
     z : (K, m) float64
     out_means, out_covars, out_probs : arrays of the shapes of the inputs
     status : (K,) int64
-        OK, or why the filter's step is undefined (its outputs are then partly written).
+        OK, or INNOVATION_NOT_PD where a model's innovation covariance is not positive
+        definite (its outputs are then partly written). The inputs' values are not checked
+        here (:func:`step_inputs_valid` does).
     """
     space = _workspace(means.shape[2], mapping.size, means.shape[1])
     for k in range(means.shape[0]):
@@ -384,17 +398,18 @@ def imm_predict(transitions, noises, matrix, has, means, covars, probs, out_mean
     out_means, out_covars, out_predicted : arrays of the shapes of the inputs
         The models' predictions and predicted probabilities ``c_j = sum_i p_ij mu_i``.
     status : (K,) int64
-        OK, or why a filter's prediction is undefined.
+        OK, or why the first of the filter's model covariances is not symmetric positive
+        semi-definite.
     """
     filters, models, d = means.shape
     space = _workspace(d, 1, models)
     for k in range(filters):
-        status[k] = OK
+        status[k] = _covariances_code(covars[k], space[3])
+        if status[k] != OK:
+            continue
         for j in range(models):
-            out_predicted[k, j], status[k] = _prior(IMM, matrix, probs[k], means[k], covars[k],
-                                                    has, j, space)
-            if status[k] != OK:
-                break
+            out_predicted[k, j] = _prior(IMM, matrix, probs[k], means[k], covars[k], has, j,
+                                         space)
             _predict(transitions[j], noises[j], space[1], space[2], out_means[k, j],
                      out_covars[k, j], space[0][2])
 

@@ -17,8 +17,10 @@ from .. import _jit, _validate
 from .. import threads as _threads
 from . import jpda as _jpda
 from . import kalman as _kalman
+from . import kalman_numpy as _kalman_numpy
 from .kalman_numpy import wrap
 from .kinds import CV, SELECT
+from .._jit.status import PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
 from .._jit.tunables import SERIAL_BELOW_FILTERS
 
 _imm = _jit.lazy("imm")
@@ -78,11 +80,33 @@ def mode_probabilities(probs, shape, name="mode_probs", values=True):
 
 def values_valid(means, covars, mode_probs, measurements):
     """Whether the values of a step's validated (K, M, d), (K, M, d, d), (K, M) and (K, m)
-    arrays are certainly valid: finite, and each row of ``mode_probs`` >= 0 and summing to
-    one. Checked in one kernel pass once the process runs kernels; False before (the
-    caller then runs the checks that say what is wrong)."""
-    return _jit.kernels_loaded() and bool(_imm.step_inputs_valid(
-        means, covars, mode_probs, measurements, SUM_TOLERANCE))
+    arrays are certainly valid: finite, each row of ``mode_probs`` >= 0 and summing to
+    one, each covariance symmetric positive semi-definite. Checked by a kernel (in chunks
+    on threads) once the process runs kernels; False before (the caller then runs the checks that say what
+    is wrong: :func:`covariances` for the covariances)."""
+    if not _jit.kernels_loaded():
+        return False
+    arrays = (means, covars, mode_probs, measurements)
+    if mode_probs.size < SERIAL_BELOW_FILTERS:
+        return bool(_imm.step_inputs_valid(*arrays, SUM_TOLERANCE))
+    verdicts = []
+    _threads.in_chunks(lambda lo, hi: verdicts.append(_imm.step_inputs_valid(
+        *(a[lo:hi] for a in arrays), SUM_TOLERANCE)), means.shape[0], serial_below=0)
+    return all(verdicts)
+
+
+def covariances(covars, name="covars"):
+    """A ValueError naming the first of the (..., d, d) ``covars`` that is not symmetric
+    positive semi-definite (the kernels' rule), e.g. ``covars[3, 1]``."""
+    d = covars.shape[-1]
+    status = _kalman_numpy.covariance_statuses(covars.reshape(-1, d, d), PRIOR_NOT_SYMMETRIC,
+                                               PRIOR_NOT_PSD)
+    bad = np.flatnonzero(status)
+    if bad.size:
+        where = ", ".join(str(int(i)) for i in np.unravel_index(bad[0], covars.shape[:-2]))
+        what = "symmetric" if status[bad[0]] == PRIOR_NOT_SYMMETRIC else \
+            "positive semi-definite"
+        raise ValueError(f"{name}[{where}] is not {what}")
 
 
 def mix(means, covars, mode_probs, matrix, has=None):
@@ -382,9 +406,8 @@ def _fused(transition_models, measurement_model, matrix, means, covars, mode_pro
            measurements, intervals, algorithm, has):
     """:func:`step` in one kernel call (:func:`fasttrack._jit.imm.imm_linear_step`) for
     linear models, a sensor that selects state components and one interval for every
-    filter, once the
-    process runs kernels; None where it does not apply or a filter's step is undefined
-    (the general path then names the filter and the model)."""
+    filter, once the process runs kernels; None where it does not apply or a filter's step
+    is undefined (the general path then names the filter and the model)."""
     sensor = measurement_model.spec
     k, models = mode_probs.shape
     pairs = models if algorithm == "gpb2" else 1

@@ -19,44 +19,56 @@ from .._jit.status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEAN_AT_SENSOR
                            PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC,
                            UPDATE_NOT_PSD)
 from .._jit.tunables import PSD_TOLERANCE
-from .._validate import asymmetric
+from .._validate import asymmetric as _asymmetric
 from .kinds import ANALYTIC, BEARING_RANGE, CENTRAL, FORWARD, SELECT
 
 
 def covariance_status(a, asymmetric, indefinite):
     """OK, ``asymmetric`` or ``indefinite`` for the (n, n) ``a``, decided as the kernels
-    decide: symmetric to 1e-9 of its largest entry, then a Cholesky factorisation whose
-    pivots within ``PSD_TOLERANCE * max(diag)`` of zero count as zero."""
-    n = a.shape[0]
-    top = max(a.diagonal().max(), 0.0)
+    decide (see :func:`covariance_statuses`)."""
     if not np.all(np.abs(a - a.T) <= 1e-9 * np.abs(a).max()):
         return asymmetric
-    tol = PSD_TOLERANCE * top
     try:  # every pivot well clear of the tolerance: the kernels' factorisation is LAPACK's
+        tol = PSD_TOLERANCE * max(a.diagonal().max(), 0.0)
         if np.linalg.cholesky(a).diagonal().min() ** 2 > 2.0 * tol:
             return OK
     except np.linalg.LinAlgError:
         pass
-    lower = np.zeros((n, n))
+    return covariance_statuses(a[None], asymmetric, indefinite)[0]
+
+
+def covariance_statuses(stack, asymmetric, indefinite):
+    """(K,) int64: OK, ``asymmetric`` or ``indefinite`` for each of the (K, n, n) ``stack``,
+    decided as the kernels decide: symmetric to 1e-9 of its largest entry, then a Cholesky
+    factorisation whose pivots within ``PSD_TOLERANCE * max(diag)`` of zero count as zero
+    (their column must then vanish to ``sqrt(PSD_TOLERANCE) * max(diag)``)."""
+    status = np.where(_asymmetric(stack), asymmetric, OK)
+    if _all_positive_definite(stack):  # every pivot well clear: the kernels' factorisation
+        return status
+    n = stack.shape[1]
+    top = np.maximum(stack.diagonal(axis1=1, axis2=2).max(axis=1, initial=0.0), 0.0)
+    tol = PSD_TOLERANCE * top
+    lower = np.zeros(stack.shape)
+    bad = np.zeros(stack.shape[0], dtype=np.bool_)
     for j in range(n):
-        s = a[j, j] - lower[j, :j] @ lower[j, :j]
-        if not s >= -tol:
-            return indefinite
-        pivot = np.sqrt(s) if s > tol else 0.0
-        lower[j, j] = pivot
-        t = a[j + 1:, j] - lower[j + 1:, :j] @ lower[j, :j]
-        if pivot > 0.0:
-            lower[j + 1:, j] = t / pivot
-        elif not np.all(np.abs(t) <= np.sqrt(PSD_TOLERANCE) * top):
-            return indefinite
-    return OK
+        s = stack[:, j, j] - np.einsum("kq,kq->k", lower[:, j, :j], lower[:, j, :j])
+        bad |= ~(s >= -tol)
+        pivot = np.where(s > tol, np.sqrt(np.abs(s)), 0.0)
+        lower[:, j, j] = pivot
+        t = stack[:, j + 1:, j] - np.einsum("kiq,kq->ki", lower[:, j + 1:, :j],
+                                            lower[:, j, :j])
+        clear = pivot > 0.0
+        lower[:, j + 1:, j] = np.where(clear[:, None], t / np.where(clear, pivot, 1.0)[:, None],
+                                       0.0)
+        bad |= ~clear & ~np.all(np.abs(t) <= np.sqrt(PSD_TOLERANCE) * top[:, None], axis=1)
+    return np.where((status == OK) & bad, indefinite, status)
 
 
 def _all_positive_definite(covars):
     """Whether each of the (K, n, n) ``covars`` is one :func:`covariance_status` passes at
     once (symmetric, every Cholesky pivot well clear of its tolerance); False if any needs
     a closer look."""
-    if asymmetric(covars).any():
+    if _asymmetric(covars).any():
         return False
     try:
         pivots = np.linalg.cholesky(covars).diagonal(axis1=1, axis2=2).min(axis=1)

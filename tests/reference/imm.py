@@ -2,13 +2,16 @@
 model by model, with NumPy's linear algebra."""
 import numpy as np
 
-from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD
+from .kalman import _covariance_status
+from .status import INNOVATION_NOT_PD, OK
 
 
 def step_inputs_valid(means, covars, probs, z, tolerance):
     arrays = (means, covars, probs, z)
     return bool(all(np.isfinite(a).all() for a in arrays) and (probs >= 0).all()
-                and (np.abs(probs.sum(axis=1) - 1.0) <= tolerance).all())
+                and (np.abs(probs.sum(axis=1) - 1.0) <= tolerance).all()
+                and all(_covariance_status(c, 1, 2) == OK
+                        for c in covars.reshape(-1, *covars.shape[2:])))
 
 
 def _kalman(f, q, h, noise, x0, p0, z):
@@ -85,9 +88,6 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has,
             sources = [_converted(means[k], covars[k], has, i, j) for i in range(models)]
             x0, p0 = _merged(w, np.array([x for x, _ in sources]),
                              np.array([p for _, p in sources]))
-            if np.linalg.eigvalsh(0.5 * (p0 + p0.T)).min() < -1e-9 * max(p0.max(), 0.0):
-                status[k] = PRIOR_NOT_PSD
-                break
             step = _kalman(transitions[j], noises[j], h, noise, x0, p0, z[k])
             if step is None:
                 status[k] = INNOVATION_NOT_PD
