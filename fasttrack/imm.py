@@ -213,13 +213,6 @@ def _stacked_arrays(means, covars, weights, timestamp):
                                  np.zeros(len(weights), dtype=np.int64), timestamp)
 
 
-def _linear(model):
-    """A TypeError unless ``model`` is a linear transition model (with ``matrix``)."""
-    if not hasattr(model, "matrix"):
-        raise TypeError(f"smoothing needs linear transition models (with matrix), got "
-                        f"{type(model).__name__}")
-
-
 class BatchIMMFilter:
     """K independent IMM filters, each a bank of M Kalman filters (one a transition model)
     sharing a measurement model: mix, predict and update each model, weigh the models by
@@ -329,7 +322,8 @@ class BatchIMMFilter:
         moment match over j (weights proportional to ``p_ij mu_j(t+1|T) / c_j``) of one
         Rauch-Tung-Striebel step from model i's filtered state through model j's dynamics
         to model j's smoothed state. With one model (or identical models) this is the RTS
-        smoother.
+        smoother. A model built from a function is linearised at model i's filtered mean
+        (forward differences, as :meth:`step` predicts it): the extended smoother.
 
         The smoother takes the model at t + 1 to be independent of the state at t given the
         models' probabilities, so a model's smoothed state follows that model's dynamics
@@ -369,14 +363,12 @@ class BatchIMMFilter:
         if n == 0:
             raise ValueError("means must hold at least one time step, got T = 0")
         intervals = step_intervals(time_intervals, n)
-        for model in self.transition_models:
-            _linear(model)
         if self._has is not None:
             raise ValueError("smoothing models of different components (embedded models) "
                              "is not supported")
         out_means, out_covars, out_probs, status = _imm.smooth(
             self.transition_models, self.transition_matrix, means, covars, mode_probs,
-            intervals)
+            intervals, single)
         failed = np.flatnonzero(status)
         if failed.size:
             track, code = failed[0], status[failed[0]]

@@ -49,9 +49,14 @@ def test_the_kernel_is_its_mirror(seed):
     probs[0, 5] = [0.0, 0.0, 1.0]  # model 0 dies at one step of track 0
     intervals = rng.choice([0.5, 1.0, 2.0], size=n)
     values, step = np.unique(intervals, return_inverse=True)
-    transitions = np.array([[m.matrix(dt) for m in models] for dt in values])
     noises = np.array([[m.covar(dt) for m in models] for dt in values])
-    arguments = (transitions, noises, step.astype(np.int64), matrix, means, covars, probs)
+    # a linearisation of each model from each filtered state: F and an offset b
+    transitions = np.array([m.matrix(1.0) for m in models])[None] \
+        + 0.05 * rng.normal(size=(k * n * 3, 3, 4, 4))
+    offsets = rng.normal(size=(k * n * 3, 3, 4))
+    linearisation = rng.permutation(k * n * 3).reshape(k, n, 3)
+    arguments = (transitions, offsets, noises, linearisation, step.astype(np.int64), matrix,
+                 means, covars, probs)
     got = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
            np.ones(k, dtype=np.int64)]
     want = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),

@@ -133,6 +133,14 @@ def test_kalman_kernels_match_mirrors():
     np.testing.assert_array_equal(outs[1][2], outs[0][2])
     for a, b in zip(outs[0][:2], outs[1][:2]):
         np.testing.assert_allclose(a[:2], b[:2], rtol=1e-12, atol=1e-14)
+    outs = [(np.empty((3, 4, 4)), np.empty((3, 4)), np.empty(3, dtype=np.int64))
+            for _ in range(2)]
+    for module, out in zip((kernels, reference.kalman), outs):
+        module.stack_linearise_function(coordinated_turn, 2.0, False, means, *out)
+    np.testing.assert_array_equal(outs[0][2], [0, 0, reference.status.FUNCTION_NOT_FINITE])
+    np.testing.assert_array_equal(outs[1][2], outs[0][2])
+    for a, b in zip(outs[0][:2], outs[1][:2]):
+        np.testing.assert_allclose(a[:2], b[:2], rtol=1e-12, atol=1e-14)
     outs = [(np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
              np.empty((4, 2))) for _ in range(2)]
     z_ub = np.array([[0.05], [48.0]])

@@ -464,10 +464,10 @@ def imm_smooth_kernel(d):
 
 
 @jit()
-def _smooth_track(d, transitions, noises, step, matrix, means, covars, probs, out_means,
-                  out_covars, out_probs):
-    """One track's backward pass (see :func:`imm_smooth`) for states of dimension ``d``;
-    returns its status."""
+def _smooth_track(d, transitions, offsets, noises, linearisation, step, matrix, means, covars,
+                  probs, out_means, out_covars, out_probs):
+    """One track's backward pass (see :func:`imm_smooth`; ``linearisation`` (T, M) the
+    track's) for states of dimension ``d``; returns its status."""
     n_times, models = means.shape[:2]
     cross, pp, chol = np.empty((d, d)), np.empty((d, d)), np.empty((d, d))
     gain, work = np.empty((d, d)), np.empty((d, d))
@@ -482,7 +482,7 @@ def _smooth_track(d, transitions, noises, step, matrix, means, covars, probs, ou
     copy_into(covars[-1], out_covars[-1])
     copy_into(probs[-1], out_probs[-1])
     for t in range(n_times - 2, -1, -1):
-        u = step[t]
+        v = step[t]
         for j in range(models):  # smoothed over predicted probability of model j at t + 1
             predicted = 0.0
             for i in range(models):
@@ -500,11 +500,14 @@ def _smooth_track(d, transitions, noises, step, matrix, means, covars, probs, ou
                 copy_into(means[t, i], out_means[t, i])
                 copy_into(covars[t, i], out_covars[t, i])
                 continue
+            u = linearisation[t, i]
             for j in range(models):
                 if weights[j] == 0.0:
                     continue
-                _rts_prediction(d, transitions[u, j], noises[u, j], means[t, i], covars[t, i],
+                _rts_prediction(d, transitions[u, j], noises[v, j], means[t, i], covars[t, i],
                                 cross, xp, pp)
+                for a in range(d):
+                    xp[a] += offsets[u, j, a]
                 if not _rts_smoothed(d, means[t, i], covars[t, i], cross, xp, pp,
                                      out_means[t + 1, j], out_covars[t + 1, j], chol, inverse,
                                      diff, gain, work, pair_means[j], pair_covars[j]):
@@ -517,23 +520,33 @@ def _smooth_track(d, transitions, noises, step, matrix, means, covars, probs, ou
 
 
 @jit()
-def imm_smooth(transitions, noises, step, matrix, means, covars, probs, out_means,
-               out_covars, out_probs, status):
+def imm_smooth(transitions, offsets, noises, linearisation, step, matrix, means, covars,
+               probs, out_means, out_covars, out_probs, status):
     """The fixed-interval IMM smoother of Kim (1994) over K tracks of T filtered IMM states
-    of M linear models (the array layer runs chunks of the tracks on threads).
+    of M models, each linear or linearised (the array layer runs chunks of the tracks on
+    threads).
 
     Backwards from the last time, with ``c_j = sum_i p_ij mu_i(t)`` the predicted
     probability of model j at t + 1: the smoothed probability of model i at t is
     ``mu_i(t|T) = mu_i(t) sum_j p_ij mu_j(t+1|T) / c_j``; its smoothed state is the
     moment match over j, with weights ``p_ij mu_j(t+1|T) / c_j``, of one RTS step from
-    model i's filtered state through model j's (F, Q) to model j's smoothed state at t + 1.
+    model i's filtered state through model j's transition ``x -> F x + b`` (and Q) to model
+    j's smoothed state at t + 1.
 
     Parameters
     ----------
-    transitions, noises : (U, M, d, d) float64
-        Each model's F and Q over each distinct interval.
+    transitions : (U, M, d, d) float64
+        Each model's F in each of U linearisations (for linear models, one an interval).
+    offsets : (U, M, d) float64
+        Each model's b in each linearisation (0 for linear models).
+    noises : (V, M, d, d) float64
+        Each model's Q over each distinct interval.
+    linearisation : (K, T, M) int64
+        The linearisation (index into ``transitions``) of the step from t to t + 1 from
+        model i's filtered state of track k (the last time unused).
     step : (T,) int64
-        ``step[t]``: the interval index of the step from t to t + 1 (the last unused).
+        ``step[t]``: the interval index (into ``noises``) of the step from t to t + 1 (the
+        last unused).
     matrix : (M, M) float64
         ``matrix[i, j]``: the probability of switching from model i to model j.
     means, covars, probs : (K, T, M, d), (K, T, M, d, d), (K, T, M) float64
@@ -549,5 +562,6 @@ def imm_smooth(transitions, noises, step, matrix, means, covars, probs, out_mean
     if means.shape[3] != d:
         raise ValueError("imm_smooth: the states must have this build's dimension")
     for k in range(means.shape[0]):
-        status[k] = _smooth_track(d, transitions, noises, step, matrix, means[k], covars[k],
-                                  probs[k], out_means[k], out_covars[k], out_probs[k])
+        status[k] = _smooth_track(d, transitions, offsets, noises, linearisation[k], step,
+                                  matrix, means[k], covars[k], probs[k], out_means[k],
+                                  out_covars[k], out_probs[k])

@@ -476,6 +476,27 @@ def stack_predict_function(function, dt, covar, central, means, covariances, mea
             means_out[t, r] = x_out[r, 0]
 
 
+@jit()
+def stack_linearise_function(function, dt, central, points, jacobians, values, status):
+    """A user transition ``f((d, n), dt)`` linearised at each of the (n, d) ``points``:
+    its finite-difference Jacobian (n, d, d) and value ``f(x)`` (n, d) there;
+    ``status[k]`` is the status of the function's outputs at point k (see :mod:`user`)."""
+    n, d = points.shape
+    x = np.empty((d, 1))
+    for k in range(n):
+        for r in range(d):
+            x[r, 0] = points[k, r]
+        status[k] = transition_jacobian_function(function, dt, x[:, 0].copy(), central,
+                                                 jacobians[k])
+        if status[k] != OK:
+            continue
+        value = function(x, dt)
+        status[k] = output_status(value, d, np.int64(1))
+        if status[k] == OK:
+            for r in range(d):
+                values[k, r] = value[r, 0]
+
+
 # --- one filter: a state's (d, 1) column, its (d, d) covariance (a block of one) -----------
 
 

@@ -189,15 +189,44 @@ def _function_predict(spec, means, covars, jacobian):
     fixed = (spec.function.callee, spec.dt, spec.noise, jacobian == "central")
     _stack.in_chunks(means.shape[0], lambda lo, hi: _kalman.stack_predict_function(
         *fixed, means[lo:hi], covars[lo:hi], *[a[lo:hi] for a in out], status[lo:hi]))
+    _check_function(status, spec, means)
+    return out
+
+
+def linearise(transition_model, dt, points, jacobian="forward", name="points[{}]".format):
+    """``(F, f)``: a transition built from a function linearised at each of the (n, d)
+    ``points`` for ``dt`` seconds: its finite-difference Jacobians (n, d, d) (central for
+    ``jacobian`` 'central', else forward) and values ``f(x)`` (n, d). Raises ValueError
+    naming the first failed point (``name(i)``) and the user's function for a bad
+    output."""
+    spec = transition_model.spec(dt)
+    n, d = points.shape
+    out = np.empty((n, d, d)), np.empty((n, d))
+    status = np.zeros(n, dtype=np.int64)
+    fixed = (spec.function.callee, spec.dt, jacobian == "central")
+    _stack.in_chunks(n, lambda lo, hi: _kalman.stack_linearise_function(
+        *fixed, points[lo:hi], *[a[lo:hi] for a in out], status[lo:hi]))
+    if status.any():
+        bad = np.flatnonzero(status)[0]
+        try:
+            _errors.check(status[bad], spec.function, points[bad][:, None], spec.dt)
+        except ValueError as error:
+            raise ValueError(f"at {name(bad)}: {error}") from None
+    return out
+
+
+def _check_function(status, spec, states):
+    """Raise the ValueError of the first failed filter of ``status`` (K,), naming the user
+    function of the FUNCTION ``spec`` for a bad output at its state (a row of ``states``
+    (K, d))."""
     bad = np.flatnonzero(np.isin(status, _errors.FUNCTION_CODES)) if status.any() else ()
     if len(bad):
         try:
-            _errors.check(status[bad[0]], spec.function, means[bad[0]][:, None], spec.dt)
+            _errors.check(status[bad[0]], spec.function, states[bad[0]][:, None], spec.dt)
         except ValueError as error:
             raise ValueError(f"{np.count_nonzero(status)} of {status.size} filters failed; "
                              f"filter {bad[0]}: {error}") from None
     _stack.check(status)
-    return out
 
 
 def stack_update(model, means, covars, measurements, jacobian="analytic", joseph=True):

@@ -138,8 +138,8 @@ def imm_update(mapping, noise, means, covars, predicted, z, out_means, out_covar
             out_probs[k] = weights / weights.sum()
 
 
-def imm_smooth(transitions, noises, step, matrix, means, covars, probs, out_means,
-               out_covars, out_probs, status):
+def imm_smooth(transitions, offsets, noises, linearisation, step, matrix, means, covars,
+               probs, out_means, out_covars, out_probs, status):
     """Kim's smoother track by track, pair by pair, with explicit inverses."""
     n_tracks, n_times, models, d = means.shape
     for k in range(n_tracks):
@@ -148,7 +148,7 @@ def imm_smooth(transitions, noises, step, matrix, means, covars, probs, out_mean
         xs, ps, mus = out_means[k], out_covars[k], out_probs[k]
         xs[-1], ps[-1], mus[-1] = x[-1], p[-1], mu[-1]
         for t in range(n_times - 2, -1, -1):
-            f, q = transitions[step[t]], noises[step[t]]
+            q = noises[step[t]]
             predicted = mu[t] @ matrix
             ratio = np.divide(mus[t + 1], predicted, out=np.zeros(models),
                               where=predicted > 0)
@@ -160,6 +160,7 @@ def imm_smooth(transitions, noises, step, matrix, means, covars, probs, out_mean
                     xs[t, i], ps[t, i] = x[t, i], p[t, i]
                     continue
                 w = towards / towards.sum()
+                f, b = transitions[linearisation[k, t, i]], offsets[linearisation[k, t, i]]
                 pair_x, pair_p = np.zeros((models, d)), np.zeros((models, d, d))
                 for j in np.flatnonzero(w):
                     pp = f[j] @ p[t, i] @ f[j].T + q[j]
@@ -167,7 +168,7 @@ def imm_smooth(transitions, noises, step, matrix, means, covars, probs, out_mean
                         status[k] = 1 + t
                         break
                     gain = p[t, i] @ f[j].T @ np.linalg.inv(pp)
-                    pair_x[j] = x[t, i] + gain @ (xs[t + 1, j] - f[j] @ x[t, i])
+                    pair_x[j] = x[t, i] + gain @ (xs[t + 1, j] - f[j] @ x[t, i] - b[j])
                     pair_p[j] = p[t, i] + gain @ (ps[t + 1, j] - pp) @ gain.T
                 if status[k]:
                     break

@@ -81,6 +81,15 @@ def stack_predict_function(function, dt, covar, central, means, covariances, mea
         means_out[t] = x_out[:, 0]
 
 
+def stack_linearise_function(function, dt, central, points, jacobians, values, status):
+    for k in range(points.shape[0]):
+        status[k] = transition_jacobian_function(function, dt, points[k], central, jacobians[k])
+        if status[k] == OK:
+            value = function(np.ascontiguousarray(points[k][:, None]), dt)
+            status[k] = output_status(value, points.shape[1], 1)
+            values[k] = value[:, 0]
+
+
 def _kalman_update(x, covariance, z, z_hat, h, noise, angles, joseph, x_out, covariance_out,
                    innovation_covar, cross):
     cross[:] = covariance @ h.T
