@@ -8,6 +8,7 @@ from . import _validate
 from ._states import step_intervals
 from .batch import check_models
 from .core import imm as _imm
+from .core import imm_smooth as _imm_smooth
 from .models.measurement import LinearGaussian
 from .predictor.base import Predictor
 from .predictor.kalman import KalmanPredictor
@@ -323,7 +324,10 @@ class BatchIMMFilter:
         Rauch-Tung-Striebel step from model i's filtered state through model j's dynamics
         to model j's smoothed state. With one model (or identical models) this is the RTS
         smoother. A model built from a function is linearised at model i's filtered mean
-        (forward differences, as :meth:`step` predicts it): the extended smoother.
+        (forward differences, as :meth:`step` predicts it): the extended smoother. Models
+        of different components: the step from model i through model j starts from model
+        i's state with the components it lacks taken from model j (as the mixing takes
+        them), learns from model j's smoothed components only, and keeps model i's.
 
         The smoother takes the model at t + 1 to be independent of the state at t given the
         models' probabilities, so a model's smoothed state follows that model's dynamics
@@ -363,12 +367,9 @@ class BatchIMMFilter:
         if n == 0:
             raise ValueError("means must hold at least one time step, got T = 0")
         intervals = step_intervals(time_intervals, n)
-        if self._has is not None:
-            raise ValueError("smoothing models of different components (embedded models) "
-                             "is not supported")
-        out_means, out_covars, out_probs, status = _imm.smooth(
+        out_means, out_covars, out_probs, status = _imm_smooth.smooth(
             self.transition_models, self.transition_matrix, means, covars, mode_probs,
-            intervals, single)
+            intervals, self._has, single)
         failed = np.flatnonzero(status)
         if failed.size:
             track, code = failed[0], status[failed[0]]

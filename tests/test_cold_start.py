@@ -446,11 +446,11 @@ _UNSHIPPED = {"unscented.sigma_points", "unscented.unscented_moments", "weights.
 
 def test_every_kernel_a_first_step_can_reach_is_shipped():
     from fasttrack import _jit
-    from fasttrack._jit import imm, smooth
+    from fasttrack._jit import imm_smooth, smooth
     _shipped_or_skip()
     shipped = {path.name.split("-")[0] for path in cache.shipped()[0].glob("*.nbi")}
     wanted = [f"smooth.rts__DIMENSION{d}" for d in smooth.UNROLLED_DIMENSIONS]
-    wanted += [f"imm.imm_smooth__DIMENSION{d}" for d in imm.SMOOTH_DIMENSIONS]
+    wanted += [f"imm_smooth.imm_smooth__DIMENSION{d}" for d in imm_smooth.SMOOTH_DIMENSIONS]
     for kernel in _jit.kernels():
         name = f"{kernel.py_func.__module__.rsplit('.', 1)[1]}.{kernel.py_func.__qualname__}"
         if name.endswith("_function") or name.startswith("user.") or name in _UNSHIPPED:

@@ -1,7 +1,8 @@
 """Multiple models of different state components: a constant-velocity model embedded in a
 constant-acceleration state by an explicit map. The kernels against their mirrors and the
 general path, the conversion of one model into another's components, an accelerating
-target, the class pair against the batch, and bad maps."""
+target filtered and smoothed, the smoother without switching, the class pair against the
+batch, and bad maps."""
 import numpy as np
 import pytest
 
@@ -91,7 +92,9 @@ def test_a_model_entering_another_brings_what_it_has_and_borrows_the_rest():
     np.testing.assert_allclose(mixed[1][0, 1], into_ca[1], rtol=1e-12)
 
 
-def test_an_accelerating_target_is_followed_better_with_the_acceleration_model():
+def _burn():
+    """A target that accelerates for 20 s of 120: its states (120, 6) and position
+    measurements (120, 2)."""
     rng = np.random.default_rng(7)
     x = np.array([0.0, 10.0, 0.0, 0.0, 5.0, 0.0])
     truths, scans = [], []
@@ -101,7 +104,11 @@ def test_an_accelerating_target_is_followed_better_with_the_acceleration_model()
         x = _models()[1].matrix(1.0) @ x
         truths.append(x)
         scans.append(x[[0, 3]] + rng.normal(size=2) * 0.7)
-    truths = np.array(truths)
+    return np.array(truths), np.array(scans)
+
+
+def test_an_accelerating_target_is_followed_better_with_the_acceleration_model():
+    truths, scans = _burn()
 
     def run(filt, models):
         m = len(models)
@@ -143,7 +150,85 @@ def test_the_pair_equals_the_batch_with_embedded_models():
         np.testing.assert_allclose(np.exp(state.log_weights), probs[0], rtol=1e-9)
 
 
-def test_bad_maps_and_smoothing_embedded_models_are_refused():
+def test_the_smoother_kernel_is_its_mirror_with_embedded_models():
+    from fasttrack._jit import imm_smooth as kernels
+    from reference import imm_smooth as mirror
+    rng = np.random.default_rng(11)
+    models = _models()
+    has = imm.components(models, 6)
+    k, n = 3, 9
+    means, covars, _ = _random_states(rng, k * n)
+    means, covars = means.reshape(k, n, 2, 6), covars.reshape(k, n, 2, 6, 6)
+    probs = rng.dirichlet(np.ones(2), size=(k, n))
+    transitions = np.array([[m.matrix(1.0) for m in models]])
+    noises = np.array([[m.covar(1.0) for m in models]])
+    arguments = (transitions, np.zeros((1, 2, 6)), noises, np.zeros((k, n, 2), dtype=np.int64),
+                 np.zeros(n, dtype=np.int64), MATRIX, has, means, covars, probs)
+    results = []
+    for module in (kernels, mirror):
+        out = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
+               np.ones(k, dtype=np.int64)]
+        module.imm_smooth(*arguments, *out)
+        assert not out[3].any()
+        results.append(out[:3])
+    for a_, b_ in zip(*results):
+        np.testing.assert_allclose(a_, b_, rtol=1e-8, atol=1e-8)
+    assert not results[0][0][..., 0, [2, 5]].any()  # what the CV model lacks stays 0
+    assert not results[0][1][..., 0, [2, 5], :].any()
+    assert np.abs(results[0][0] - means).max() > 0.1  # smoothing moved the states
+
+
+def test_without_switching_each_embedded_model_is_its_own_smoother():
+    """With no switching, the constant-velocity model embedded in the acceleration state
+    smooths as the constant-velocity smoother on its own four components."""
+    models = _models()
+    batch = ft.BatchIMMFilter(models, SENSOR, np.eye(2))
+    rng = np.random.default_rng(12)
+    means, covars, probs = np.zeros((1, 2, 6)), np.tile(np.eye(6), (1, 2, 1, 1)), [[0.5, 0.5]]
+    means[:, 0, [2, 5]] = 0.0
+    covars[:, 0, [2, 5], [2, 5]] = 0.0
+    filtered = [], [], []
+    for t in range(20):
+        means, covars, probs = batch.step(means, covars, probs, rng.normal(size=(1, 2)) * 3.0,
+                                          1.0)
+        for stack, value in zip(filtered, (means[0], covars[0], probs[0])):
+            stack.append(value)
+    filtered = [np.array(stack) for stack in filtered]
+    smoothed = batch.smooth(*filtered, 1.0)
+    cv = ft.BatchIMMFilter([models[0].model], ft.LinearGaussian(4, (0, 2), SENSOR.noise_covar),
+                           [[1.0]])
+    alone = cv.smooth(filtered[0][:, :1][..., list(CA_STATE)],
+                      filtered[1][:, :1][..., CA_STATE, :][..., CA_STATE],
+                      np.ones((20, 1)), 1.0)
+    np.testing.assert_allclose(smoothed[0][:, 0][:, list(CA_STATE)], alone[0][:, 0],
+                               rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(smoothed[1][:, 0][:, CA_STATE][..., CA_STATE], alone[1][:, 0],
+                               rtol=1e-9, atol=1e-9)
+
+
+def test_an_accelerating_target_is_smoothed_better_than_filtered():
+    truths, scans = _burn()
+    batch = ft.BatchIMMFilter(_models(), SENSOR, MATRIX)
+    means = np.tile([0.0, 10.0, 0.0, 0.0, 5.0, 0.0], (1, 2, 1))
+    covars = np.tile(np.eye(6), (1, 2, 1, 1))
+    means[:, 0, [2, 5]] = 0.0
+    covars[:, 0, [2, 5], [2, 5]] = 0.0
+    probs, filtered = np.full((1, 2), 0.5), ([], [], [])
+    for z in scans:
+        means, covars, probs = batch.step(means, covars, probs, z[None], 1.0)
+        for stack, value in zip(filtered, (means[0], covars[0], probs[0])):
+            stack.append(value)
+    filtered = [np.array(stack) for stack in filtered]
+    smoothed = batch.smooth(*filtered, 1.0)
+    errors = [np.sqrt(np.mean(np.sum((batch.combine(*arrays)[0][:, [0, 3]]
+                                      - truths[:, [0, 3]]) ** 2, axis=1)))
+              for arrays in (filtered, smoothed)]
+    # measured: 0.71 m filtered, 0.47 m smoothed
+    assert errors[1] < 0.8 * errors[0]
+    assert not smoothed[0][:, 0, [2, 5]].any()
+
+
+def test_bad_maps_are_refused():
     cv = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.1)] * 2)
     for state_map in ((0, 1, 3), (0, 1, 3, 3), (0, 1, 3, 6), (0.0, 1.0, 3.0, 4.0)):
         with pytest.raises(ValueError, match=r"state_map must be 4 distinct indices in "
@@ -151,10 +236,6 @@ def test_bad_maps_and_smoothing_embedded_models_are_refused():
             EmbeddedTransitionModel(cv, state_map, 6)
     with pytest.raises(TypeError, match="model must be a linear transition model"):
         EmbeddedTransitionModel(ft.CartesianToBearingRange(4, (0, 2), np.eye(2)), CA_STATE, 6)
-    batch = ft.BatchIMMFilter(_models(), SENSOR, MATRIX)
-    with pytest.raises(ValueError, match="smoothing models of different components"):
-        batch.smooth(np.zeros((3, 2, 6)), np.broadcast_to(np.eye(6), (3, 2, 6, 6)),
-                     np.full((3, 2), 0.5), 1.0)
 
 
 def test_an_ekf_imm_of_straight_flight_and_a_turn_estimates_the_turn_rate():

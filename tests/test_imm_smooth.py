@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import fasttrack as ft
-from fasttrack.core import imm
+from fasttrack.core import imm, imm_smooth
 
 SENSOR = ft.LinearGaussian(4, (0, 2), np.diag([0.5, 0.5]))
 MATRIX = np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.05, 0.15, 0.8]])
@@ -34,8 +34,8 @@ def _filtered(filt, k, n, seed=0, interval=1.0):
 
 @pytest.mark.parametrize("seed", range(3))
 def test_the_kernel_is_its_mirror(seed):
-    from fasttrack._jit import imm as kernels
-    from reference import imm as mirror
+    from fasttrack._jit import imm_smooth as kernels
+    from reference import imm_smooth as mirror
     rng = np.random.default_rng(seed)
     models = [_cv(0.01), _cv(1.0), _cv(10.0)]
     matrix = rng.dirichlet(np.ones(3) * 2, size=3)
@@ -56,7 +56,7 @@ def test_the_kernel_is_its_mirror(seed):
     offsets = rng.normal(size=(k * n * 3, 3, 4))
     linearisation = rng.permutation(k * n * 3).reshape(k, n, 3)
     arguments = (transitions, offsets, noises, linearisation, step.astype(np.int64), matrix,
-                 means, covars, probs)
+                 np.ones((3, 4), dtype=np.bool_), means, covars, probs)
     got = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
            np.ones(k, dtype=np.int64)]
     want = [np.empty_like(means), np.empty_like(covars), np.empty_like(probs),
@@ -192,4 +192,6 @@ def test_a_prediction_that_is_not_positive_definite_is_named():
     with pytest.raises(ValueError, match=r"prediction from step 1 to the next .* is not "
                                          r"positive definite"):
         filt.smooth(means, covars, np.full((3, 2), 0.5), 1.0)
-    assert imm.smooth  # the array layer reports the same status
+    status = imm_smooth.smooth([static, static], np.full((2, 2), 0.5), means[None],
+                               covars[None], np.full((1, 3, 2), 0.5), np.ones(2))[3]
+    assert status.tolist() == [2]  # the array layer's status: 1 + the step
