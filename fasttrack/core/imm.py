@@ -410,7 +410,7 @@ def _fused(transition_models, measurement_model, matrix, means, covars, mode_pro
     sensor = measurement_model.spec
     k, models = mode_probs.shape
     pairs = models if algorithm == "gpb2" else 1
-    if sensor.kind != SELECT or sensor.angles.any() \
+    if sensor.kind != SELECT or np.count_nonzero(sensor.angles) \
             or not all(hasattr(model, "matrix") for model in transition_models) \
             or (k > 1 and (intervals != intervals[0]).any()) \
             or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models * pairs):
@@ -421,10 +421,13 @@ def _fused(transition_models, measurement_model, matrix, means, covars, mode_pro
     shared = (ALGORITHMS.index(algorithm), transitions, noises, sensor.mapping,
               sensor.noise_covar, matrix, _mask(has, means.shape[1:]))
     arrays = (means, covars, mode_probs, measurements, *out, status)
-    _threads.in_chunks(lambda lo, hi: _imm.imm_linear_step(
-        *shared, *(arrays if hi - lo == k else [a[lo:hi] for a in arrays])),
-        k, serial_below=SERIAL_BELOW_FILTERS // (models * pairs))
-    return out if not status.any() else None
+    serial_below = SERIAL_BELOW_FILTERS // (models * pairs)
+    if k < serial_below:
+        _imm.imm_linear_step(*shared, *arrays)
+    else:
+        _threads.in_chunks(lambda lo, hi: _imm.imm_linear_step(
+            *shared, *(a[lo:hi] for a in arrays)), k, serial_below=serial_below)
+    return out if not np.count_nonzero(status) else None
 
 
 def predict(transition_models, matrix, means, covars, mode_probs, dt, has=None):
@@ -441,7 +444,7 @@ def predict(transition_models, matrix, means, covars, mode_probs, dt, has=None):
     status = np.empty(k, dtype=np.int64)
     _imm.imm_predict(transitions, noises, matrix, _mask(has, means.shape[1:]), means, covars,
                      mode_probs, *out, status)
-    return out if not status.any() else None
+    return out if not np.count_nonzero(status) else None
 
 
 def update(measurement_model, means, covars, predicted, measurements):
@@ -452,14 +455,14 @@ def update(measurement_model, means, covars, predicted, measurements):
     reports it)."""
     sensor = measurement_model.spec
     k, models = predicted.shape
-    if sensor.kind != SELECT or sensor.angles.any() \
+    if sensor.kind != SELECT or np.count_nonzero(sensor.angles) \
             or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models):
         return None
     out = np.empty_like(means), np.empty_like(covars), np.empty_like(predicted)
     status = np.empty(k, dtype=np.int64)
     _imm.imm_update(sensor.mapping, sensor.noise_covar, means, covars, predicted,
                     measurements, *out, status)
-    return out if not status.any() else None
+    return out if not np.count_nonzero(status) else None
 
 
 def components(transition_models, d):
