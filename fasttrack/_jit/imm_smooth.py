@@ -5,7 +5,7 @@ import numpy as np
 
 from .dispatch import jit, with_constant
 from .imm import _every
-from .linalg import _covariance_code
+from .linalg import _covariance_code_of
 from .mixture import _moment_match_group
 from .numeric import copy_into
 from .smooth import _rts_prediction, _rts_smoothed
@@ -83,7 +83,8 @@ def _smooth_track(d, transitions, offsets, noises, linearisation, step, matrix, 
     every, x_union, p_union = _every(has), np.empty(d), np.empty((d, d))
     for t in range(n_times):
         for i in range(models):
-            if _covariance_code(covars[t, i], chol, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD) != OK:
+            if _covariance_code_of(d, covars[t, i], chol, PRIOR_NOT_SYMMETRIC,
+                                   PRIOR_NOT_PSD) != OK:
                 return -(1 + t * models + i)
     xp, inverse, diff = np.empty(d), np.empty(d), np.empty(d)
     pair_means, pair_covars = np.empty((models, d)), np.empty((models, d, d))

@@ -85,7 +85,13 @@ def _covariance_code(a, lower, asymmetric, indefinite):
     """OK, ``asymmetric`` or ``indefinite`` for one (n, n) ``a`` by the rule of
     :func:`_check_covariance` (NaN fails it); ``lower`` (n, n) is scratch, so that a
     loop over many matrices allocates nothing."""
-    n = a.shape[0]
+    return _covariance_code_of(a.shape[0], a, lower, asymmetric, indefinite)
+
+
+@jit(inline=True)
+def _covariance_code_of(n, a, lower, asymmetric, indefinite):
+    """:func:`_covariance_code` for (n, n) ``a``, inline: a build whose n is a constant
+    unrolls it."""
     top = 0.0
     largest = 0.0
     for i in range(n):

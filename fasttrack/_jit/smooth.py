@@ -3,7 +3,7 @@ batch of K tracks of equal length, in one call."""
 import numpy as np
 
 from .dispatch import jit, with_constant
-from .linalg import _covariance_code
+from .linalg import _covariance_code_of
 from .status import PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
 from .numeric import fast_exp
 from .tunables import FFBS_BLOCK as _BLOCK
@@ -54,7 +54,8 @@ def rts(x, covar, x_pred, covar_pred, recompute, matrix, noise, step, x_out, cov
     inverse = np.empty(d)
     for k in range(n_tracks):
         for t in range(n_times):
-            if _covariance_code(covar[k, t], chol, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD) != 0:
+            if _covariance_code_of(d, covar[k, t], chol, PRIOR_NOT_SYMMETRIC,
+                                   PRIOR_NOT_PSD) != 0:
                 return -(1 + k * n_times + t)
         last = n_times - 1
         for i in range(d):
