@@ -1,9 +1,9 @@
 """Multiple-model steps on stacks: one filter and 10^4 filters of 3 constant-velocity models
 (noise 0.01, 1 and 10; d = 4, a position sensor), one step of the IMM (order 0), GPB1 or
 GPB2 (order 1, 2) per call of ``step``; one IMM step of a constant-velocity and a
-constant-turn model (the extended Kalman filter's prediction); one IMM step through the predictor and updater
-classes; the IMM smoother over 1 and 100 tracks of 1000 steps; one IMM-GNN scan of 1000
-tracks and one IMM-JPDA step of 100 tracks."""
+constant-turn model (the extended Kalman filter's prediction); one IMM step through the
+predictor and updater classes; the IMM smoother over 1 and 100 tracks of 1000 steps; one
+IMM-GNN scan of 1000 tracks and one IMM-JPDA step of 100 tracks."""
 import numpy as np
 import pytest
 

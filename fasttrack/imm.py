@@ -226,8 +226,9 @@ class BatchIMMFilter:
         or constant velocity and :class:`~fasttrack.ConstantTurn`): linear-Gaussian, or
         built from a function and then linearised at each model's mixed prior mean by
         forward finite differences (the extended Kalman filter's prediction, as
-        :class:`~fasttrack.ExtendedKalmanPredictor`). A model of fewer components sits in the state through an explicit
-        map, :class:`~fasttrack.models.transition.EmbeddedTransitionModel` (e.g. constant
+        :class:`~fasttrack.ExtendedKalmanPredictor`). A model of fewer components sits in
+        the state through an explicit map,
+        :class:`~fasttrack.models.transition.EmbeddedTransitionModel` (e.g. constant
         velocity (x, vx, y, vy) in a constant-acceleration state (x, vx, ax, y, vy, ay)
         with ``state_map=(0, 1, 3, 4)``): a model entering another's prior brings the
         components it has, and the other model's own mean, variance and covariances stand

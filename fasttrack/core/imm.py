@@ -81,8 +81,8 @@ def values_valid(means, covars, mode_probs, measurements):
     """Whether the values of a step's validated (K, M, d), (K, M, d, d), (K, M) and (K, m)
     arrays are certainly valid: finite, each row of ``mode_probs`` >= 0 and summing to
     one, each covariance symmetric positive semi-definite. Checked by a kernel (in chunks
-    on threads) once the process runs kernels; False before (the caller then runs the checks that say what
-    is wrong: :func:`covariances` for the covariances)."""
+    on threads) once the process runs kernels; False before (the caller then runs the
+    checks that say what is wrong: :func:`covariances` for the covariances)."""
     if not _jit.kernels_loaded():
         return False
     arrays = (means, covars, mode_probs, measurements)

@@ -14,9 +14,9 @@ _kernels = _jit.lazy("imm_smooth")
 def smooth(transition_models, matrix, means, covars, mode_probs, intervals, has=None,
            single=False):
     """The IMM fixed-interval smoother of K tracks of T filtered steps (see
-    :func:`fasttrack._jit.imm_smooth.imm_smooth`). A model built from a function is linearised at
-    each model's filtered mean (forward differences, as the extended Kalman filter
-    predicts): the extended form of the smoother.
+    :func:`fasttrack._jit.imm_smooth.imm_smooth`). A model built from a function is
+    linearised at each model's filtered mean (forward differences, as the extended Kalman
+    filter predicts): the extended form of the smoother.
 
     Parameters
     ----------
