@@ -16,6 +16,7 @@ import numpy as np
 from . import association
 from . import metrics
 from .batch import BatchExtendedKalmanFilter, BatchUnscentedKalmanFilter
+from .core import kalman
 from .core.mixture import segment_logsumexp
 from .core.particle import gather
 from .core.resample import (ess, multinomial, normalise, resampling_points, residual, stratified,
@@ -38,7 +39,7 @@ from .scenarios import (adaptive_kernel_tutorial, extended_kalman_tutorial, grid
 from .simulate import detections, ground_truth
 from .smoother import ExtendedKalmanSmoother, KalmanSmoother, UnscentedKalmanSmoother, ffbs
 from .tracker import MultiTargetTracker
-from .types.gaussian import Detection, WeightedGaussianState
+from .types.gaussian import Detection, GaussianState, WeightedGaussianState
 from .types.kernel import KernelParticleState
 from .types.mixture import GaussianMixture
 from .types.particle import ParticleState
@@ -97,6 +98,12 @@ def _kalman():
     KalmanUpdater(detection.measurement_model).update(
         SingleHypothesis(prediction, detection))
     _stack(BatchExtendedKalmanFilter(scenario.transition_model, scenario.measurement_model))
+    turn = ConstantTurn([0.1, 0.1], 1e-4)  # the kernels that call a model's function
+    ExtendedKalmanPredictor(turn).predict(GaussianState(np.zeros(5), np.eye(5), timestamp=0.0),
+                                          1.0)
+    means, covars = np.zeros((2, 5)), np.broadcast_to(np.eye(5), (2, 5, 5)).copy()
+    kalman.stack_predict(turn, LinearGaussian(5, (0, 2), np.eye(2)), np.ones(2), means, covars)
+    kalman.linearise(turn, 1.0, means)
 
 
 def _unscented():
@@ -212,7 +219,6 @@ def _imm():
     IMMUpdater([KalmanUpdater(sensor)] * 2, matrix).update(
         SingleHypothesis(prediction, Detection(np.zeros(2), timestamp=1.0,
                                                measurement_model=sensor)))
-    ConstantTurn([0.1, 0.1], 1e-4)  # compiles its function
 
 
 def _jpda():
