@@ -2,6 +2,8 @@
 2007), on arrays: the intensity is a :class:`~fasttrack.types.GaussianMixture` whose labels
 follow each component's line (the heaviest child of a merge keeps its parent's), so the
 estimates it extracts are tagged."""
+import math
+
 import numpy as np
 
 from . import _validate
@@ -107,8 +109,7 @@ class _IntensityTracker:
         if k and dt > 0:
             means, covars, _, _ = _kalman.stack_predict(
                 self.transition_model, self.measurement_model, np.full(k, dt), means, covars)
-        with np.errstate(divide="ignore"):
-            log_survive = np.log(self.prob_survival)
+        log_survive = _phd.log_probability(self.prob_survival)
         births = len(self.birth)
         labels = np.concatenate((mixture.labels,
                                  self._next_label + np.arange(births, dtype=np.int64)))
@@ -162,16 +163,26 @@ class PHDTracker(_IntensityTracker):
         self.extraction_threshold = _validate.non_negative(extraction_threshold,
                                                            "extraction_threshold")
 
+
     @property
     def expected_number(self):
         """The expected number of targets: the sum of the intensity's weights."""
         return float(np.exp(self.mixture.log_weights).sum())
 
     def _update(self, predicted, detections):
-        means, covars, log_weights, components, _ = _phd.update(
-            self.measurement_model, predicted.means, predicted.covars, predicted.log_weights,
-            detections, self.prob_detect, self.clutter_intensity, self.gate_threshold,
-            self.unscented)
+        """:func:`fasttrack.core.phd.update` of the tracker's own intensity (made from
+        checked births by the kernels: its arrays are not checked again)."""
+        model = self.measurement_model
+        prob_detect = _validate.probability(self.prob_detect, "prob_detect")
+        threshold = np.inf if self.gate_threshold is None else \
+            _validate.positive(self.gate_threshold, "gate_threshold")
+        pairs = _phd.gated_pairs(model.spec, predicted.means, predicted.covars,
+                                 predicted.log_weights, _phd.detections_of(model, detections),
+                                 _phd.log_probability(prob_detect),
+                                 threshold, self.unscented)
+        means, covars, log_weights, components, _ = _phd.posterior(
+            pairs, prob_detect,
+            math.log(_validate.positive(self.clutter_intensity, "clutter_intensity")))
         return means, covars, log_weights, components
 
     def _extract(self):

@@ -6,6 +6,8 @@ posterior mixture of the missed components and the detected (component, detectio
 The innovation covariance, gain and updated covariance are computed once per component and
 shared by its detections; the detections each component's gate holds come from
 :func:`fasttrack.core.gating.gate`."""
+import math
+
 import numpy as np
 
 from .. import _validate
@@ -74,11 +76,16 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
     """
     scan = detections_of(model, detections)
     log_clutter = np.log(_validate.positive(clutter_intensity, "clutter_intensity"))
-    pairs = detected_pairs(model, means, covars, log_weights, scan, prob_detect,
-                           gate_threshold, unscented)
+    return posterior(detected_pairs(model, means, covars, log_weights, scan, prob_detect,
+                                    gate_threshold, unscented), prob_detect, log_clutter)
+
+
+def posterior(pairs, prob_detect, log_clutter):
+    """:func:`update`'s five arrays from the scan's :class:`DetectedPairs`, P_D and the log
+    clutter intensity (validated)."""
     log_detected = pairs.log_detected - np.logaddexp(log_clutter,
                                                      pairs.totals[pairs.detections])
-    return pairs.components(_log(1.0 - float(prob_detect)), log_detected)
+    return pairs.components(log_probability(1.0 - float(prob_detect)), log_detected)
 
 
 def detections_of(model, detections):
@@ -137,11 +144,21 @@ def detected_pairs(model, means, covars, log_weights, scan, prob_detect, gate_th
     log_weights = _validate.float_array(log_weights, "log_weights", 1)
     if log_weights.shape != (j,) or np.isnan(log_weights).any() or (log_weights == np.inf).any():
         raise ValueError(f"log_weights must be {j} numbers, not NaN or +inf")
-    log_detect = _log(_validate.probability(prob_detect, "prob_detect"))
-    z_hats, cross, innovation = _linearised(spec, means, covars, unscented)
+    log_detect = log_probability(_validate.probability(prob_detect, "prob_detect"))
     threshold = np.inf if gate_threshold is None else \
         _validate.positive(gate_threshold, "gate_threshold")
     _validate.symmetric_stack(covars, "covars")
+    return gated_pairs(spec, means, covars, log_weights, scan, log_detect, threshold,
+                       unscented)
+
+
+def gated_pairs(spec, means, covars, log_weights, scan, log_detect, threshold,
+                unscented=None):
+    """:func:`detected_pairs` of validated arguments (a tracker's own intensity, checked
+    where it was made): the model's ``spec``, log P_D and the gate ``threshold`` (inf for
+    every pair)."""
+    j = means.shape[0]
+    z_hats, cross, innovation = _linearised(spec, means, covars, unscented)
     few = j * scan.shape[0] <= GRID_FROM_PAIRS  # test every pair, without a grid
     axes = np.empty(0, dtype=np.int64) if few or threshold == np.inf else \
         _gating.default_axes(spec.angles)
@@ -199,8 +216,7 @@ def unscented_parameters(unscented):
     return _unscented.check_parameters(alpha, beta, kappa)
 
 
-def _log(value):
-    """log of a probability, -inf for 0."""
-    with np.errstate(divide="ignore"):
-        return np.log(value)
+def log_probability(value):
+    """log of a probability (a float in [0, 1]), -inf for 0."""
+    return math.log(value) if value > 0.0 else -math.inf
 
