@@ -208,10 +208,7 @@ def linearise(transition_model, dt, points, jacobian="forward", name="points[{}]
         *fixed, points[lo:hi], *[a[lo:hi] for a in out], status[lo:hi]))
     if status.any():
         bad = np.flatnonzero(status)[0]
-        try:
-            _errors.check(status[bad], spec.function, points[bad][:, None], spec.dt)
-        except ValueError as error:
-            raise ValueError(f"at {name(bad)}: {error}") from None
+        raise ValueError(f"at {name(bad)}: {_failure(spec, status[bad], points[bad])}")
     return out
 
 
@@ -221,12 +218,18 @@ def _check_function(status, spec, states):
     (K, d))."""
     bad = np.flatnonzero(np.isin(status, _errors.FUNCTION_CODES)) if status.any() else ()
     if len(bad):
-        try:
-            _errors.check(status[bad[0]], spec.function, states[bad[0]][:, None], spec.dt)
-        except ValueError as error:
-            raise ValueError(f"{np.count_nonzero(status)} of {status.size} filters failed; "
-                             f"filter {bad[0]}: {error}") from None
+        raise ValueError(f"{np.count_nonzero(status)} of {status.size} filters failed; "
+                         f"filter {bad[0]}: {_failure(spec, status[bad[0]], states[bad[0]])}")
     _stack.check(status)
+
+
+def _failure(spec, code, state):
+    """What a kernel's status ``code`` says of the user function of the FUNCTION ``spec``
+    at ``state`` (d,): the message of its ValueError."""
+    try:
+        _errors.check(code, spec.function, state[:, None], spec.dt)
+    except ValueError as error:
+        return str(error)
 
 
 def stack_update(model, means, covars, measurements, jacobian="analytic", joseph=True):
