@@ -8,6 +8,7 @@ from scipy.stats import multivariate_normal
 
 import fasttrack as ft
 from fasttrack.core import imm
+from fasttrack._jit.tunables import FILTERS_PER_BLOCK
 
 SENSOR = ft.LinearGaussian(4, (0, 2), np.diag([0.5, 0.5]))
 
@@ -256,8 +257,9 @@ def test_the_step_inputs_check_is_its_mirror():
 
 
 @pytest.mark.parametrize("algorithm", imm.ALGORITHMS)
-@pytest.mark.parametrize("seed", range(3))
-def test_the_kernel_is_its_mirror_and_the_general_path(seed, algorithm):
+@pytest.mark.parametrize("seed, k", [(0, 1), (1, 9), (2, 9), (3, FILTERS_PER_BLOCK + 3)])
+def test_the_kernel_is_its_mirror_and_the_general_path(seed, k, algorithm):
+    """One filter, a few, and more than a block of them (the last block part-full)."""
     from fasttrack._jit import imm as kernels
     from reference import imm as mirror
     rng = np.random.default_rng(seed)
@@ -265,7 +267,6 @@ def test_the_kernel_is_its_mirror_and_the_general_path(seed, algorithm):
     matrix = rng.dirichlet(np.ones(3) * 2, size=3)
     matrix[1:, 0] = 0.0  # model 0 is reached from itself only
     matrix /= matrix.sum(axis=1, keepdims=True)
-    k = 9
     means = rng.normal(size=(k, 3, 4)) * 5.0
     a = rng.normal(size=(k, 3, 4, 4))
     covars = a @ a.swapaxes(-1, -2) + np.eye(4)

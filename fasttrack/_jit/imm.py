@@ -8,10 +8,12 @@ import math
 import numpy as np
 
 from .dispatch import jit
-from .linalg import _covariance_code
+from .kalman import _from_block, _propagate, _to_block, _update
+from .linalg import _check_covariance, _cholesky, _covariance_code
 from .mixture import _moment_match_group
-from .numeric import cholesky, copy_into
+from .numeric import cholesky, copy_into, fill
 from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
+from .tunables import FILTERS_PER_BLOCK
 
 #: log(2 pi) / 2
 HALF_LOG_TWO_PI = 0.9189385332046727
@@ -20,57 +22,6 @@ HALF_LOG_TWO_PI = 0.9189385332046727
 #: :func:`imm_linear_step`'s algorithms: the interacting multiple model filter, and the
 #: generalised pseudo-Bayesian filters of first and second order.
 IMM, GPB1, GPB2 = 0, 1, 2
-
-
-@jit(inline=True)
-def _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, everyone, x0,
-           p0):
-    """Model j's prior of one filter into ``x0`` (d,) and ``p0`` (d, d) (symmetric): for
-    the IMM the models mixed by ``p_ij mu_i`` (``predicted`` their sum; a model of predicted
-    probability 0 keeps its own state), for GPB1 all models merged by ``mu_i``; each model
-    i :func:`_converted` into model j's components (``has`` (M, d)). ``weights`` (M,) is
-    scratch; ``everyone`` is ``arange(M)``."""
-    models = means.shape[0]
-    total = 0.0
-    for i in range(models):
-        if algorithm == GPB1:
-            weights[i] = probs[i]
-        else:
-            weights[i] = matrix[i, j] * probs[i] if predicted > 0.0 else (i == j) * 1.0
-        total += weights[i]
-    if _every(has):  # no conversion: the plain moment match
-        _moment_match_group(means, covars, weights, everyone, models, x0, p0)
-    else:
-        _converted_match(means, covars, has, j, weights, total, x0, p0)
-
-
-@jit()
-def _converted_match(means, covars, has, j, weights, total, x0, p0):
-    """:func:`_mixed`'s moment match of the models :func:`_converted` into model j's
-    components with ``weights`` (M,) of sum ``total`` (symmetric ``p0``)."""
-    models, d = means.shape
-    for a in range(d):
-        x0[a] = 0.0
-        for i in range(models):
-            if has[j, a]:
-                x0[a] += weights[i] / total * (means[i, a] if has[i, a] else means[j, a])
-        for b in range(d):
-            p0[a, b] = 0.0
-    for i in range(models):
-        w = weights[i] / total
-        if w == 0.0:
-            continue
-        for a in range(d):
-            if not has[j, a]:
-                continue
-            da = (means[i, a] if has[i, a] else means[j, a]) - x0[a]
-            for b in range(a + 1):
-                if has[j, b]:
-                    db = (means[i, b] if has[i, b] else means[j, b]) - x0[b]
-                    p0[a, b] += w * (_converted_covariance(covars, has, i, j, a, b) + da * db)
-    for a in range(d):
-        for b in range(a):
-            p0[b, a] = p0[a, b]
 
 
 @jit(inline=True)
@@ -112,20 +63,6 @@ def _converted(means, covars, has, i, j, x, p):
 
 
 @jit(inline=True)
-def _prior(algorithm, matrix, probs, means, covars, has, j, space):
-    """Model j's prior of one filter (:func:`_mixed`) into ``space``'s prior arrays; returns
-    its predicted probability ``c_j = sum_i p_ij mu_i``. ``space`` is :func:`_workspace`'s.
-    (A mixture of covariances is one: the models' own are what is checked.)"""
-    predicted = 0.0
-    for i in range(means.shape[0]):
-        predicted += matrix[i, j] * probs[i]
-    x0, p0, weights, everyone = space[1], space[2], space[5], space[7]
-    _mixed(algorithm, matrix, probs, means, covars, has, j, predicted, weights, everyone, x0,
-           p0)
-    return predicted
-
-
-@jit(inline=True)
 def _covariances_code(covars, check):
     """OK, or why the first of one filter's model covariances (M, d, d) is not symmetric
     positive semi-definite; ``check`` (d, d) is scratch."""
@@ -137,7 +74,7 @@ def _covariances_code(covars, check):
 
 
 @jit(inline=True)
-def _predict(f, q, x0, p0, x, p, work):
+def _predict_one(f, q, x0, p0, x, p, work):
     """``x = F x0`` and ``p = F p0 F^T + Q`` (symmetric); ``work`` (d, d) is scratch."""
     d = x0.size
     for a in range(d):
@@ -183,7 +120,7 @@ def _model_step(f, q, mapping, noise, x0, p0, z, x_out, p_out, scratch):
     (:func:`_kalman_update`) into ``(x_out, p_out)``; returns the log likelihood or NaN.
     ``scratch`` is :func:`_scratch`'s."""
     x, p, work = scratch[:3]
-    _predict(f, q, x0, p0, x, p, work)
+    _predict_one(f, q, x0, p0, x, p, work)
     return _kalman_update(mapping, noise, x, p, z, x_out, p_out, scratch)
 
 
@@ -261,24 +198,6 @@ def _normalised(log_weights, out):
 
 
 @jit()
-def _mixing_step(algorithm, transitions, noises, mapping, noise, matrix, has, means, covars,
-                 probs, z, out_means, out_covars, out_probs, space):
-    """One filter's IMM or GPB1 step (see :func:`imm_linear_step`); returns its status.
-    ``space`` is :func:`_workspace`'s."""
-    scratch, x0, p0, log_posterior = space[0], space[1], space[2], space[4]
-    for j in range(means.shape[0]):
-        predicted = _prior(algorithm, matrix, probs, means, covars, has, j, space)
-        log_likelihood = _model_step(transitions[j], noises[j], mapping, noise, x0, p0, z,
-                                     out_means[j], out_covars[j], scratch)
-        if log_likelihood != log_likelihood:
-            return INNOVATION_NOT_PD
-        log_posterior[j] = (math.log(predicted) + log_likelihood) if predicted > 0.0 \
-            else -np.inf
-    _normalised(log_posterior, out_probs)
-    return OK
-
-
-@jit()
 def _gpb2_step(transitions, noises, mapping, noise, matrix, has, means, covars, probs, z,
                out_means, out_covars, out_probs, space):
     """One filter's GPB2 step (see :func:`imm_linear_step`); returns its status.
@@ -342,6 +261,203 @@ def step_inputs_valid(means, covars, probs, z, tolerance):
 
 
 @jit()
+def _mix(nb, algorithm, matrix, has, j, x, p, mu, predicted, weights, x0, p0):
+    """Model j's prior of each filter of a block into ``x0[:, j]`` and ``p0[:, :, j]``
+    (symmetric): for the IMM the models mixed by ``p_ij mu_i`` (where model j's predicted
+    probability ``predicted[j]`` is 0, model j's own state), for GPB1 all models merged by
+    ``mu_i``; each model i taken in model j's components as :func:`_converted` takes it.
+    Arrays in the block layout (:func:`_to_lanes`); ``weights`` (M, B) is scratch."""
+    d, models = x.shape[0], x.shape[1]
+    total = np.zeros(nb)
+    for i in range(models):
+        for b in range(nb):
+            if algorithm == GPB1:
+                weights[i, b] = mu[i, b]
+            else:
+                weights[i, b] = matrix[i, j] * mu[i, b] if predicted[j, b] > 0.0 \
+                    else (i == j) * 1.0
+            total[b] += weights[i, b]
+    for i in range(models):
+        for b in range(nb):
+            weights[i, b] /= total[b]
+    for a in range(d):
+        for b in range(nb):
+            x0[a, j, b] = 0.0
+        for i in range(models if has[j, a] else 0):
+            source = i if has[i, a] else j
+            for b in range(nb):
+                x0[a, j, b] += weights[i, b] * x[a, source, b]
+    for a in range(d):
+        for c in range(a + 1):
+            for b in range(nb):
+                p0[a, c, j, b] = 0.0
+            for i in range(models if has[j, a] and has[j, c] else 0):
+                row, column = (i if has[i, a] else j), (i if has[i, c] else j)
+                own = 1.0 if has[i, a] == has[i, c] else 0.0  # else the two are independent
+                for b in range(nb):
+                    spread = (x[a, row, b] - x0[a, j, b]) * (x[c, column, b] - x0[c, j, b])
+                    p0[a, c, j, b] += weights[i, b] * (own * p[a, c, row, b] + spread)
+            for b in range(nb):
+                p0[c, a, j, b] = p0[a, c, j, b]
+
+
+@jit()
+def _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x_out, p_out,
+                    predicted):
+    """Each model's prior of a block's filters (:func:`_mix`) predicted through its F and Q
+    into ``x_out`` (d, M, B) and ``p_out`` (d, d, M, B); ``predicted`` (M, B) gets the
+    predicted probabilities ``c_j = sum_i p_ij mu_i``. (A mixture of covariances is one:
+    the models' own are what is checked.)"""
+    d, models = x.shape[0], x.shape[1]
+    lanes = models * nb
+    weights, x0, p0 = np.empty((models, nb)), np.empty(x.shape), np.empty(p.shape)
+    f, q = np.empty(p.shape), np.empty(p.shape)
+    for j in range(models):
+        for b in range(nb):
+            predicted[j, b] = 0.0
+        for i in range(models):
+            for b in range(nb):
+                predicted[j, b] += matrix[i, j] * mu[i, b]
+        _mix(nb, algorithm, matrix, has, j, x, p, mu, predicted, weights, x0, p0)
+        for r in range(d):
+            for c in range(d):
+                for b in range(nb):
+                    f[r, c, j, b] = transitions[j, r, c]
+                    q[r, c, j, b] = noises[j, r, c]
+    _propagate(lanes, f.reshape((d, d, lanes)), q.reshape((d, d, lanes)),
+               x0.reshape((d, lanes)), p0.reshape((d, d, lanes)), x_out.reshape((d, lanes)),
+               p_out.reshape((d, d, lanes)))
+
+
+@jit()
+def _update_models(nb, mapping, noise, x, p, predicted, z, x_out, p_out, mu_out, status):
+    """Each model's prediction of a block's filters (``x`` (d, M, B), ``p`` (d, d, M, B))
+    updated in the Joseph form with ``z`` (m, B) by the sensor selecting ``mapping`` (noise
+    R) into ``x_out`` and ``p_out``; ``mu_out`` (M, B) gets the posterior mode
+    probabilities from the predicted ones (M, B), weighed in logs. Where a model's
+    innovation covariance is not positive definite, ``status`` becomes INNOVATION_NOT_PD."""
+    d, models, m = x.shape[0], x.shape[1], mapping.size
+    lanes = models * nb
+    x, p = x.reshape((d, lanes)), p.reshape((d, d, lanes))
+    measured, z_hat, jacobian = np.empty((m, models, nb)), np.empty((m, lanes)), \
+        np.zeros((m, d, lanes))
+    for r in range(m):
+        for j in range(models):
+            for b in range(nb):
+                measured[r, j, b] = z[r, b]
+        for b in range(lanes):
+            z_hat[r, b] = x[mapping[r], b]
+            jacobian[r, mapping[r], b] = 1.0
+    measured = measured.reshape((m, lanes))
+    innovation_covar, cross = np.empty((m, m, lanes)), np.empty((d, m, lanes))
+    lane_status = np.zeros(lanes, dtype=np.int64)
+    _update(lanes, x, p, measured, z_hat, jacobian, noise, np.zeros(m, dtype=np.bool_), True,
+            x_out.reshape((d, lanes)), p_out.reshape((d, d, lanes)), innovation_covar, cross,
+            lane_status)
+    log_posterior = np.empty(lanes)
+    _log_gaussian(lanes, innovation_covar, measured, z_hat, log_posterior, lane_status)
+    log_posterior = log_posterior.reshape((models, nb))
+    for j in range(models):
+        for b in range(nb):
+            log_posterior[j, b] += math.log(predicted[j, b]) if predicted[j, b] > 0.0 \
+                else -np.inf
+    _first_status(lane_status, status)
+    _normalised_block(nb, log_posterior, mu_out)
+
+
+@jit()
+def _first_status(lane_status, status):
+    """``status[b]``, where still OK, becomes the first of the block's models' statuses
+    ``lane_status`` (M * B,) that is not."""
+    lane_status = lane_status.reshape((-1, status.size))
+    for j in range(lane_status.shape[0]):
+        for b in range(status.size):
+            if status[b] == OK:
+                status[b] = lane_status[j, b]
+
+
+@jit()
+def _log_gaussian(nb, covar, z, mean, out, status):
+    """``out[b] = log N(z; mean, S)`` per filter for the (m, m, B) ``covar`` S (where it is
+    not positive definite, ``status`` becomes INNOVATION_NOT_PD)."""
+    m = z.shape[0]
+    lower, whitened = np.empty((m, m, nb)), np.empty((m, nb))
+    _cholesky(nb, covar, lower, status, INNOVATION_NOT_PD)
+    for b in range(nb):
+        out[b] = -m * HALF_LOG_TWO_PI
+    for r in range(m):
+        for b in range(nb):
+            t = z[r, b] - mean[r, b]
+            for c in range(r):
+                t -= lower[r, c, b] * whitened[c, b]
+            whitened[r, b] = t / lower[r, r, b]
+            out[b] -= 0.5 * whitened[r, b] * whitened[r, b] + math.log(lower[r, r, b])
+
+
+@jit()
+def _normalised_block(nb, log_weights, out):
+    """``out[:, b] = exp(log_weights[:, b])`` normalised to sum to one (the largest finite)
+    for each filter of a block (M, B)."""
+    top = np.full(nb, -np.inf)
+    total = np.zeros(nb)
+    for j in range(log_weights.shape[0]):
+        for b in range(nb):
+            top[b] = max(top[b], log_weights[j, b])
+    for j in range(log_weights.shape[0]):
+        for b in range(nb):
+            out[j, b] = math.exp(log_weights[j, b] - top[b])
+            total[b] += out[j, b]
+    for j in range(log_weights.shape[0]):
+        for b in range(nb):
+            out[j, b] /= total[b]
+
+
+@jit()
+def _to_lanes(rows, lo, hi, out):
+    """``out[..., j, b] = rows[lo + b, j]`` for (K, M, ...) rows: the block layout, with
+    out (..., M, hi - lo)."""
+    models, nb = rows.shape[1], hi - lo
+    flat = out.reshape((-1, models, nb))
+    for b in range(nb):
+        for j in range(models):
+            row = rows[lo + b, j].ravel()
+            for i in range(row.size):
+                flat[i, j, b] = row[i]
+
+
+@jit()
+def _from_lanes(block, lo, hi, rows):
+    """The inverse of :func:`_to_lanes`: ``rows[lo + b, j] = block[..., j, b]``."""
+    models, nb = rows.shape[1], hi - lo
+    flat = block.reshape((-1, models, nb))
+    for b in range(nb):
+        for j in range(models):
+            row = rows[lo + b, j].reshape(-1)
+            for i in range(row.size):
+                row[i] = flat[i, j, b]
+
+
+@jit()
+def _block(means, covars, probs, lo, hi):
+    """Filters ``lo:hi``'s rows of the (K, M, d), (K, M, d, d) and (K, M) arrays in the
+    block layout, the block's filters last: (d, M, B), (d, d, M, B) and (M, B)."""
+    models, d, nb = means.shape[1], means.shape[2], hi - lo
+    x, p, mu = np.empty((d, models, nb)), np.empty((d, d, models, nb)), np.empty((models, nb))
+    _to_lanes(means, lo, hi, x)
+    _to_lanes(covars, lo, hi, p)
+    _to_block(probs, lo, hi, mu)
+    return x, p, mu
+
+
+@jit()
+def _unblock(x, p, mu, lo, hi, means, covars, probs):
+    """The block arrays of :func:`_block` written back into filters ``lo:hi``'s rows."""
+    _from_lanes(x, lo, hi, means)
+    _from_lanes(p, lo, hi, covars)
+    _from_block(mu, lo, hi, probs)
+
+
+@jit()
 def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has, means, covars,
                     probs, z, out_means, out_covars, out_probs, status):
     """One step of K multiple-model filters of M linear models sharing one interval.
@@ -349,7 +465,9 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has,
     IMM: each model's prior is mixed from all models' posteriors by ``p_ij mu_i``. GPB1:
     every model starts from the moment match of all. GPB2: each model j updates every
     model i's posterior (the pairs reached, ``p_ij mu_i > 0``) and merges them by
-    ``p_ij mu_i`` times their likelihoods. Mode probabilities are weighed in logs.
+    ``p_ij mu_i`` times their likelihoods. Mode probabilities are weighed in logs. The IMM
+    and GPB1 go in blocks of filters (the loops over a block's filters vectorise), GPB2
+    filter by filter.
 
     Parameters
     ----------
@@ -369,19 +487,30 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has,
     out_means, out_covars, out_probs : arrays of the shapes of the inputs
     status : (K,) int64
         OK, or INNOVATION_NOT_PD where a model's innovation covariance is not positive
-        definite (its outputs are then partly written). The inputs' values are not checked
-        here (:func:`step_inputs_valid` does).
+        definite (its outputs are then partly written). The inputs' values are not
+        checked here (:func:`step_inputs_valid` does).
     """
-    space = _workspace(means.shape[2], mapping.size, means.shape[1])
-    for k in range(means.shape[0]):
-        if algorithm == GPB2:
+    if algorithm == GPB2:
+        space = _workspace(means.shape[2], mapping.size, means.shape[1])
+        for k in range(means.shape[0]):
             status[k] = _gpb2_step(transitions, noises, mapping, noise, matrix, has, means[k],
                                    covars[k], probs[k], z[k], out_means[k], out_covars[k],
                                    out_probs[k], space)
-        else:
-            status[k] = _mixing_step(algorithm, transitions, noises, mapping, noise, matrix,
-                                     has, means[k], covars[k], probs[k], z[k], out_means[k],
-                                     out_covars[k], out_probs[k], space)
+        return
+    filters, models, d = means.shape
+    for lo in range(0, filters, FILTERS_PER_BLOCK):
+        hi = min(lo + FILTERS_PER_BLOCK, filters)
+        nb = hi - lo
+        x, p, mu = _block(means, covars, probs, lo, hi)
+        zb = np.empty((mapping.size, nb))
+        _to_block(z, lo, hi, zb)
+        x_pred, p_pred, predicted = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
+        fill(status[lo:hi], OK)
+        _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x_pred,
+                        p_pred, predicted)
+        _update_models(nb, mapping, noise, x_pred, p_pred, predicted, zb, x, p, mu,
+                       status[lo:hi])  # the prior's block arrays take the posterior
+        _unblock(x, p, mu, lo, hi, out_means, out_covars, out_probs)
 
 
 @jit()
@@ -401,16 +530,19 @@ def imm_predict(transitions, noises, matrix, has, means, covars, probs, out_mean
         semi-definite.
     """
     filters, models, d = means.shape
-    space = _workspace(d, 1, models)
-    for k in range(filters):
-        status[k] = _covariances_code(covars[k], space[3])
-        if status[k] != OK:
-            continue
-        for j in range(models):
-            out_predicted[k, j] = _prior(IMM, matrix, probs[k], means[k], covars[k], has, j,
-                                         space)
-            _predict(transitions[j], noises[j], space[1], space[2], out_means[k, j],
-                     out_covars[k, j], space[0][2])
+    for lo in range(0, filters, FILTERS_PER_BLOCK):
+        hi = min(lo + FILTERS_PER_BLOCK, filters)
+        nb = hi - lo
+        x, p, mu = _block(means, covars, probs, lo, hi)
+        x_pred, p_pred, predicted = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
+        fill(status[lo:hi], OK)
+        lane_status = np.zeros(models * nb, dtype=np.int64)
+        _check_covariance(models * nb, p.reshape((d, d, models * nb)), lane_status,
+                          PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+        _first_status(lane_status, status[lo:hi])
+        _predict_models(nb, IMM, transitions, noises, matrix, has, x, p, mu, x_pred, p_pred,
+                        predicted)
+        _unblock(x_pred, p_pred, predicted, lo, hi, out_means, out_covars, out_predicted)
 
 
 @jit()
@@ -431,17 +563,13 @@ def imm_update(mapping, noise, means, covars, predicted, z, out_means, out_covar
         OK, or INNOVATION_NOT_PD.
     """
     filters, models, d = means.shape
-    space = _workspace(d, mapping.size, models)
-    scratch, log_posterior = space[0], space[4]
-    for k in range(filters):
-        status[k] = OK
-        for j in range(models):
-            log_likelihood = _kalman_update(mapping, noise, means[k, j], covars[k, j], z[k],
-                                            out_means[k, j], out_covars[k, j], scratch)
-            if log_likelihood != log_likelihood:
-                status[k] = INNOVATION_NOT_PD
-                break
-            log_posterior[j] = math.log(predicted[k, j]) + log_likelihood \
-                if predicted[k, j] > 0.0 else -np.inf
-        if status[k] == OK:
-            _normalised(log_posterior, out_probs[k])
+    for lo in range(0, filters, FILTERS_PER_BLOCK):
+        hi = min(lo + FILTERS_PER_BLOCK, filters)
+        nb = hi - lo
+        x, p, c = _block(means, covars, predicted, lo, hi)
+        zb = np.empty((mapping.size, nb))
+        _to_block(z, lo, hi, zb)
+        x_out, p_out, mu_out = np.empty_like(x), np.empty_like(p), np.empty_like(c)
+        fill(status[lo:hi], OK)
+        _update_models(nb, mapping, noise, x, p, c, zb, x_out, p_out, mu_out, status[lo:hi])
+        _unblock(x_out, p_out, mu_out, lo, hi, out_means, out_covars, out_probs)

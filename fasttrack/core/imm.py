@@ -18,7 +18,7 @@ from . import jpda as _jpda
 from . import kalman as _kalman
 from . import kalman_numpy as _kalman_numpy
 from .kalman_numpy import wrap
-from .kinds import CV, SELECT
+from .kinds import SELECT
 from .._jit.status import PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
 from .._jit.tunables import SERIAL_BELOW_FILTERS
 
@@ -502,11 +502,11 @@ def _matrices(transition_models, dt):
     """(M, d, d) F and Q of the models over ``dt`` seconds, remembered for banks of
     constant-velocity models, which the interval and their noise rates determine (a filter
     steps at few intervals; building Q costs more than the step)."""
-    specs = [model.spec(dt) for model in transition_models]
-    key = (dt, tuple(spec.rates.tobytes() for spec in specs)) \
-        if all(spec.kind == CV for spec in specs) else None
+    rates = tuple(model._cv_rates() for model in transition_models)
+    key = (dt, rates) if None not in rates else None
     found = _CV_BANKS.get(key)
     if found is None:
+        specs = [model.spec(dt) for model in transition_models]
         found = (np.array([spec.matrix for spec in specs]),
                  np.array([spec.noise for spec in specs]))
         if key is not None:
