@@ -12,6 +12,9 @@ import numpy as np
 from ._jit.tunables import PSD_TOLERANCE
 
 
+#: NumPy's native float64 dtype.
+_FLOAT64 = np.dtype(np.float64)
+
 #: Largest particle count accepted (2**40, about 1.1e12): any more could not be stored.
 MAX_COUNT = 2**40
 
@@ -24,7 +27,12 @@ def _describe(value):
 
 def is_real(value):
     """Whether ``value`` is a real number (Python or NumPy), not a bool."""
-    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+    return type(value) in _PLAIN_REALS or (isinstance(value, numbers.Real)
+                                           and not isinstance(value, (bool, np.bool_)))
+
+
+#: The types :func:`is_real` accepts without asking ``numbers.Real`` (a slow check).
+_PLAIN_REALS = (float, int, np.float64)
 
 
 def is_integer(value):
@@ -40,6 +48,19 @@ def float_array(value, name, ndim=None):
     Raises TypeError unless ``value`` holds real numbers: a complex, string, boolean or
     other non-numeric array is not converted.
     """
+    if type(value) is np.ndarray and value.dtype is _FLOAT64 and value.flags.c_contiguous \
+            and value.flags.writeable:
+        a = value  # already what the kernels take
+    else:
+        a = _converted(value, name)
+    if ndim is not None and a.ndim != ndim:
+        raise ValueError(f"{name} must be {ndim}-D, got {a.ndim}-D with shape {a.shape}")
+    return a
+
+
+def _converted(value, name):
+    """:func:`float_array`'s conversion of ``value`` (a new array, unless ``value`` is a
+    writable C-contiguous float64 array)."""
     if type(value) is np.ndarray and value.dtype == np.float64:
         a = value
     else:
@@ -54,11 +75,7 @@ def float_array(value, name, ndim=None):
             raise TypeError(f"{name} must be a numeric array of real numbers, got "
                             f"{_describe(value) if a.dtype.kind == 'O' else _describe(a)}")
     a = np.asarray(a, dtype=np.float64, order="C")  # keeps a scalar 0-D
-    if not a.flags.writeable:
-        a = a.copy()
-    if ndim is not None and a.ndim != ndim:
-        raise ValueError(f"{name} must be {ndim}-D, got {a.ndim}-D with shape {a.shape}")
-    return a
+    return a if a.flags.writeable else a.copy()
 
 
 def finite_array(value, name, ndim=None):
@@ -74,7 +91,9 @@ def intervals(value, shape):
     """Finite ``time_intervals`` (seconds) as a new float64 array of ``shape``: one scalar
     for every entry, or values that broadcast to it."""
     if is_real(value) and math.isfinite(value):
-        return np.full(shape, float(value))
+        out = np.empty(shape)
+        out.fill(value)
+        return out
     a = finite_array(value, "time_intervals")
     try:
         return np.broadcast_to(a, shape).copy()

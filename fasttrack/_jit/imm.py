@@ -1,8 +1,18 @@
-"""Multiple-model filtering (:mod:`fasttrack.core.imm`) over K filters of M linear models,
-one filter a thread: the IMM, GPB1 and GPB2 steps for a sensor that selects state components
-(each model's prior, predicted with its F and Q and updated in the Joseph form, the models
-weighed in logs); the fixed-interval smoother is :mod:`imm_smooth`'s. A filter whose step is
-undefined gets a status code and the array layer reports it."""
+"""Multiple-model filtering (:mod:`fasttrack.core.imm`) over K filters of M linear models:
+the IMM, GPB1 and GPB2 steps for a sensor that selects state components (each model's
+prior, predicted with its F and Q and updated in the Joseph form, the models weighed in
+logs); the fixed-interval smoother is :mod:`imm_smooth`'s. A filter whose step is undefined
+gets a status code and the array layer reports it.
+
+Filters go in blocks laid out as :mod:`kalman`'s, the block's filters last: means
+(d, M, B), covariances (d, d, M, B), mode probabilities (M, B). The M models of the block's
+filters (for GPB2 the M x M pairs of a model's posterior and the model it enters) are
+predicted and updated side by side, as the M B (M^2 B) lanes of :mod:`kalman`'s block
+kernels. A model i of fewer components enters model j as
+:func:`fasttrack.core.imm.converted` takes it: a component model j has and model i lacks
+brings model j's own mean, variance and covariances with the others model i lacks; a
+component model j lacks is 0.
+"""
 import math
 
 import numpy as np
@@ -10,8 +20,7 @@ import numpy as np
 from .dispatch import jit
 from .kalman import _from_block, _propagate, _to_block, _update
 from .linalg import _check_covariance, _cholesky, _covariance_code
-from .mixture import _moment_match_group
-from .numeric import cholesky, copy_into, fill
+from .numeric import fill
 from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
 from .tunables import FILTERS_PER_BLOCK
 
@@ -35,34 +44,6 @@ def _every(has):
 
 
 @jit(inline=True)
-def _converted_covariance(covars, has, i, j, a, b):
-    """Entry (a, b) of model i's covariance in model j's components (of those j has): model
-    i's where i has both, model j's own where i has neither, else 0."""
-    if has[i, a] and has[i, b]:
-        return covars[i, a, b]
-    if not has[i, a] and not has[i, b]:
-        return covars[j, a, b]
-    return 0.0
-
-
-@jit(inline=True)
-def _converted(means, covars, has, i, j, x, p):
-    """Model i's state of one filter in model j's components into ``x`` (d,) and ``p``
-    (d, d): a component j has and i lacks takes model j's own mean, variance and
-    covariances with the others i lacks; a component j lacks is 0."""
-    d = x.size
-    if _every(has):
-        copy_into(means[i], x)
-        copy_into(covars[i], p)
-        return
-    for a in range(d):
-        x[a] = (means[i, a] if has[i, a] else means[j, a]) if has[j, a] else 0.0
-        for b in range(d):
-            p[a, b] = _converted_covariance(covars, has, i, j, a, b) \
-                if has[j, a] and has[j, b] else 0.0
-
-
-@jit(inline=True)
 def _covariances_code(covars, check):
     """OK, or why the first of one filter's model covariances (M, d, d) is not symmetric
     positive semi-definite; ``check`` (d, d) is scratch."""
@@ -70,168 +51,6 @@ def _covariances_code(covars, check):
         code = _covariance_code(covars[i], check, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
         if code != OK:
             return code
-    return OK
-
-
-@jit(inline=True)
-def _predict_one(f, q, x0, p0, x, p, work):
-    """``x = F x0`` and ``p = F p0 F^T + Q`` (symmetric); ``work`` (d, d) is scratch."""
-    d = x0.size
-    for a in range(d):
-        s = 0.0
-        for b in range(d):
-            s += f[a, b] * x0[b]
-        x[a] = s
-        for b in range(d):
-            s = 0.0
-            for c in range(d):
-                s += f[a, c] * p0[c, b]
-            work[a, b] = s
-    for a in range(d):
-        for b in range(a + 1):
-            s = q[a, b]
-            for c in range(d):
-                s += work[a, c] * f[b, c]
-            p[a, b] = s
-            p[b, a] = s
-
-
-@jit()
-def _scratch(d, m):
-    """The work arrays of :func:`_model_step` for states of dimension d and measurements
-    of dimension m."""
-    return (np.empty(d), np.empty((d, d)), np.empty((d, d)), np.empty((m, m)),
-            np.empty((m, m)), np.empty((d, m)), np.empty(m), np.empty(m))
-
-
-@jit()
-def _workspace(d, m, models):
-    """The scratch of a filter's step: :func:`_scratch`'s, a prior (d,) and (d, d), a
-    (d, d) matrix, three (M,) vectors, ``arange(M)``, M pairs' means and covariances, and
-    an (M,) int64 index."""
-    return (_scratch(d, m), np.empty(d), np.empty((d, d)), np.empty((d, d)), np.empty(models),
-            np.empty(models), np.empty(models), np.arange(models), np.empty((models, d)),
-            np.empty((models, d, d)), np.empty(models, dtype=np.int64))
-
-
-@jit(inline=True)
-def _model_step(f, q, mapping, noise, x0, p0, z, x_out, p_out, scratch):
-    """One model's Kalman step: ``(x0, p0)`` predicted through ``(F, Q)``, then updated
-    (:func:`_kalman_update`) into ``(x_out, p_out)``; returns the log likelihood or NaN.
-    ``scratch`` is :func:`_scratch`'s."""
-    x, p, work = scratch[:3]
-    _predict_one(f, q, x0, p0, x, p, work)
-    return _kalman_update(mapping, noise, x, p, z, x_out, p_out, scratch)
-
-
-@jit(inline=True)
-def _kalman_update(mapping, noise, x, p, z, x_out, p_out, scratch):
-    """The Joseph-form update of ``(x, p)`` with ``z`` by the sensor selecting ``mapping``
-    (noise R) into ``(x_out, p_out)``. Returns the measurement's log likelihood, or NaN if
-    the innovation covariance is not positive definite. ``scratch`` is
-    :func:`_scratch`'s (its first two arrays untouched)."""
-    work, s, lower, gain, innovation, v = scratch[2:]
-    d, m = x.size, mapping.size
-    for r in range(m):
-        for c in range(m):
-            s[r, c] = p[mapping[r], mapping[c]] + noise[r, c]
-    if not cholesky(s, lower):
-        return np.nan
-    for r in range(m):  # v = L^-1 (z - H x)
-        innovation[r] = z[r] - x[mapping[r]]
-        t = innovation[r]
-        for c in range(r):
-            t -= lower[r, c] * v[c]
-        v[r] = t / lower[r, r]
-    log_likelihood = -m * HALF_LOG_TWO_PI
-    for r in range(m):
-        log_likelihood -= 0.5 * v[r] * v[r] + math.log(lower[r, r])
-    row = v
-    for a in range(d):  # K = P H^T S^-1: solve L (L^T K^T) = H P for each row a of K
-        for r in range(m):
-            t = p[a, mapping[r]]
-            for c in range(r):
-                t -= lower[r, c] * row[c]
-            row[r] = t / lower[r, r]
-        for r in range(m - 1, -1, -1):
-            t = row[r]
-            for c in range(r + 1, m):
-                t -= lower[c, r] * gain[a, c]
-            gain[a, r] = t / lower[r, r]
-    for a in range(d):
-        t = x[a]
-        for r in range(m):
-            t += gain[a, r] * innovation[r]
-        x_out[a] = t
-    for a in range(d):  # work = (I - K H) P
-        for b in range(d):
-            t = p[a, b]
-            for r in range(m):
-                t -= gain[a, r] * p[mapping[r], b]
-            work[a, b] = t
-    for a in range(d):  # p_out = work (I - K H)^T + K R K^T
-        for b in range(a + 1):
-            t = work[a, b]
-            for r in range(m):
-                t -= work[a, mapping[r]] * gain[b, r]
-            for r in range(m):
-                kr = 0.0
-                for c in range(m):
-                    kr += noise[r, c] * gain[b, c]
-                t += gain[a, r] * kr
-            p_out[a, b] = t
-            p_out[b, a] = t
-    return log_likelihood
-
-
-@jit(inline=True)
-def _normalised(log_weights, out):
-    """``out = exp(log_weights)`` normalised to sum to one (the largest finite)."""
-    top = -np.inf
-    for j in range(log_weights.size):
-        top = max(top, log_weights[j])
-    total = 0.0
-    for j in range(log_weights.size):
-        total += math.exp(log_weights[j] - top)
-    for j in range(log_weights.size):
-        out[j] = math.exp(log_weights[j] - top) / total
-
-
-@jit()
-def _gpb2_step(transitions, noises, mapping, noise, matrix, has, means, covars, probs, z,
-               out_means, out_covars, out_probs, space):
-    """One filter's GPB2 step (see :func:`imm_linear_step`); returns its status.
-    ``space`` is :func:`_workspace`'s."""
-    scratch, x0, p0, _, log_posterior, weights, log_pair = space[:7]
-    pair_means, pair_covars, reached = space[8:]
-    models = means.shape[0]
-    for j in range(models):
-        count, top = 0, -np.inf
-        for i in range(models):
-            prior = matrix[i, j] * probs[i]
-            if prior <= 0.0 and i != j:
-                continue
-            _converted(means, covars, has, i, j, x0, p0)
-            log_likelihood = _model_step(transitions[j], noises[j], mapping, noise, x0, p0, z,
-                                         pair_means[i], pair_covars[i], scratch)
-            if log_likelihood != log_likelihood:
-                return INNOVATION_NOT_PD
-            if prior > 0.0:
-                log_pair[i] = math.log(prior) + log_likelihood
-                top = max(top, log_pair[i])
-                reached[count] = i
-                count += 1
-        if count == 0:  # nothing switches into model j: its own state, updated
-            copy_into(pair_means[j], out_means[j])
-            copy_into(pair_covars[j], out_covars[j])
-            log_posterior[j] = -np.inf
-            continue
-        for g in range(count):
-            weights[reached[g]] = math.exp(log_pair[reached[g]] - top)
-        total = _moment_match_group(pair_means, pair_covars, weights, reached, count,
-                                    out_means[j], out_covars[j])
-        log_posterior[j] = top + math.log(total)
-    _normalised(log_posterior, out_probs)
     return OK
 
 
@@ -260,31 +79,45 @@ def step_inputs_valid(means, covars, probs, z, tolerance):
     return True
 
 
+@jit(inline=True)
+def _source(has, i, j, a):
+    """The model whose value of component a model i brings into model j: i if it has a,
+    else j (of the components j has)."""
+    return i if has[i, a] else j
+
+
+@jit(inline=True)
+def _kept(has, i, j, a, c):
+    """Whether entry (a, c) of :func:`_source`'s covariance enters model j from model i:
+    where j has both and i has both or neither (else the two are independent: 0)."""
+    return has[j, a] and has[j, c] and has[i, a] == has[i, c]
+
+
 @jit()
-def _mix(nb, algorithm, matrix, has, j, x, p, mu, predicted, weights, x0, p0):
-    """Model j's prior of each filter of a block into ``x0[:, j]`` and ``p0[:, :, j]``
-    (symmetric): for the IMM the models mixed by ``p_ij mu_i`` (where model j's predicted
-    probability ``predicted[j]`` is 0, model j's own state), for GPB1 all models merged by
-    ``mu_i``; each model i taken in model j's components as :func:`_converted` takes it.
-    Arrays in the block layout (:func:`_to_lanes`); ``weights`` (M, B) is scratch."""
-    d, models = x.shape[0], x.shape[1]
-    total = np.zeros(nb)
-    for i in range(models):
+def _normalise(nb, weights, total):
+    """Each filter's column of ``weights`` (M, B) divided by its sum, into ``total`` (B,)."""
+    for b in range(nb):
+        total[b] = 0.0
+    for i in range(weights.shape[0]):
         for b in range(nb):
-            if algorithm == GPB1:
-                weights[i, b] = mu[i, b]
-            else:
-                weights[i, b] = matrix[i, j] * mu[i, b] if predicted[j, b] > 0.0 \
-                    else (i == j) * 1.0
             total[b] += weights[i, b]
-    for i in range(models):
+    for i in range(weights.shape[0]):
         for b in range(nb):
             weights[i, b] /= total[b]
+
+
+@jit()
+def _moment_match(nb, has, j, weights, x, p, x0, p0):
+    """The models ``x`` (d, M, B), ``p`` (d, d, M, B), each taken into model j's
+    components, merged by the normalised ``weights`` (M, B) into one Gaussian of the same
+    moments (spread included): ``x0[:, j]`` and ``p0[:, :, j]`` (lower triangle computed and
+    mirrored)."""
+    d, models = x.shape[0], x.shape[1]
     for a in range(d):
         for b in range(nb):
             x0[a, j, b] = 0.0
         for i in range(models if has[j, a] else 0):
-            source = i if has[i, a] else j
+            source = _source(has, i, j, a)
             for b in range(nb):
                 x0[a, j, b] += weights[i, b] * x[a, source, b]
     for a in range(d):
@@ -292,11 +125,11 @@ def _mix(nb, algorithm, matrix, has, j, x, p, mu, predicted, weights, x0, p0):
             for b in range(nb):
                 p0[a, c, j, b] = 0.0
             for i in range(models if has[j, a] and has[j, c] else 0):
-                row, column = (i if has[i, a] else j), (i if has[i, c] else j)
-                own = 1.0 if has[i, a] == has[i, c] else 0.0  # else the two are independent
+                row, column = _source(has, i, j, a), _source(has, i, j, c)
+                kept = 1.0 if _kept(has, i, j, a, c) else 0.0
                 for b in range(nb):
                     spread = (x[a, row, b] - x0[a, j, b]) * (x[c, column, b] - x0[c, j, b])
-                    p0[a, c, j, b] += weights[i, b] * (own * p[a, c, row, b] + spread)
+                    p0[a, c, j, b] += weights[i, b] * (kept * p[a, c, row, b] + spread)
             for b in range(nb):
                 p0[c, a, j, b] = p0[a, c, j, b]
 
@@ -304,47 +137,65 @@ def _mix(nb, algorithm, matrix, has, j, x, p, mu, predicted, weights, x0, p0):
 @jit()
 def _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x_out, p_out,
                     predicted):
-    """Each model's prior of a block's filters (:func:`_mix`) predicted through its F and Q
-    into ``x_out`` (d, M, B) and ``p_out`` (d, d, M, B); ``predicted`` (M, B) gets the
-    predicted probabilities ``c_j = sum_i p_ij mu_i``. (A mixture of covariances is one:
-    the models' own are what is checked.)"""
+    """Each model's prior of a block's filters predicted through its F and Q into ``x_out``
+    (d, M, B) and ``p_out`` (d, d, M, B); ``predicted`` (M, B) gets the predicted
+    probabilities ``c_j = sum_i p_ij mu_i``. The prior of model j: for the IMM the models
+    mixed by ``p_ij mu_i`` (where ``c_j`` is 0, model j's own state), for GPB1 all models
+    merged by ``mu_i``. (A mixture of covariances is one: the models' own are what is
+    checked.)"""
     d, models = x.shape[0], x.shape[1]
     lanes = models * nb
-    weights, x0, p0 = np.empty((models, nb)), np.empty(x.shape), np.empty(p.shape)
-    f, q = np.empty(p.shape), np.empty(p.shape)
+    weights, total = np.empty((models, nb)), np.empty(nb)
+    x0, p0, f, q = np.empty(x.shape), np.empty(p.shape), np.empty(p.shape), np.empty(p.shape)
     for j in range(models):
         for b in range(nb):
             predicted[j, b] = 0.0
         for i in range(models):
             for b in range(nb):
                 predicted[j, b] += matrix[i, j] * mu[i, b]
-        _mix(nb, algorithm, matrix, has, j, x, p, mu, predicted, weights, x0, p0)
-        for r in range(d):
-            for c in range(d):
-                for b in range(nb):
-                    f[r, c, j, b] = transitions[j, r, c]
-                    q[r, c, j, b] = noises[j, r, c]
+        for i in range(models):
+            for b in range(nb):
+                if algorithm == GPB1:
+                    weights[i, b] = mu[i, b]
+                else:
+                    weights[i, b] = matrix[i, j] * mu[i, b] if predicted[j, b] > 0.0 \
+                        else (i == j) * 1.0
+        _normalise(nb, weights, total)
+        _moment_match(nb, has, j, weights, x, p, x0, p0)
+        _lanes(transitions[j], j, f)
+        _lanes(noises[j], j, q)
     _propagate(lanes, f.reshape((d, d, lanes)), q.reshape((d, d, lanes)),
                x0.reshape((d, lanes)), p0.reshape((d, d, lanes)), x_out.reshape((d, lanes)),
                p_out.reshape((d, d, lanes)))
 
 
 @jit()
-def _update_models(nb, mapping, noise, x, p, predicted, z, x_out, p_out, mu_out, status):
-    """Each model's prediction of a block's filters (``x`` (d, M, B), ``p`` (d, d, M, B))
-    updated in the Joseph form with ``z`` (m, B) by the sensor selecting ``mapping`` (noise
-    R) into ``x_out`` and ``p_out``; ``mu_out`` (M, B) gets the posterior mode
-    probabilities from the predicted ones (M, B), weighed in logs. Where a model's
-    innovation covariance is not positive definite, ``status`` becomes INNOVATION_NOT_PD."""
-    d, models, m = x.shape[0], x.shape[1], mapping.size
-    lanes = models * nb
+def _lanes(a, j, out):
+    """``out[r, c, j, ..., b] = a[r, c]``: the (d, d) matrix ``a`` in each of model j's
+    lanes of ``out`` (d, d, M, ..., B)."""
+    block = out.reshape((a.shape[0], a.shape[1], out.shape[2], -1))
+    for r in range(a.shape[0]):
+        for c in range(a.shape[1]):
+            for b in range(block.shape[3]):
+                block[r, c, j, b] = a[r, c]
+
+
+@jit()
+def _update_lanes(mapping, noise, x, p, z, x_out, p_out, log_likelihood, status):
+    """Every lane of ``x`` (d, ..., B) and ``p`` (d, d, ..., B) updated in the Joseph form
+    with its filter's measurement ``z`` (m, B) by the sensor selecting ``mapping`` (noise
+    R) into ``x_out`` and ``p_out``; ``log_likelihood`` (..., B) gets each lane's
+    ``log N(z; H x, S)``. Where an innovation covariance is not positive definite,
+    ``status`` (B,) becomes INNOVATION_NOT_PD."""
+    d, m, nb = x.shape[0], z.shape[0], z.shape[1]
+    lanes = x.size // d
     x, p = x.reshape((d, lanes)), p.reshape((d, d, lanes))
-    measured, z_hat, jacobian = np.empty((m, models, nb)), np.empty((m, lanes)), \
+    measured, z_hat, jacobian = np.empty((m, lanes // nb, nb)), np.empty((m, lanes)), \
         np.zeros((m, d, lanes))
     for r in range(m):
-        for j in range(models):
+        for i in range(lanes // nb):
             for b in range(nb):
-                measured[r, j, b] = z[r, b]
+                measured[r, i, b] = z[r, b]
         for b in range(lanes):
             z_hat[r, b] = x[mapping[r], b]
             jacobian[r, mapping[r], b] = 1.0
@@ -354,14 +205,84 @@ def _update_models(nb, mapping, noise, x, p, predicted, z, x_out, p_out, mu_out,
     _update(lanes, x, p, measured, z_hat, jacobian, noise, np.zeros(m, dtype=np.bool_), True,
             x_out.reshape((d, lanes)), p_out.reshape((d, d, lanes)), innovation_covar, cross,
             lane_status)
-    log_posterior = np.empty(lanes)
-    _log_gaussian(lanes, innovation_covar, measured, z_hat, log_posterior, lane_status)
-    log_posterior = log_posterior.reshape((models, nb))
+    _log_gaussian(lanes, innovation_covar, measured, z_hat, log_likelihood.reshape(lanes),
+                  lane_status)
+    _first_status(lane_status, status)
+
+
+@jit()
+def _update_models(nb, mapping, noise, x, p, predicted, z, x_out, p_out, mu_out, status):
+    """Each model's prediction of a block's filters (``x`` (d, M, B), ``p`` (d, d, M, B))
+    updated with ``z`` (m, B) (:func:`_update_lanes`) into ``x_out`` and ``p_out``;
+    ``mu_out`` (M, B) gets the posterior mode probabilities from the predicted ones (M, B),
+    weighed in logs."""
+    models = x.shape[1]
+    log_posterior = np.empty((models, nb))
+    _update_lanes(mapping, noise, x, p, z, x_out, p_out, log_posterior, status)
     for j in range(models):
         for b in range(nb):
             log_posterior[j, b] += math.log(predicted[j, b]) if predicted[j, b] > 0.0 \
                 else -np.inf
-    _first_status(lane_status, status)
+    _normalised_block(nb, log_posterior, mu_out)
+
+
+@jit()
+def _gpb2_block(nb, transitions, noises, mapping, noise, matrix, has, x, p, mu, z, x_out,
+                p_out, mu_out, status):
+    """The GPB2 step of a block's filters (:func:`imm_linear_step`, arrays as
+    :func:`_update_models`'): each pair (model i's posterior, model j) predicted and updated
+    as a lane, the pairs into model j merged by ``p_ij mu_i`` times their likelihoods
+    (where none is reached, model j's own pair)."""
+    d, models = x.shape[0], x.shape[1]
+    shape = (d, models, models, nb)
+    x0, x_pred, p0, p_pred = np.empty(shape), np.empty(shape), np.empty((d,) + shape), \
+        np.empty((d,) + shape)
+    f, q = np.empty((d,) + shape), np.empty((d,) + shape)
+    for j in range(models):  # pair (i, j) is lane [j, i, b]
+        for i in range(models):
+            for a in range(d):
+                for b in range(nb):
+                    x0[a, j, i, b] = x[a, _source(has, i, j, a), b] if has[j, a] else 0.0
+                for c in range(d):
+                    kept = _kept(has, i, j, a, c)
+                    for b in range(nb):
+                        p0[a, c, j, i, b] = p[a, c, _source(has, i, j, a), b] if kept else 0.0
+        _lanes(transitions[j], j, f)
+        _lanes(noises[j], j, q)
+    lanes = models * models * nb
+    _propagate(lanes, f.reshape((d, d, lanes)), q.reshape((d, d, lanes)),
+               x0.reshape((d, lanes)), p0.reshape((d, d, lanes)), x_pred.reshape((d, lanes)),
+               p_pred.reshape((d, d, lanes)))
+    log_pair = np.empty((models, models, nb))
+    _update_lanes(mapping, noise, x_pred, p_pred, z, x0, p0, log_pair, status)
+    _merge_pairs(nb, matrix, mu, log_pair, x0, p0, x_out, p_out, mu_out)
+
+
+@jit()
+def _merge_pairs(nb, matrix, mu, log_pair, x, p, x_out, p_out, mu_out):
+    """GPB2's merge of the updated pairs ``x`` (d, M, M, B), ``p`` (d, d, M, M, B) with log
+    likelihoods ``log_pair`` (M, M, B) (pair (i, j) at ``[j, i]``; the log priors are added
+    in place) into each model j's posterior ``x_out[:, j]``, ``p_out[:, :, j]`` and the mode
+    probabilities ``mu_out``."""
+    d, models = x.shape[0], x.shape[1]
+    everything = np.ones((models, d), dtype=np.bool_)
+    weights, total = np.empty((models, nb)), np.empty(nb)
+    top, log_posterior = np.empty(nb), np.empty((models, nb))
+    for j in range(models):
+        fill(top, -np.inf)
+        for i in range(models):
+            for b in range(nb):
+                prior = matrix[i, j] * mu[i, b]
+                log_pair[j, i, b] += math.log(prior) if prior > 0.0 else -np.inf
+                top[b] = max(top[b], log_pair[j, i, b])
+        for i in range(models):
+            for b in range(nb):
+                weights[i, b] = math.exp(log_pair[j, i, b] - top[b]) if top[b] > -np.inf \
+                    else (i == j) * 1.0
+        _normalise(nb, weights, total)
+        for b in range(nb):
+            log_posterior[j, b] = top[b] + math.log(total[b]) if top[b] > -np.inf else -np.inf
+        _moment_match(nb, everything, j, weights, x[:, j], p[:, :, j], x_out, p_out)
     _normalised_block(nb, log_posterior, mu_out)
 
 
@@ -464,10 +385,9 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has,
 
     IMM: each model's prior is mixed from all models' posteriors by ``p_ij mu_i``. GPB1:
     every model starts from the moment match of all. GPB2: each model j updates every
-    model i's posterior (the pairs reached, ``p_ij mu_i > 0``) and merges them by
-    ``p_ij mu_i`` times their likelihoods. Mode probabilities are weighed in logs. The IMM
-    and GPB1 go in blocks of filters (the loops over a block's filters vectorise), GPB2
-    filter by filter.
+    model i's posterior and merges them by ``p_ij mu_i`` times their likelihoods (if no
+    pair is reached, ``p_ij mu_i > 0``, model j's own). Mode probabilities are weighed in
+    logs. Filters go in blocks (the loops over a block's lanes vectorise).
 
     Parameters
     ----------
@@ -481,7 +401,7 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has,
         ``matrix[i, j]``: the probability of switching from model i to model j.
     has : (M, d) bool
         The state components of each model (the rest of its mean and covariance are 0); a
-        model i is :func:`_converted` into model j's components before it enters model j.
+        model i is taken into model j's components (see the module) before it enters j.
     means, covars, probs : (K, M, d), (K, M, d, d), (K, M) float64
     z : (K, m) float64
     out_means, out_covars, out_probs : arrays of the shapes of the inputs
@@ -490,27 +410,26 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has,
         definite (its outputs are then partly written). The inputs' values are not
         checked here (:func:`step_inputs_valid` does).
     """
-    if algorithm == GPB2:
-        space = _workspace(means.shape[2], mapping.size, means.shape[1])
-        for k in range(means.shape[0]):
-            status[k] = _gpb2_step(transitions, noises, mapping, noise, matrix, has, means[k],
-                                   covars[k], probs[k], z[k], out_means[k], out_covars[k],
-                                   out_probs[k], space)
-        return
     filters, models, d = means.shape
-    for lo in range(0, filters, FILTERS_PER_BLOCK):
-        hi = min(lo + FILTERS_PER_BLOCK, filters)
+    per_block = max(1, FILTERS_PER_BLOCK // models) if algorithm == GPB2 else FILTERS_PER_BLOCK
+    for lo in range(0, filters, per_block):
+        hi = min(lo + per_block, filters)
         nb = hi - lo
         x, p, mu = _block(means, covars, probs, lo, hi)
         zb = np.empty((mapping.size, nb))
         _to_block(z, lo, hi, zb)
-        x_pred, p_pred, predicted = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
+        x_out, p_out, mu_out = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
         fill(status[lo:hi], OK)
-        _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x_pred,
-                        p_pred, predicted)
-        _update_models(nb, mapping, noise, x_pred, p_pred, predicted, zb, x, p, mu,
-                       status[lo:hi])  # the prior's block arrays take the posterior
-        _unblock(x, p, mu, lo, hi, out_means, out_covars, out_probs)
+        if algorithm == GPB2:
+            _gpb2_block(nb, transitions, noises, mapping, noise, matrix, has, x, p, mu, zb,
+                        x_out, p_out, mu_out, status[lo:hi])
+        else:
+            x_pred, p_pred, predicted = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
+            _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x_pred,
+                            p_pred, predicted)
+            _update_models(nb, mapping, noise, x_pred, p_pred, predicted, zb, x_out, p_out,
+                           mu_out, status[lo:hi])
+        _unblock(x_out, p_out, mu_out, lo, hi, out_means, out_covars, out_probs)
 
 
 @jit()

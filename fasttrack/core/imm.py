@@ -502,7 +502,7 @@ def _matrices(transition_models, dt):
     """(M, d, d) F and Q of the models over ``dt`` seconds, remembered for banks of
     constant-velocity models, which the interval and their noise rates determine (a filter
     steps at few intervals; building Q costs more than the step)."""
-    rates = tuple(model._cv_rates() for model in transition_models)
+    rates = tuple(model.cv_rates() for model in transition_models)
     key = (dt, rates) if None not in rates else None
     found = _CV_BANKS.get(key)
     if found is None:

@@ -69,7 +69,7 @@ class ConstantVelocity(_OneAxis):
         """
         return _velocity_noise(self.noise_diff_coeff, self._seconds(time_interval))
 
-    def _cv_rates(self):
+    def cv_rates(self):
         return (self._q,)
 
 

@@ -233,14 +233,16 @@ class _LinearGaussian(TransitionModel):
         -------
         fasttrack.models.spec.TransitionSpec
         """
-        rates = self._cv_rates()
+        rates = self.cv_rates()
         if rates is not None:
             return TransitionSpec(self, dt, CV, _rates_array(rates))
         return TransitionSpec(self, dt, FIXED)
 
-    def _cv_rates(self):
-        """The rates q of the constant-velocity blocks, as a tuple, or None if a part is
-        not constant velocity."""
+    def cv_rates(self):
+        """The noise rates q (m^2 s^-3 for positions in metres) of the model's
+        constant-velocity blocks, in order, as a tuple; None if a part is not a
+        :class:`ConstantVelocity` (F and Q of such a model are built for any interval from
+        these rates alone)."""
         return None
 
 
@@ -385,10 +387,10 @@ class CombinedLinearGaussianTransitionModel(_LinearGaussian):
         dt = self._seconds(time_interval)
         return _block_diag([model.covar(dt) for model in self.model_list])
 
-    def _cv_rates(self):
+    def cv_rates(self):
         rates = ()
         for model in self._models:
-            part = model._cv_rates()
+            part = model.cv_rates()
             if part is None:
                 return None
             rates += part
