@@ -410,26 +410,38 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has,
         definite (its outputs are then partly written). The inputs' values are not
         checked here (:func:`step_inputs_valid` does).
     """
-    filters, models, d = means.shape
-    per_block = max(1, FILTERS_PER_BLOCK // models) if algorithm == GPB2 else FILTERS_PER_BLOCK
-    for lo in range(0, filters, per_block):
-        hi = min(lo + per_block, filters)
-        nb = hi - lo
-        x, p, mu = _block(means, covars, probs, lo, hi)
-        zb = np.empty((mapping.size, nb))
-        _to_block(z, lo, hi, zb)
-        x_out, p_out, mu_out = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
-        fill(status[lo:hi], OK)
-        if algorithm == GPB2:
-            _gpb2_block(nb, transitions, noises, mapping, noise, matrix, has, x, p, mu, zb,
-                        x_out, p_out, mu_out, status[lo:hi])
+    per_block = max(1, FILTERS_PER_BLOCK // means.shape[1]) if algorithm == GPB2 \
+        else FILTERS_PER_BLOCK
+    for lo in range(0, means.shape[0], per_block):
+        nb = min(per_block, means.shape[0] - lo)
+        if nb == 1:  # a literal 1: Numba folds the loops over the block away
+            _step_block(1, lo, algorithm, transitions, noises, mapping, noise, matrix, has,
+                        means, covars, probs, z, out_means, out_covars, out_probs, status)
         else:
-            x_pred, p_pred, predicted = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
-            _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x_pred,
-                            p_pred, predicted)
-            _update_models(nb, mapping, noise, x_pred, p_pred, predicted, zb, x_out, p_out,
-                           mu_out, status[lo:hi])
-        _unblock(x_out, p_out, mu_out, lo, hi, out_means, out_covars, out_probs)
+            _step_block(nb, lo, algorithm, transitions, noises, mapping, noise, matrix, has,
+                        means, covars, probs, z, out_means, out_covars, out_probs, status)
+
+
+@jit()
+def _step_block(nb, lo, algorithm, transitions, noises, mapping, noise, matrix, has, means,
+                covars, probs, z, out_means, out_covars, out_probs, status):
+    """:func:`imm_linear_step` on the block of filters ``lo:lo + nb``."""
+    hi = lo + nb
+    x, p, mu = _block(means, covars, probs, lo, hi)
+    zb = np.empty((mapping.size, nb))
+    _to_block(z, lo, hi, zb)
+    x_out, p_out, mu_out = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
+    fill(status[lo:hi], OK)
+    if algorithm == GPB2:
+        _gpb2_block(nb, transitions, noises, mapping, noise, matrix, has, x, p, mu, zb, x_out,
+                    p_out, mu_out, status[lo:hi])
+    else:
+        x_pred, p_pred, predicted = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
+        _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x_pred,
+                        p_pred, predicted)
+        _update_models(nb, mapping, noise, x_pred, p_pred, predicted, zb, x_out, p_out, mu_out,
+                       status[lo:hi])
+    _unblock(x_out, p_out, mu_out, lo, hi, out_means, out_covars, out_probs)
 
 
 @jit()
@@ -448,20 +460,32 @@ def imm_predict(transitions, noises, matrix, has, means, covars, probs, out_mean
         OK, or why the first of the filter's model covariances is not symmetric positive
         semi-definite.
     """
-    filters, models, d = means.shape
-    for lo in range(0, filters, FILTERS_PER_BLOCK):
-        hi = min(lo + FILTERS_PER_BLOCK, filters)
-        nb = hi - lo
-        x, p, mu = _block(means, covars, probs, lo, hi)
-        x_pred, p_pred, predicted = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
-        fill(status[lo:hi], OK)
-        lane_status = np.zeros(models * nb, dtype=np.int64)
-        _check_covariance(models * nb, p.reshape((d, d, models * nb)), lane_status,
-                          PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
-        _first_status(lane_status, status[lo:hi])
-        _predict_models(nb, IMM, transitions, noises, matrix, has, x, p, mu, x_pred, p_pred,
-                        predicted)
-        _unblock(x_pred, p_pred, predicted, lo, hi, out_means, out_covars, out_predicted)
+    for lo in range(0, means.shape[0], FILTERS_PER_BLOCK):
+        nb = min(FILTERS_PER_BLOCK, means.shape[0] - lo)
+        if nb == 1:  # a literal 1: Numba folds the loops over the block away
+            _predict_block(1, lo, transitions, noises, matrix, has, means, covars, probs,
+                           out_means, out_covars, out_predicted, status)
+        else:
+            _predict_block(nb, lo, transitions, noises, matrix, has, means, covars, probs,
+                           out_means, out_covars, out_predicted, status)
+
+
+@jit()
+def _predict_block(nb, lo, transitions, noises, matrix, has, means, covars, probs, out_means,
+                   out_covars, out_predicted, status):
+    """:func:`imm_predict` on the block of filters ``lo:lo + nb``."""
+    hi = lo + nb
+    x, p, mu = _block(means, covars, probs, lo, hi)
+    x_pred, p_pred, predicted = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
+    fill(status[lo:hi], OK)
+    lanes = mu.size
+    lane_status = np.zeros(lanes, dtype=np.int64)
+    _check_covariance(lanes, p.reshape((p.shape[0], p.shape[1], lanes)), lane_status,
+                      PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    _first_status(lane_status, status[lo:hi])
+    _predict_models(nb, IMM, transitions, noises, matrix, has, x, p, mu, x_pred, p_pred,
+                    predicted)
+    _unblock(x_pred, p_pred, predicted, lo, hi, out_means, out_covars, out_predicted)
 
 
 @jit()
@@ -481,14 +505,25 @@ def imm_update(mapping, noise, means, covars, predicted, z, out_means, out_covar
     status : (K,) int64
         OK, or INNOVATION_NOT_PD.
     """
-    filters, models, d = means.shape
-    for lo in range(0, filters, FILTERS_PER_BLOCK):
-        hi = min(lo + FILTERS_PER_BLOCK, filters)
-        nb = hi - lo
-        x, p, c = _block(means, covars, predicted, lo, hi)
-        zb = np.empty((mapping.size, nb))
-        _to_block(z, lo, hi, zb)
-        x_out, p_out, mu_out = np.empty_like(x), np.empty_like(p), np.empty_like(c)
-        fill(status[lo:hi], OK)
-        _update_models(nb, mapping, noise, x, p, c, zb, x_out, p_out, mu_out, status[lo:hi])
-        _unblock(x_out, p_out, mu_out, lo, hi, out_means, out_covars, out_probs)
+    for lo in range(0, means.shape[0], FILTERS_PER_BLOCK):
+        nb = min(FILTERS_PER_BLOCK, means.shape[0] - lo)
+        if nb == 1:  # a literal 1: Numba folds the loops over the block away
+            _update_block(1, lo, mapping, noise, means, covars, predicted, z, out_means,
+                          out_covars, out_probs, status)
+        else:
+            _update_block(nb, lo, mapping, noise, means, covars, predicted, z, out_means,
+                          out_covars, out_probs, status)
+
+
+@jit()
+def _update_block(nb, lo, mapping, noise, means, covars, predicted, z, out_means, out_covars,
+                  out_probs, status):
+    """:func:`imm_update` on the block of filters ``lo:lo + nb``."""
+    hi = lo + nb
+    x, p, c = _block(means, covars, predicted, lo, hi)
+    zb = np.empty((mapping.size, nb))
+    _to_block(z, lo, hi, zb)
+    x_out, p_out, mu_out = np.empty_like(x), np.empty_like(p), np.empty_like(c)
+    fill(status[lo:hi], OK)
+    _update_models(nb, mapping, noise, x, p, c, zb, x_out, p_out, mu_out, status[lo:hi])
+    _unblock(x_out, p_out, mu_out, lo, hi, out_means, out_covars, out_probs)

@@ -1,17 +1,17 @@
 """Timestamps, time intervals and the links between states (see :mod:`fasttrack.types`)."""
 import datetime
-import numbers
+import math
 import weakref
 
-import numpy as np
+from .._validate import is_real
 
 
 def check_timestamp(value, name="timestamp"):
     """A timestamp: ``None``, a ``datetime.datetime`` or a real number of seconds."""
     if value is None or isinstance(value, datetime.datetime):
         return value
-    if isinstance(value, numbers.Real) and not isinstance(value, bool):
-        if not np.isfinite(value):
+    if is_real(value):
+        if not math.isfinite(value):
             raise ValueError(f"{name} must be finite, got {value}")
         return value
     raise TypeError(f"{name} must be None, a datetime or a number of seconds, "
@@ -44,8 +44,7 @@ def time_interval(later, earlier, name="timestamp"):
     """Seconds from ``earlier`` to ``later`` (two datetimes or two numbers of seconds)."""
     if isinstance(later, datetime.datetime) and isinstance(earlier, datetime.datetime):
         return (later - earlier).total_seconds()
-    if isinstance(later, numbers.Real) and isinstance(earlier, numbers.Real) \
-            and not isinstance(later, bool) and not isinstance(earlier, bool):
+    if is_real(later) and is_real(earlier):
         return float(later) - float(earlier)
     raise TypeError(f"{name} {later!r} and the prior's timestamp {earlier!r} must both be "
                     f"datetimes or both numbers of seconds")
@@ -55,8 +54,8 @@ def seconds(interval, name="time_interval"):
     """A time interval in seconds from a ``datetime.timedelta`` or a real number."""
     if isinstance(interval, datetime.timedelta):
         return interval.total_seconds()
-    if isinstance(interval, numbers.Real) and not isinstance(interval, bool):
-        if not np.isfinite(interval):
+    if is_real(interval):
+        if not math.isfinite(interval):
             raise ValueError(f"{name} must be finite, got {interval}")
         return float(interval)
     raise TypeError(f"{name} must be a datetime.timedelta or a number of seconds, "
