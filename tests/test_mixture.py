@@ -53,6 +53,42 @@ def test_moment_match_matches_its_mirror(sizes, d, seed):
         np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
 
 
+@pytest.mark.parametrize("j, d, m", [(0, 4, 2), (1, 4, 2), (7, 4, 2), (5, 6, 3), (3, 2, 1)])
+def test_component_gains_match_their_mirror_and_the_numpy_twin(j, d, m):
+    rng = np.random.default_rng(j + d)
+    _, covars = _components(rng, j, d)
+    h = rng.standard_normal((m, d))
+    cross = covars @ h.T
+    innovation = h @ covars @ h.T + np.eye(m)
+    outputs = []
+    for run in (kernels.component_gains, reference.mixture.component_gains,
+                mixture_numpy.component_gains):
+        gains, updated = np.empty((j, d, m)), np.empty((j, d, d))
+        assert run(covars, cross, innovation, gains, updated) == -1
+        outputs.append((gains, updated))
+    for gains, updated in outputs[1:]:
+        np.testing.assert_allclose(outputs[0][0], gains, rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(outputs[0][1], updated, rtol=1e-10, atol=1e-12)
+    assert (outputs[0][1] == outputs[0][1].transpose(0, 2, 1)).all()
+    if j:  # K S K^T, the other form of what the update removes
+        s_gain = np.einsum("kam,kmn,kbn->kab", outputs[0][0], innovation, outputs[0][0])
+        np.testing.assert_allclose(outputs[0][1], covars - s_gain, rtol=1e-9, atol=1e-9)
+
+
+def test_component_gains_name_an_innovation_covariance_that_is_not_positive_definite():
+    rng = np.random.default_rng(1)
+    _, covars = _components(rng, 3, 4)
+    cross = covars[:, :, :2].copy()
+    innovation = cross[:, :2, :] + np.eye(2)
+    innovation[1] = [[1.0, 2.0], [2.0, 1.0]]
+    for run in (kernels.component_gains, reference.mixture.component_gains,
+                mixture_numpy.component_gains):
+        assert run(covars, cross, innovation, np.empty((3, 4, 2)), np.empty((3, 4, 4))) == 1
+    with pytest.raises(ValueError, match="innovation covariance of component 1 is not "
+                                         "positive definite"):
+        mixture.component_gains(covars, cross, innovation)
+
+
 def test_two_equal_components_merge_to_the_closed_form():
     """Two equal weights at -a and +a with covariance P: mean 0, covariance P + a a^T."""
     a, p = np.array([1.0, -2.0]), np.array([[2.0, 0.3], [0.3, 1.0]])

@@ -42,6 +42,40 @@ def segment_logsumexp(values, starts, out):
 
 
 @jit()
+def component_gains(covars, cross, innovation, gains, updated):
+    """Each component's Kalman gain ``K = C S^-1`` (J, d, m) and posterior covariance
+    ``P - K C^T`` (J, d, d; lower triangle computed, mirrored) from its covariance P
+    (J, d, d), ``cross`` C = P H^T (J, d, m) and innovation covariance S = H P H^T + R
+    (J, m, m), by S's Cholesky factor: a mixture update's per-component work, shared by the
+    detections it pairs with. Returns the first component whose S is not positive definite
+    (its outputs unwritten), or -1."""
+    j, d, m = cross.shape
+    lower, half = np.empty((m, m)), np.empty(m)
+    for k in range(j):
+        if not cholesky(innovation[k], lower):
+            return k
+        for a in range(d):  # row a of K solves L L^T K[a]^T = C[a]^T
+            for r in range(m):
+                t = cross[k, a, r]
+                for s in range(r):
+                    t -= lower[r, s] * half[s]
+                half[r] = t / lower[r, r]
+            for r in range(m - 1, -1, -1):
+                t = half[r]
+                for s in range(r + 1, m):
+                    t -= lower[s, r] * gains[k, a, s]
+                gains[k, a, r] = t / lower[r, r]
+        for a in range(d):
+            for b in range(a + 1):
+                t = covars[k, a, b]
+                for r in range(m):
+                    t -= gains[k, a, r] * cross[k, b, r]
+                updated[k, a, b] = t
+                updated[k, b, a] = t
+    return -1
+
+
+@jit()
 def moment_match(means, covars, log_weights, starts, out_means, out_covars, out_log_weights):
     """Each segment's components merged into the Gaussian of the same mean and covariance:
     ``m = sum w_i m_i``, ``P = sum w_i (P_i + (m_i - m)(m_i - m)^T)`` with the weights

@@ -37,6 +37,22 @@ def _segment_logsumexp(values, starts):
     return out
 
 
+def component_gains(covars, cross, innovation):
+    """``(gains, updated)``: each component's Kalman gain ``K = C S^-1`` (J, d, m) and
+    posterior covariance ``P - K C^T`` (J, d, d, symmetric) from its covariance P
+    (J, d, d), ``cross`` C = P H^T (J, d, m) and innovation covariance S (J, m, m)
+    (:func:`fasttrack._jit.mixture.component_gains`). Raises ValueError naming the first
+    component whose S is not positive definite."""
+    gains, updated = np.empty(cross.shape), np.empty(covars.shape)
+    run = _numpy.component_gains if _jit.numpy_first(covars.size) else _mixture.component_gains
+    failed = run(covars, np.ascontiguousarray(cross), np.ascontiguousarray(innovation), gains,
+                 updated)
+    if failed >= 0:
+        raise ValueError(f"the innovation covariance of component {failed} is not positive "
+                         f"definite")
+    return gains, updated
+
+
 def groups(labels):
     """``(order, starts, unique)``: the stable order that sorts int64 ``labels`` (K,), the
     CSR starts of its runs and the distinct labels, ascending."""

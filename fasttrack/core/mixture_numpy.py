@@ -1,7 +1,8 @@
-"""The mixture reducer in NumPy, for a process's first small calls (see
-:func:`fasttrack._jit.numpy_first`): ``fasttrack._jit.mixture.reduce``'s rules, arguments,
-outputs and status codes, its candidate tests vectorised (each merge tests the live
-candidates against the merged mean at once, resuming after the one merged)."""
+"""The mixture reducer and the components' gains in NumPy, for a process's first small calls
+(see :func:`fasttrack._jit.numpy_first`): ``fasttrack._jit.mixture.reduce``'s and
+``component_gains``' rules, arguments, outputs and status codes, the reducer's candidate
+tests vectorised (each merge tests the live candidates against the merged mean at once,
+resuming after the one merged)."""
 import functools
 import operator
 
@@ -145,3 +146,16 @@ def _truncate(stonesoup, count, keep, means, covars, weights, source, member):
     inside = member >= 0
     member[inside] = position[member[inside]]
     return keep
+
+
+def component_gains(covars, cross, innovation, gains, updated):
+    """:func:`fasttrack._jit.mixture.component_gains` (the lower triangle of the posterior
+    covariance mirrored, as the kernel's)."""
+    bad = np.flatnonzero(np.linalg.eigvalsh(innovation)[:, 0] <= 0.0) if innovation.size \
+        else np.empty(0, dtype=np.int64)
+    if bad.size:
+        return int(bad[0])
+    gains[...] = np.linalg.solve(innovation, cross.transpose(0, 2, 1)).transpose(0, 2, 1)
+    posterior = np.tril(covars - gains @ cross.transpose(0, 2, 1))
+    updated[...] = posterior + np.tril(posterior, -1).transpose(0, 2, 1)
+    return -1

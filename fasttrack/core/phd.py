@@ -163,9 +163,7 @@ def gated_pairs(spec, means, covars, log_weights, scan, log_detect, threshold,
     axes = np.empty(0, dtype=np.int64) if few or threshold == np.inf else \
         _gating.default_axes(spec.angles)
     gate = _gating.gate_arrays(z_hats, innovation, scan, threshold, spec.angles, axes)
-    gains = np.linalg.solve(innovation, cross.transpose(0, 2, 1)).transpose(0, 2, 1)
-    updated = covars - gains @ cross.transpose(0, 2, 1)
-    updated = 0.5 * (updated + updated.transpose(0, 2, 1))
+    gains, updated = _mixture.component_gains(covars, cross, innovation)
     pairs = np.repeat(np.arange(j), np.diff(gate.starts))
     log_detected = log_detect + log_weights[pairs] + gate.log_likelihoods
     by_detection = np.argsort(gate.detections, kind="stable")

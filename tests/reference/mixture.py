@@ -1,5 +1,5 @@
-"""Mirrors of ``fasttrack._jit.mixture``: segment log-sum-exp and moment matching of
-Gaussian mixture components grouped by CSR starts."""
+"""Mirrors of ``fasttrack._jit.mixture``: segment log-sum-exp, moment matching of
+Gaussian mixture components grouped by CSR starts, and the components' Kalman gains."""
 import numpy as np
 
 
@@ -86,3 +86,13 @@ def reduce(means, covars, weights, mode, prune_threshold, merging, merge_thresho
         out_means[o], out_covars[o], out_weights[o], source[o] = mean, covar, weight, kept[best]
         member[kept[group]] = o
     return len(merged)
+
+
+def component_gains(covars, cross, innovation, gains, updated):
+    for k in range(cross.shape[0]):
+        if np.linalg.eigvalsh(innovation[k]).min() <= 0.0:
+            return k
+        gains[k] = cross[k] @ np.linalg.inv(innovation[k])
+        posterior = covars[k] - gains[k] @ cross[k].T
+        updated[k] = np.tril(posterior) + np.tril(posterior, -1).T
+    return -1
