@@ -18,8 +18,8 @@ import math
 import numpy as np
 
 from .dispatch import jit
-from .kalman import _from_block, _propagate, _to_block, _update
-from .linalg import _check_covariance, _cholesky, _covariance_code
+from .kalman import _from_block, _to_block
+from .linalg import _check_covariance, _covariance_code
 from .numeric import fill
 from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
 from .tunables import FILTERS_PER_BLOCK
@@ -31,16 +31,6 @@ HALF_LOG_TWO_PI = 0.9189385332046727
 #: :func:`imm_linear_step`'s algorithms: the interacting multiple model filter, and the
 #: generalised pseudo-Bayesian filters of first and second order.
 IMM, GPB1, GPB2 = 0, 1, 2
-
-
-@jit(inline=True)
-def _every(has):
-    """Whether every entry of the bool array ``has`` (M, d) is True."""
-    for i in range(has.shape[0]):
-        for a in range(has.shape[1]):
-            if not has[i, a]:
-                return False
-    return True
 
 
 @jit(inline=True)
@@ -143,10 +133,9 @@ def _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x
     mixed by ``p_ij mu_i`` (where ``c_j`` is 0, model j's own state), for GPB1 all models
     merged by ``mu_i``. (A mixture of covariances is one: the models' own are what is
     checked.)"""
-    d, models = x.shape[0], x.shape[1]
-    lanes = models * nb
+    models = x.shape[1]
     weights, total = np.empty((models, nb)), np.empty(nb)
-    x0, p0, f, q = np.empty(x.shape), np.empty(p.shape), np.empty(p.shape), np.empty(p.shape)
+    x0, p0 = np.empty(x.shape), np.empty(p.shape)
     for j in range(models):
         for b in range(nb):
             predicted[j, b] = 0.0
@@ -162,52 +151,155 @@ def _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x
                         else (i == j) * 1.0
         _normalise(nb, weights, total)
         _moment_match(nb, has, j, weights, x, p, x0, p0)
-        _lanes(transitions[j], j, f)
-        _lanes(noises[j], j, q)
-    _propagate(lanes, f.reshape((d, d, lanes)), q.reshape((d, d, lanes)),
-               x0.reshape((d, lanes)), p0.reshape((d, d, lanes)), x_out.reshape((d, lanes)),
-               p_out.reshape((d, d, lanes)))
+        _predict_model(transitions[j], noises[j], j, x0, p0, x_out, p_out)
 
 
 @jit()
-def _lanes(a, j, out):
-    """``out[r, c, j, ..., b] = a[r, c]``: the (d, d) matrix ``a`` in each of model j's
-    lanes of ``out`` (d, d, M, ..., B)."""
-    block = out.reshape((a.shape[0], a.shape[1], out.shape[2], -1))
-    for r in range(a.shape[0]):
-        for c in range(a.shape[1]):
-            for b in range(block.shape[3]):
-                block[r, c, j, b] = a[r, c]
+def _predict_model(f, q, j, x, p, x_out, p_out):
+    """Model j's lanes of ``x`` (d, M, L) and ``p`` (d, d, M, L) predicted through its F
+    and Q into ``x_out`` and ``p_out`` (the same shapes): ``F x`` and ``F P F^T + Q``
+    (lower triangle computed, mirrored)."""
+    d, lanes = x.shape[0], x.shape[2]
+    work = np.empty((d, d, lanes))  # F P
+    for r in range(d):
+        for b in range(lanes):
+            x_out[r, j, b] = 0.0
+        for c in range(d):
+            for b in range(lanes):
+                x_out[r, j, b] += f[r, c] * x[c, j, b]
+            for b in range(lanes):
+                work[r, c, b] = 0.0
+            for e in range(d):
+                for b in range(lanes):
+                    work[r, c, b] += f[r, e] * p[e, c, j, b]
+    for r in range(d):
+        for c in range(r + 1):
+            for b in range(lanes):
+                p_out[r, c, j, b] = q[r, c]
+            for e in range(d):
+                for b in range(lanes):
+                    p_out[r, c, j, b] += work[r, e, b] * f[c, e]
+            for b in range(lanes):
+                p_out[c, r, j, b] = p_out[r, c, j, b]
 
 
 @jit()
 def _update_lanes(mapping, noise, x, p, z, x_out, p_out, log_likelihood, status):
-    """Every lane of ``x`` (d, ..., B) and ``p`` (d, d, ..., B) updated in the Joseph form
-    with its filter's measurement ``z`` (m, B) by the sensor selecting ``mapping`` (noise
-    R) into ``x_out`` and ``p_out``; ``log_likelihood`` (..., B) gets each lane's
-    ``log N(z; H x, S)``. Where an innovation covariance is not positive definite,
-    ``status`` (B,) becomes INNOVATION_NOT_PD."""
-    d, m, nb = x.shape[0], z.shape[0], z.shape[1]
-    lanes = x.size // d
-    x, p = x.reshape((d, lanes)), p.reshape((d, d, lanes))
-    measured, z_hat, jacobian = np.empty((m, lanes // nb, nb)), np.empty((m, lanes)), \
-        np.zeros((m, d, lanes))
+    """The lanes ``x`` (d, L) and ``p`` (d, d, L), L a multiple of the block's B filters
+    (filter b's lanes are ``b, B + b, ...``), updated with their filter's measurement ``z``
+    (m, B) by the sensor selecting ``mapping`` (noise R) into ``x_out`` and ``p_out``
+    (:func:`_select_update`); ``log_likelihood`` (L,) gets each lane's log likelihood.
+    Where an innovation covariance is not positive definite, ``status`` (B,) becomes
+    INNOVATION_NOT_PD."""
+    m, nb = z.shape
+    lanes = x.shape[1]
+    measured = np.empty((m, lanes // nb, nb))
     for r in range(m):
         for i in range(lanes // nb):
             for b in range(nb):
                 measured[r, i, b] = z[r, b]
-        for b in range(lanes):
-            z_hat[r, b] = x[mapping[r], b]
-            jacobian[r, mapping[r], b] = 1.0
-    measured = measured.reshape((m, lanes))
-    innovation_covar, cross = np.empty((m, m, lanes)), np.empty((d, m, lanes))
     lane_status = np.zeros(lanes, dtype=np.int64)
-    _update(lanes, x, p, measured, z_hat, jacobian, noise, np.zeros(m, dtype=np.bool_), True,
-            x_out.reshape((d, lanes)), p_out.reshape((d, d, lanes)), innovation_covar, cross,
-            lane_status)
-    _log_gaussian(lanes, innovation_covar, measured, z_hat, log_likelihood.reshape(lanes),
-                  lane_status)
+    _select_update(mapping, noise, x, p, measured.reshape((m, lanes)), x_out, p_out,
+                   log_likelihood, lane_status)
     _first_status(lane_status, status)
+
+
+@jit()
+def _select_update(mapping, noise, x, p, z, x_out, p_out, log_likelihood, status):
+    """The Kalman update in the Joseph form of each lane of ``x`` (d, L), ``p`` (d, d, L)
+    with ``z`` (m, L) by the sensor selecting ``mapping`` (noise R) into ``x_out`` and
+    ``p_out`` (lower triangle computed, mirrored); ``log_likelihood`` (L,) gets
+    ``log N(z; H x, S)``. Where S is not positive definite, ``status`` (L,) becomes
+    INNOVATION_NOT_PD (that lane's outputs are then meaningless)."""
+    d, lanes = x.shape
+    m = mapping.size
+    lower, gain = np.empty((m, m, lanes)), np.empty((d, m, lanes))
+    innovation, half, t = np.empty((m, lanes)), np.empty((m, lanes)), np.empty(lanes)
+    for r in range(m):  # S = H P H^T + R = L L^T
+        for s in range(r + 1):
+            for b in range(lanes):
+                t[b] = p[mapping[r], mapping[s], b] + noise[r, s]
+            for k in range(s):
+                for b in range(lanes):
+                    t[b] -= lower[r, k, b] * lower[s, k, b]
+            for b in range(lanes):
+                if r != s:
+                    lower[r, s, b] = t[b] / lower[s, s, b]
+                elif t[b] > 0.0:
+                    lower[r, r, b] = math.sqrt(t[b])
+                else:
+                    status[b] = INNOVATION_NOT_PD
+                    lower[r, r, b] = 1.0
+    for b in range(lanes):
+        log_likelihood[b] = -m * HALF_LOG_TWO_PI
+    for r in range(m):  # the whitened innovation L^-1 (z - H x)
+        for b in range(lanes):
+            innovation[r, b] = z[r, b] - x[mapping[r], b]
+            t[b] = innovation[r, b]
+        for k in range(r):
+            for b in range(lanes):
+                t[b] -= lower[r, k, b] * half[k, b]
+        for b in range(lanes):
+            half[r, b] = t[b] / lower[r, r, b]
+            log_likelihood[b] -= 0.5 * half[r, b] * half[r, b] + math.log(lower[r, r, b])
+    for a in range(d):  # row a of K = P H^T S^-1 solves L L^T K[a]^T = (H P)[:, a]
+        for r in range(m):
+            for b in range(lanes):
+                t[b] = p[a, mapping[r], b]
+            for k in range(r):
+                for b in range(lanes):
+                    t[b] -= lower[r, k, b] * half[k, b]
+            for b in range(lanes):
+                half[r, b] = t[b] / lower[r, r, b]
+        for r in range(m - 1, -1, -1):
+            for b in range(lanes):
+                t[b] = half[r, b]
+            for k in range(r + 1, m):
+                for b in range(lanes):
+                    t[b] -= lower[k, r, b] * gain[a, k, b]
+            for b in range(lanes):
+                gain[a, r, b] = t[b] / lower[r, r, b]
+    _joseph(mapping, noise, x, p, innovation, gain, x_out, p_out)
+
+
+@jit()
+def _joseph(mapping, noise, x, p, innovation, gain, x_out, p_out):
+    """``x_out = x + K v`` and ``p_out = (I - K H) P (I - K H)^T + K R K^T`` per lane, for
+    the gains ``gain`` (d, m, L) and innovations ``innovation`` (m, L) of
+    :func:`_select_update`."""
+    d, lanes = x.shape
+    m = mapping.size
+    work, t = np.empty((d, d, lanes)), np.empty(lanes)
+    for a in range(d):
+        for b in range(lanes):
+            t[b] = x[a, b]
+        for r in range(m):
+            for b in range(lanes):
+                t[b] += gain[a, r, b] * innovation[r, b]
+        for b in range(lanes):
+            x_out[a, b] = t[b]
+        for c in range(d):  # work = (I - K H) P
+            for b in range(lanes):
+                t[b] = p[a, c, b]
+            for r in range(m):
+                for b in range(lanes):
+                    t[b] -= gain[a, r, b] * p[mapping[r], c, b]
+            for b in range(lanes):
+                work[a, c, b] = t[b]
+    for a in range(d):
+        for c in range(a + 1):
+            for b in range(lanes):
+                t[b] = work[a, c, b]
+            for r in range(m):
+                for b in range(lanes):
+                    t[b] -= work[a, mapping[r], b] * gain[c, r, b]
+            for r in range(m):
+                for s in range(m):
+                    for b in range(lanes):
+                        t[b] += gain[a, r, b] * noise[r, s] * gain[c, s, b]
+            for b in range(lanes):
+                p_out[a, c, b] = t[b]
+                p_out[c, a, b] = t[b]
 
 
 @jit()
@@ -216,9 +308,12 @@ def _update_models(nb, mapping, noise, x, p, predicted, z, x_out, p_out, mu_out,
     updated with ``z`` (m, B) (:func:`_update_lanes`) into ``x_out`` and ``p_out``;
     ``mu_out`` (M, B) gets the posterior mode probabilities from the predicted ones (M, B),
     weighed in logs."""
-    models = x.shape[1]
+    d, models = x.shape[0], x.shape[1]
+    lanes = models * nb
     log_posterior = np.empty((models, nb))
-    _update_lanes(mapping, noise, x, p, z, x_out, p_out, log_posterior, status)
+    _update_lanes(mapping, noise, x.reshape((d, lanes)), p.reshape((d, d, lanes)), z,
+                  x_out.reshape((d, lanes)), p_out.reshape((d, d, lanes)),
+                  log_posterior.reshape(lanes), status)
     for j in range(models):
         for b in range(nb):
             log_posterior[j, b] += math.log(predicted[j, b]) if predicted[j, b] > 0.0 \
@@ -237,7 +332,6 @@ def _gpb2_block(nb, transitions, noises, mapping, noise, matrix, has, x, p, mu, 
     shape = (d, models, models, nb)
     x0, x_pred, p0, p_pred = np.empty(shape), np.empty(shape), np.empty((d,) + shape), \
         np.empty((d,) + shape)
-    f, q = np.empty((d,) + shape), np.empty((d,) + shape)
     for j in range(models):  # pair (i, j) is lane [j, i, b]
         for i in range(models):
             for a in range(d):
@@ -247,15 +341,16 @@ def _gpb2_block(nb, transitions, noises, mapping, noise, matrix, has, x, p, mu, 
                     kept = _kept(has, i, j, a, c)
                     for b in range(nb):
                         p0[a, c, j, i, b] = p[a, c, _source(has, i, j, a), b] if kept else 0.0
-        _lanes(transitions[j], j, f)
-        _lanes(noises[j], j, q)
+        _predict_model(transitions[j], noises[j], j, x0.reshape((d, models, -1)),
+                       p0.reshape((d, d, models, -1)), x_pred.reshape((d, models, -1)),
+                       p_pred.reshape((d, d, models, -1)))
     lanes = models * models * nb
-    _propagate(lanes, f.reshape((d, d, lanes)), q.reshape((d, d, lanes)),
-               x0.reshape((d, lanes)), p0.reshape((d, d, lanes)), x_pred.reshape((d, lanes)),
-               p_pred.reshape((d, d, lanes)))
+    x0, p0 = x0.reshape((d, lanes)), p0.reshape((d, d, lanes))
+    x_pred, p_pred = x_pred.reshape((d, lanes)), p_pred.reshape((d, d, lanes))
     log_pair = np.empty((models, models, nb))
-    _update_lanes(mapping, noise, x_pred, p_pred, z, x0, p0, log_pair, status)
-    _merge_pairs(nb, matrix, mu, log_pair, x0, p0, x_out, p_out, mu_out)
+    _update_lanes(mapping, noise, x_pred, p_pred, z, x0, p0, log_pair.reshape(lanes), status)
+    _merge_pairs(nb, matrix, mu, log_pair, x0.reshape(shape), p0.reshape((d,) + shape), x_out,
+                 p_out, mu_out)
 
 
 @jit()
@@ -282,7 +377,8 @@ def _merge_pairs(nb, matrix, mu, log_pair, x, p, x_out, p_out, mu_out):
         _normalise(nb, weights, total)
         for b in range(nb):
             log_posterior[j, b] = top[b] + math.log(total[b]) if top[b] > -np.inf else -np.inf
-        _moment_match(nb, everything, j, weights, x[:, j], p[:, :, j], x_out, p_out)
+        _moment_match(nb, everything, j, weights, np.ascontiguousarray(x[:, j]),
+                      np.ascontiguousarray(p[:, :, j]), x_out, p_out)
     _normalised_block(nb, log_posterior, mu_out)
 
 
@@ -295,24 +391,6 @@ def _first_status(lane_status, status):
         for b in range(status.size):
             if status[b] == OK:
                 status[b] = lane_status[j, b]
-
-
-@jit()
-def _log_gaussian(nb, covar, z, mean, out, status):
-    """``out[b] = log N(z; mean, S)`` per filter for the (m, m, B) ``covar`` S (where it is
-    not positive definite, ``status`` becomes INNOVATION_NOT_PD)."""
-    m = z.shape[0]
-    lower, whitened = np.empty((m, m, nb)), np.empty((m, nb))
-    _cholesky(nb, covar, lower, status, INNOVATION_NOT_PD)
-    for b in range(nb):
-        out[b] = -m * HALF_LOG_TWO_PI
-    for r in range(m):
-        for b in range(nb):
-            t = z[r, b] - mean[r, b]
-            for c in range(r):
-                t -= lower[r, c, b] * whitened[c, b]
-            whitened[r, b] = t / lower[r, r, b]
-            out[b] -= 0.5 * whitened[r, b] * whitened[r, b] + math.log(lower[r, r, b])
 
 
 @jit()
@@ -414,12 +492,8 @@ def imm_linear_step(algorithm, transitions, noises, mapping, noise, matrix, has,
         else FILTERS_PER_BLOCK
     for lo in range(0, means.shape[0], per_block):
         nb = min(per_block, means.shape[0] - lo)
-        if nb == 1:  # a literal 1: Numba folds the loops over the block away
-            _step_block(1, lo, algorithm, transitions, noises, mapping, noise, matrix, has,
-                        means, covars, probs, z, out_means, out_covars, out_probs, status)
-        else:
-            _step_block(nb, lo, algorithm, transitions, noises, mapping, noise, matrix, has,
-                        means, covars, probs, z, out_means, out_covars, out_probs, status)
+        _step_block(nb, lo, algorithm, transitions, noises, mapping, noise, matrix, has,
+                    means, covars, probs, z, out_means, out_covars, out_probs, status)
 
 
 @jit()
@@ -462,12 +536,8 @@ def imm_predict(transitions, noises, matrix, has, means, covars, probs, out_mean
     """
     for lo in range(0, means.shape[0], FILTERS_PER_BLOCK):
         nb = min(FILTERS_PER_BLOCK, means.shape[0] - lo)
-        if nb == 1:  # a literal 1: Numba folds the loops over the block away
-            _predict_block(1, lo, transitions, noises, matrix, has, means, covars, probs,
-                           out_means, out_covars, out_predicted, status)
-        else:
-            _predict_block(nb, lo, transitions, noises, matrix, has, means, covars, probs,
-                           out_means, out_covars, out_predicted, status)
+        _predict_block(nb, lo, transitions, noises, matrix, has, means, covars, probs,
+                       out_means, out_covars, out_predicted, status)
 
 
 @jit()
@@ -507,12 +577,8 @@ def imm_update(mapping, noise, means, covars, predicted, z, out_means, out_covar
     """
     for lo in range(0, means.shape[0], FILTERS_PER_BLOCK):
         nb = min(FILTERS_PER_BLOCK, means.shape[0] - lo)
-        if nb == 1:  # a literal 1: Numba folds the loops over the block away
-            _update_block(1, lo, mapping, noise, means, covars, predicted, z, out_means,
-                          out_covars, out_probs, status)
-        else:
-            _update_block(nb, lo, mapping, noise, means, covars, predicted, z, out_means,
-                          out_covars, out_probs, status)
+        _update_block(nb, lo, mapping, noise, means, covars, predicted, z, out_means,
+                      out_covars, out_probs, status)
 
 
 @jit()

@@ -4,7 +4,6 @@ smoother's (:mod:`smooth`)."""
 import numpy as np
 
 from .dispatch import jit, with_constant
-from .imm import _every
 from .linalg import _covariance_code_of
 from .mixture import _moment_match_group
 from .numeric import copy_into
@@ -25,6 +24,16 @@ def imm_smooth_kernel(d):
     those in :data:`SMOOTH_DIMENSIONS`, else the build for any dimension."""
     return with_constant(imm_smooth, "_DIMENSION", d) if d in SMOOTH_DIMENSIONS \
         else imm_smooth
+
+
+@jit(inline=True)
+def _every(has):
+    """Whether every entry of the bool array ``has`` (M, d) is True."""
+    for i in range(has.shape[0]):
+        for a in range(has.shape[1]):
+            if not has[i, a]:
+                return False
+    return True
 
 
 @jit(inline=True)
