@@ -125,17 +125,14 @@ def _moment_match(nb, has, j, weights, x, p, x0, p0):
 
 
 @jit()
-def _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x_out, p_out,
-                    predicted):
-    """Each model's prior of a block's filters predicted through its F and Q into ``x_out``
-    (d, M, B) and ``p_out`` (d, d, M, B); ``predicted`` (M, B) gets the predicted
-    probabilities ``c_j = sum_i p_ij mu_i``. The prior of model j: for the IMM the models
-    mixed by ``p_ij mu_i`` (where ``c_j`` is 0, model j's own state), for GPB1 all models
-    merged by ``mu_i``. (A mixture of covariances is one: the models' own are what is
-    checked.)"""
+def _mixed_priors(nb, algorithm, matrix, has, x, p, mu, x0, p0, predicted):
+    """Each model's prior of a block's filters into ``x0`` (d, M, B) and ``p0``
+    (d, d, M, B); ``predicted`` (M, B) gets the predicted probabilities
+    ``c_j = sum_i p_ij mu_i``. The prior of model j: for the IMM the models mixed by
+    ``p_ij mu_i`` (where ``c_j`` is 0, model j's own state), for GPB1 all models merged by
+    ``mu_i``. (A mixture of covariances is one: the models' own are what is checked.)"""
     models = x.shape[1]
     weights, total = np.empty((models, nb)), np.empty(nb)
-    x0, p0 = np.empty(x.shape), np.empty(p.shape)
     for j in range(models):
         for b in range(nb):
             predicted[j, b] = 0.0
@@ -151,7 +148,32 @@ def _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x
                         else (i == j) * 1.0
         _normalise(nb, weights, total)
         _moment_match(nb, has, j, weights, x, p, x0, p0)
-        _predict_model(transitions[j], noises[j], j, x0, p0, x_out, p_out)
+
+
+@jit()
+def _paired_priors(nb, has, x, p, x0, p0):
+    """GPB2's priors of a block's filters: model i's posterior taken into model j's
+    components for each pair, into lane ``i B + b`` of model j's in ``x0`` (d, M, M B) and
+    ``p0`` (d, d, M, M B)."""
+    d, models = x.shape[0], x.shape[1]
+    for j in range(models):
+        for i in range(models):
+            for a in range(d):
+                for b in range(nb):
+                    x0[a, j, i * nb + b] = x[a, _source(has, i, j, a), b] if has[j, a] else 0.0
+                for c in range(d):
+                    kept = _kept(has, i, j, a, c)
+                    for b in range(nb):
+                        p0[a, c, j, i * nb + b] = p[a, c, _source(has, i, j, a), b] if kept \
+                            else 0.0
+
+
+@jit()
+def _predict_models(transitions, noises, x, p, x_out, p_out):
+    """Each model j's lanes of ``x`` (d, M, L), ``p`` (d, d, M, L) predicted through its F
+    and Q (:func:`_predict_model`) into ``x_out`` and ``p_out``."""
+    for j in range(x.shape[1]):
+        _predict_model(transitions[j], noises[j], j, x, p, x_out, p_out)
 
 
 @jit()
@@ -303,54 +325,15 @@ def _joseph(mapping, noise, x, p, innovation, gain, x_out, p_out):
 
 
 @jit()
-def _update_models(nb, mapping, noise, x, p, predicted, z, x_out, p_out, mu_out, status):
-    """Each model's prediction of a block's filters (``x`` (d, M, B), ``p`` (d, d, M, B))
-    updated with ``z`` (m, B) (:func:`_update_lanes`) into ``x_out`` and ``p_out``;
-    ``mu_out`` (M, B) gets the posterior mode probabilities from the predicted ones (M, B),
-    weighed in logs."""
-    d, models = x.shape[0], x.shape[1]
-    lanes = models * nb
-    log_posterior = np.empty((models, nb))
-    _update_lanes(mapping, noise, x.reshape((d, lanes)), p.reshape((d, d, lanes)), z,
-                  x_out.reshape((d, lanes)), p_out.reshape((d, d, lanes)),
-                  log_posterior.reshape(lanes), status)
-    for j in range(models):
+def _weighed(nb, predicted, log_likelihood, mu_out):
+    """The posterior mode probabilities ``mu_out`` (M, B) of a block's filters from the
+    predicted ones (M, B) and the models' log likelihoods (M, B), weighed in logs."""
+    log_posterior = np.empty(predicted.shape)
+    for j in range(predicted.shape[0]):
         for b in range(nb):
-            log_posterior[j, b] += math.log(predicted[j, b]) if predicted[j, b] > 0.0 \
-                else -np.inf
+            log_posterior[j, b] = log_likelihood[j, b] + (
+                math.log(predicted[j, b]) if predicted[j, b] > 0.0 else -np.inf)
     _normalised_block(nb, log_posterior, mu_out)
-
-
-@jit()
-def _gpb2_block(nb, transitions, noises, mapping, noise, matrix, has, x, p, mu, z, x_out,
-                p_out, mu_out, status):
-    """The GPB2 step of a block's filters (:func:`imm_linear_step`, arrays as
-    :func:`_update_models`'): each pair (model i's posterior, model j) predicted and updated
-    as a lane, the pairs into model j merged by ``p_ij mu_i`` times their likelihoods
-    (where none is reached, model j's own pair)."""
-    d, models = x.shape[0], x.shape[1]
-    shape = (d, models, models, nb)
-    x0, x_pred, p0, p_pred = np.empty(shape), np.empty(shape), np.empty((d,) + shape), \
-        np.empty((d,) + shape)
-    for j in range(models):  # pair (i, j) is lane [j, i, b]
-        for i in range(models):
-            for a in range(d):
-                for b in range(nb):
-                    x0[a, j, i, b] = x[a, _source(has, i, j, a), b] if has[j, a] else 0.0
-                for c in range(d):
-                    kept = _kept(has, i, j, a, c)
-                    for b in range(nb):
-                        p0[a, c, j, i, b] = p[a, c, _source(has, i, j, a), b] if kept else 0.0
-        _predict_model(transitions[j], noises[j], j, x0.reshape((d, models, -1)),
-                       p0.reshape((d, d, models, -1)), x_pred.reshape((d, models, -1)),
-                       p_pred.reshape((d, d, models, -1)))
-    lanes = models * models * nb
-    x0, p0 = x0.reshape((d, lanes)), p0.reshape((d, d, lanes))
-    x_pred, p_pred = x_pred.reshape((d, lanes)), p_pred.reshape((d, d, lanes))
-    log_pair = np.empty((models, models, nb))
-    _update_lanes(mapping, noise, x_pred, p_pred, z, x0, p0, log_pair.reshape(lanes), status)
-    _merge_pairs(nb, matrix, mu, log_pair, x0.reshape(shape), p0.reshape((d,) + shape), x_out,
-                 p_out, mu_out)
 
 
 @jit()
@@ -504,18 +487,31 @@ def _step_block(nb, lo, algorithm, transitions, noises, mapping, noise, matrix, 
     x, p, mu = _block(means, covars, probs, lo, hi)
     zb = np.empty((mapping.size, nb))
     _to_block(z, lo, hi, zb)
-    x_out, p_out, mu_out = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
     fill(status[lo:hi], OK)
+    d, models = x.shape[0], x.shape[1]
+    pairs = models if algorithm == GPB2 else 1
+    lanes = models * pairs * nb
+    x0, p0 = np.empty((d, models, pairs * nb)), np.empty((d, d, models, pairs * nb))
+    predicted = np.empty((models, nb))
     if algorithm == GPB2:
-        _gpb2_block(nb, transitions, noises, mapping, noise, matrix, has, x, p, mu, zb, x_out,
-                    p_out, mu_out, status[lo:hi])
+        _paired_priors(nb, has, x, p, x0, p0)
     else:
-        x_pred, p_pred, predicted = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
-        _predict_models(nb, algorithm, transitions, noises, matrix, has, x, p, mu, x_pred,
-                        p_pred, predicted)
-        _update_models(nb, mapping, noise, x_pred, p_pred, predicted, zb, x_out, p_out, mu_out,
-                       status[lo:hi])
-    _unblock(x_out, p_out, mu_out, lo, hi, out_means, out_covars, out_probs)
+        _mixed_priors(nb, algorithm, matrix, has, x, p, mu, x0, p0, predicted)
+    x_pred, p_pred = np.empty_like(x0), np.empty_like(p0)
+    _predict_models(transitions, noises, x0, p0, x_pred, p_pred)
+    log_likelihood = np.empty(lanes)
+    _update_lanes(mapping, noise, x_pred.reshape((d, lanes)), p_pred.reshape((d, d, lanes)), zb,
+                  x0.reshape((d, lanes)), p0.reshape((d, d, lanes)), log_likelihood,
+                  status[lo:hi])  # the priors' arrays take the posteriors
+    mu_out = np.empty_like(mu)
+    if algorithm == GPB2:
+        _merge_pairs(nb, matrix, mu, log_likelihood.reshape((models, models, nb)),
+                     x0.reshape((d, models, models, nb)),
+                     p0.reshape((d, d, models, models, nb)), x, p, mu_out)
+        _unblock(x, p, mu_out, lo, hi, out_means, out_covars, out_probs)
+    else:
+        _weighed(nb, predicted, log_likelihood.reshape((models, nb)), mu_out)
+        _unblock(x0, p0, mu_out, lo, hi, out_means, out_covars, out_probs)
 
 
 @jit()
@@ -553,8 +549,9 @@ def _predict_block(nb, lo, transitions, noises, matrix, has, means, covars, prob
     _check_covariance(lanes, p.reshape((p.shape[0], p.shape[1], lanes)), lane_status,
                       PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
     _first_status(lane_status, status[lo:hi])
-    _predict_models(nb, IMM, transitions, noises, matrix, has, x, p, mu, x_pred, p_pred,
-                    predicted)
+    x0, p0 = np.empty_like(x), np.empty_like(p)
+    _mixed_priors(nb, IMM, matrix, has, x, p, mu, x0, p0, predicted)
+    _predict_models(transitions, noises, x0, p0, x_pred, p_pred)
     _unblock(x_pred, p_pred, predicted, lo, hi, out_means, out_covars, out_predicted)
 
 
@@ -591,5 +588,10 @@ def _update_block(nb, lo, mapping, noise, means, covars, predicted, z, out_means
     _to_block(z, lo, hi, zb)
     x_out, p_out, mu_out = np.empty_like(x), np.empty_like(p), np.empty_like(c)
     fill(status[lo:hi], OK)
-    _update_models(nb, mapping, noise, x, p, c, zb, x_out, p_out, mu_out, status[lo:hi])
+    d, lanes = x.shape[0], c.size
+    log_likelihood = np.empty(lanes)
+    _update_lanes(mapping, noise, x.reshape((d, lanes)), p.reshape((d, d, lanes)), zb,
+                  x_out.reshape((d, lanes)), p_out.reshape((d, d, lanes)), log_likelihood,
+                  status[lo:hi])
+    _weighed(nb, c, log_likelihood.reshape(c.shape), mu_out)
     _unblock(x_out, p_out, mu_out, lo, hi, out_means, out_covars, out_probs)
