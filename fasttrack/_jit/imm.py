@@ -19,7 +19,7 @@ import numpy as np
 
 from .dispatch import jit
 from .kalman import _from_block, _to_block
-from .linalg import _check_covariance, _covariance_code
+from .linalg import _covariance_code
 from .numeric import fill
 from .status import INNOVATION_NOT_PD, OK, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC
 from .tunables import FILTERS_PER_BLOCK
@@ -543,12 +543,9 @@ def _predict_block(nb, lo, transitions, noises, matrix, has, means, covars, prob
     hi = lo + nb
     x, p, mu = _block(means, covars, probs, lo, hi)
     x_pred, p_pred, predicted = np.empty_like(x), np.empty_like(p), np.empty_like(mu)
-    fill(status[lo:hi], OK)
-    lanes = mu.size
-    lane_status = np.zeros(lanes, dtype=np.int64)
-    _check_covariance(lanes, p.reshape((p.shape[0], p.shape[1], lanes)), lane_status,
-                      PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
-    _first_status(lane_status, status[lo:hi])
+    check = np.empty(covars.shape[2:])
+    for k in range(lo, hi):
+        status[k] = _covariances_code(covars[k], check)
     x0, p0 = np.empty_like(x), np.empty_like(p)
     _mixed_priors(nb, IMM, matrix, has, x, p, mu, x0, p0, predicted)
     _predict_models(transitions, noises, x0, p0, x_pred, p_pred)
