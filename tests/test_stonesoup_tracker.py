@@ -223,12 +223,17 @@ STONESOUP_TESTS = {
     "updater": ["conftest.py", "test_kalman.py", "test_pointprocess.py"],
 }
 
-#: Tests that pin an implementation detail rather than the replaced classes' behaviour.
+#: Tests that pin an implementation detail rather than the replaced classes' behaviour, or
+#: that fail at random whatever is replaced.
 DESELECTED = [
     # compares the Kalman updater's update bit for bit (np.array_equal) with Stone Soup's
     # SinglePointInitiator, which runs Stone Soup's own ExtendedKalmanUpdater: the drop-in
     # Kalman updaters agree with it to rounding (1e-14), not to the last bit
     "initiator/test_simple.py::test_spi",
+    # Stone Soup's own StochasticIntegrationPredictor (not replaced) draws from NumPy's
+    # unseeded global generator and its mean is checked to 1e-14: with Stone Soup's classes
+    # alone it fails 3 times in 5000 (errors up to 6e-14)
+    "predictor/test_kalman.py::test_kalman[stochasticIntegration]",
 ]
 
 
