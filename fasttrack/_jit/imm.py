@@ -7,8 +7,8 @@ gets a status code and the array layer reports it.
 Filters go in blocks laid out as :mod:`kalman`'s, the block's filters last: means
 (d, M, B), covariances (d, d, M, B), mode probabilities (M, B). The M models of the block's
 filters (for GPB2 the M x M pairs of a model's posterior and the model it enters) are
-predicted and updated side by side, as the M B (M^2 B) lanes of :mod:`kalman`'s block
-kernels. A model i of fewer components enters model j as
+predicted side by side, each with its own F and Q, and updated as M B (M^2 B) lanes; the
+loops over a block's lanes vectorise. A model i of fewer components enters model j as
 :func:`fasttrack.core.imm.converted` takes it: a component model j has and model i lacks
 brings model j's own mean, variance and covariances with the others model i lacks; a
 component model j lacks is 0.

@@ -70,27 +70,13 @@ def _predict_covariance(nb, matrix, covar, covariance, covariance_out, status):
     """``P_out = F P F^T + Q`` per filter; the prior covariance must be positive
     semi-definite (else PRIOR_NOT_PSD)."""
     _check_covariance(nb, covariance, status, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
-    _propagate_covariance(nb, matrix, covar, covariance, covariance_out)
-
-
-@jit()
-def _propagate_covariance(nb, matrix, covar, covariance, covariance_out):
-    """``P_out = F P F^T + Q`` per filter, the prior unchecked."""
     copy_into(covar, covariance_out)
     _sandwich(nb, matrix, covariance, np.empty(covariance.shape), covariance_out)
 
 
 @jit()
 def _predict(nb, matrix, covar, x, covariance, x_out, covariance_out, status):
-    """``x_out = F x`` and ``P_out = F P F^T + Q`` per filter (:func:`_propagate`); the
-    prior covariance must be positive semi-definite (else PRIOR_NOT_PSD)."""
-    _check_covariance(nb, covariance, status, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
-    _propagate(nb, matrix, covar, x, covariance, x_out, covariance_out)
-
-
-@jit()
-def _propagate(nb, matrix, covar, x, covariance, x_out, covariance_out):
-    """``x_out = F x`` and ``P_out = F P F^T + Q`` per filter, the prior unchecked."""
+    """``x_out = F x`` and :func:`_predict_covariance` per filter."""
     d = x.shape[0]
     for r in range(d):
         for b in range(nb):
@@ -98,7 +84,7 @@ def _propagate(nb, matrix, covar, x, covariance, x_out, covariance_out):
             for k in range(d):
                 s += matrix[r, k, b] * x[k, b]
             x_out[r, b] = s
-    _propagate_covariance(nb, matrix, covar, covariance, covariance_out)
+    _predict_covariance(nb, matrix, covar, covariance, covariance_out, status)
 
 
 @jit()
