@@ -234,3 +234,63 @@ def test_the_drop_in_point_process_tracker_tracks_as_stone_soups():
         assert len(ours.extracted_target_states) == len(theirs.extracted_target_states)
     assert time == T0 + datetime.timedelta(seconds=10) and len(got) >= 4
     assert fallbacks() == {}
+
+
+def _drop_in_hypotheses(seed):
+    """The drop-in hypothesiser's groups of :func:`_scan_of`'s scan, with a birth component."""
+    import fasttrack.stonesoup as fss
+    components, scan, t1 = _scan_of(seed)
+    components.append(TaggedWeightedGaussianState(np.zeros((4, 1)), np.diag([1e4, 2, 1e4, 2]),
+                                                  weight=0.25, timestamp=T0, tag="birth"))
+    hypothesiser = fss.GaussianMixtureHypothesiser(fss.DistanceHypothesiser(
+        fss.KalmanPredictor(TRANSITION), fss.KalmanUpdater(SENSOR), fss.Mahalanobis(),
+        missed_distance=3), order_by_detection=True)
+    return components, scan, hypothesiser.hypothesise(components, scan, t1), hypothesiser
+
+
+def _built(hypotheses):
+    return all("_property_single_hypotheses" in vars(group) for group in hypotheses)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_drop_in_hypothesisers_groups_are_updated_from_its_arrays(seed):
+    """The drop-in updater reads the drop-in hypothesiser's arrays (its hypotheses stay
+    unbuilt) and gives what Stone Soup's updater gives on the hypotheses built afterwards."""
+    _, _, hypotheses, _ = _drop_in_hypotheses(seed)
+    settings = dict(clutter_spatial_density=1e-3, prob_detection=0.9, prob_survival=0.99)
+    fallbacks(clear=True)
+    got = PHDUpdater(KalmanUpdater(SENSOR), **settings).update(hypotheses)
+    assert not fallbacks() and not _built(hypotheses)
+    want = Original(KalmanUpdater(SENSOR), **settings).update(hypotheses)
+    assert _built(hypotheses) and len(got) == len(want) > 9
+    for g, w in zip(sorted(got, key=_key), sorted(want, key=_key)):
+        assert float(g.weight) == pytest.approx(float(w.weight), rel=1e-12)
+        np.testing.assert_allclose(g.state_vector, w.state_vector, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(g.covar, w.covar, rtol=1e-12, atol=1e-12)
+        assert type(g) is type(w) and g.timestamp == w.timestamp
+        assert g.tag == w.tag or len(g.tag) == len(w.tag) == 36  # fresh uuids
+    again = PHDUpdater(KalmanUpdater(SENSOR), **settings).update(hypotheses)  # from objects
+    assert sorted(map(_key, again)) == sorted(map(_key, got))
+
+
+def test_unbuilt_groups_hold_the_components_as_they_were():
+    """Groups built after the components changed show the weights and tags the components
+    had when hypothesised, as Stone Soup's (built at once) do; a copy or pickle of a group
+    holds the built hypotheses."""
+    import copy
+    import pickle
+
+    components, scan, hypotheses, hypothesiser = _drop_in_hypotheses(0)
+    weights = {id(c): c.weight for c in components}
+    tags = {id(c): c.tag for c in components}
+    for c in components:
+        c.weight, c.tag = 7.0, "changed"
+    copied = copy.deepcopy(hypotheses[-1])
+    assert _built(hypotheses) and len(copied) == len(components)
+    missed = [h.prediction for h in hypotheses[-1]]
+    assert sorted(p.weight for p in missed) == sorted(weights.values())
+    assert {p.tag for p in missed} == set(tags.values())
+    assert [h.prediction.weight for h in copied] == [p.weight for p in missed]
+    assert len(pickle.loads(pickle.dumps(hypotheses[0]))) == len(hypotheses[0])
+    assert len(hypotheses) == len(scan) + 1
+    assert sum(len(group) for group in hypotheses) > len(components)

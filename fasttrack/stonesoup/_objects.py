@@ -2,6 +2,7 @@
 Stone Soup type, a function that sets a new instance's properties as its constructor would,
 without the constructor's generic argument handling (about 9 us of a state's 10)."""
 import functools
+import os
 import weakref
 
 import numpy as np
@@ -138,3 +139,14 @@ def _made_from(kind, state_type):
     target = mapping[source]
     return builder(target), tuple(name for name in state_type.properties
                                   if name in target.properties)
+
+
+def fresh_tags(n):
+    """``n`` new tags as Stone Soup's tagged states make them (``str(uuid.uuid4())``: random
+    version-4 uuids), from one read of the system's randomness."""
+    raw = np.frombuffer(os.urandom(16 * n), np.uint8).reshape(n, 16).copy()
+    raw[:, 6] = raw[:, 6] & 0x0F | 0x40  # the version
+    raw[:, 8] = raw[:, 8] & 0x3F | 0x80  # the variant
+    h = raw.tobytes().hex()
+    return [f"{h[i:i + 8]}-{h[i + 8:i + 12]}-{h[i + 12:i + 16]}-{h[i + 16:i + 20]}-"
+            f"{h[i + 20:i + 32]}" for i in range(0, 32 * n, 32)]

@@ -16,6 +16,7 @@ from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianS
 
 from ._fallback import fall_back
 from ._objects import builder
+from ._pending import PendingGroups
 from ._scan import _scan, vectorised
 
 __all__ = ["DistanceHypothesiser", "GaussianMixtureHypothesiser",
@@ -94,8 +95,9 @@ class GaussianMixtureHypothesiser(ss_gaussianmixture.GaussianMixtureHypothesiser
     """Stone Soup's ``GaussianMixtureHypothesiser``: with a drop-in ``DistanceHypothesiser``
     or ``PDAHypothesiser``, every component is predicted and scored against every detection
     in one scan (the drop-in associators' path), and the hypotheses are grouped by detection
-    in one pass; the same hypotheses as Stone Soup's, in the same order. Another
-    hypothesiser runs Stone Soup's code."""
+    in one pass; the same hypotheses as Stone Soup's, in the same order. Grouped by
+    detection, the groups are built when first read (the drop-in ``PHDUpdater`` reads the
+    scan's arrays instead; see ``_pending``). Another hypothesiser runs Stone Soup's code."""
 
     def generate_hypotheses(self, components, detections, timestamp, **kwargs):
         components = list(components)
@@ -108,37 +110,38 @@ class GaussianMixtureHypothesiser(ss_gaussianmixture.GaussianMixtureHypothesiser
     def hypothesise(self, components, detections, timestamp, **kwargs):
         if len({detection.timestamp for detection in detections}) > 1:
             raise ValueError("All detections must have the same timestamp")
-        hypotheses = [_multiple_hypothesis(single_hypotheses=multiple) for multiple
-                      in self._component_hypotheses(components, detections, timestamp, kwargs)
-                      if len(multiple) > 0]
+        components, detections = list(components), list(detections)
+        scan = None
+        if type(self).generate_hypotheses is GaussianMixtureHypothesiser.generate_hypotheses:
+            scan = _scan(self.hypothesiser, components, detections, timestamp, kwargs)
+        if self.order_by_detection and scan is not None and not isinstance(scan, str) \
+                and all(type(c) in _PREDICTIONS for c in components):
+            return _pending_groups(scan, components)
+        return self._groups(self._component_hypotheses(components, detections, timestamp,
+                                                       kwargs, scan), detections)
+
+    def _groups(self, component_hypotheses, detections):
+        """Stone Soup's ``MultipleHypothesis`` list of the components' hypotheses: one per
+        component, or with ``order_by_detection`` one per detection and the missed."""
+        hypotheses = [_multiple_hypothesis(single_hypotheses=multiple)
+                      for multiple in component_hypotheses if len(multiple) > 0]
         if not self.order_by_detection:
             return hypotheses
-        by_detection = {id(detection): [] for detection in detections}
-        missed = []
-        for multiple in hypotheses:
-            for hypothesis in multiple:
-                if not hypothesis:
-                    missed.append(hypothesis)
-                group = by_detection.get(id(hypothesis.measurement))
-                if group is not None:
-                    group.append(hypothesis)
-        return [_multiple_hypothesis(single_hypotheses=by_detection[id(detection)])
-                for detection in detections] + [_multiple_hypothesis(single_hypotheses=missed)]
+        return [_multiple_hypothesis(single_hypotheses=group)
+                for group in _by_detection(hypotheses, detections)]
 
-    def _component_hypotheses(self, components, detections, timestamp, kwargs):
+    def _component_hypotheses(self, components, detections, timestamp, kwargs, scan):
         """Each component's hypotheses, each with its own prediction of the component (as
         Stone Soup's ``hypothesise`` replaces the predictions ``generate_hypotheses``
-        gives); on the scan's path (this class's own ``generate_hypotheses``) built with
-        them at once."""
-        components = list(components)
-        if type(self).generate_hypotheses is not GaussianMixtureHypothesiser.generate_hypotheses:
+        gives); from ``scan`` (None: a subclass's own ``generate_hypotheses``; a string:
+        the reason Stone Soup's must run) built with them at once."""
+        if scan is None:
             out = self.generate_hypotheses(components, detections, timestamp, **kwargs)
+        elif not isinstance(scan, str):
+            return [scan.hypotheses(k, predict=_predictor(
+                component, *scan.predicted(k), scan.timestamp))
+                for k, component in enumerate(components)]
         else:
-            scan = _scan(self.hypothesiser, components, detections, timestamp, kwargs)
-            if not isinstance(scan, str):
-                return {component: scan.hypotheses(k, predict=_predictor(
-                    component, *scan.predicted(k), scan.timestamp))
-                    for k, component in enumerate(components)}.values()
             fall_back(self, "generate_hypotheses", scan)  # (not scanned a second time)
             out = ss_gaussianmixture.GaussianMixtureHypothesiser.generate_hypotheses(
                 self, components, detections, timestamp, **kwargs)
@@ -149,6 +152,37 @@ class GaussianMixtureHypothesiser(ss_gaussianmixture.GaussianMixtureHypothesiser
                     component, predicted.state_vector, predicted.covar,
                     predicted.timestamp)(hypothesis.measurement)
         return out.values()
+
+
+def _by_detection(hypotheses, detections):
+    """The single hypotheses of ``hypotheses`` grouped by detection, in the order of
+    ``detections``, then the missed ones."""
+    by_detection = {id(detection): [] for detection in detections}
+    missed = []
+    for multiple in hypotheses:
+        for hypothesis in multiple:
+            if not hypothesis:
+                missed.append(hypothesis)
+            group = by_detection.get(id(hypothesis.measurement))
+            if group is not None:
+                group.append(hypothesis)
+    return [by_detection[id(detection)] for detection in detections] + [missed]
+
+
+def _pending_groups(scan, components):
+    """The detection-ordered groups of ``scan``, built when first read (see ``_pending``),
+    from the components' weights and tags as they are now."""
+    weights = [component.weight for component in components]
+    tags = [getattr(component, "tag", None) for component in components]
+
+    def build_all():
+        return _by_detection(
+            [scan.hypotheses(k, predict=_predictor(component, *scan.predicted(k),
+                                                   scan.timestamp, weight, tag))
+             for k, (component, weight, tag) in enumerate(zip(components, weights, tags))],
+            scan.detections)
+
+    return PendingGroups(scan, weights, tags, build_all).groups
 
 
 class GaussianMixtureKDTreeHypothesiser(ss_gaussianmixture.GaussianMixtureKDTreeHypothesiser,
@@ -214,27 +248,27 @@ _PREDICTIONS = {TaggedWeightedGaussianState: builder(TaggedWeightedGaussianState
                 WeightedGaussianState: builder(WeightedGaussianStatePrediction)}
 
 
-def _predictor(component, mean, covar, timestamp):
+def _predictor(component, mean, covar, timestamp, weight=None, tag=None):
     """A function of a hypothesis' measurement giving the component's prediction (``mean``,
     ``covar`` at ``timestamp``) on that hypothesis, as Stone Soup's hypothesiser makes it
     (``Prediction.from_state`` of the component) with the component's tag by Stone Soup's
     rule: a birth component keeps 'birth' when missed and gets a new tag when detected.
     Built directly for the two weighted state types, whose every property that call sets is
-    given here."""
+    given here, with the component's ``weight`` and ``tag`` (if None, as they are now)."""
     kind = _PREDICTIONS.get(type(component))
     values = dict(state_vector=mean, covar=covar, timestamp=timestamp)
     if kind is None:
         def build(**tag):
             return Prediction.from_state(component, **values, **tag)
     else:
-        values["weight"] = component.weight
+        values["weight"] = component.weight if weight is None else weight
 
         def build(**tag):
             return kind(**values, **tag)
     if not isinstance(component, TaggedWeightedGaussianState):
         return lambda measurement: build()
-    if component.tag == component.BIRTH:
+    tag = component.tag if tag is None else tag
+    if tag == component.BIRTH:
         return lambda measurement: build(
             tag=component.BIRTH if isinstance(measurement, MissedDetection) else None)
-    tag = component.tag
     return lambda measurement: build(tag=tag)

@@ -14,8 +14,6 @@ mode "stonesoup"), gated by a grid instead of testing every pair.
   states of one dimension, and a subclass's own ``prune``, ``merge``, ``merge_components``
   or ``truncate`` run Stone Soup's code.
 """
-import uuid
-
 import numpy as np
 from stonesoup.mixturereducer import gaussianmixture as ss
 from stonesoup.types.array import CovarianceMatrix, StateVector
@@ -25,7 +23,7 @@ from ..core import mixture as _mixture
 from ..core.mixture_numpy import ordered_sum
 from ._convert import mixture_components
 from ._fallback import fall_back
-from ._objects import builder
+from ._objects import builder, fresh_tags
 
 __all__ = ["GaussianMixtureReducer"]
 
@@ -114,12 +112,15 @@ def _rename_shared_tags(components):
     with the heaviest (the first of equals), the others get new uuids."""
     if not all(isinstance(c, TaggedWeightedGaussianState) for c in components):
         return
-    heaviest = {}
+    heaviest, renamed = {}, []
     for c in components:
         kept = heaviest.get(c.tag)
         if kept is None:
             heaviest[c.tag] = c
         elif c.weight > kept.weight:
-            kept.tag, heaviest[c.tag] = str(uuid.uuid4()), c
+            renamed.append(kept)
+            heaviest[c.tag] = c
         else:
-            c.tag = str(uuid.uuid4())
+            renamed.append(c)
+    for c, tag in zip(renamed, fresh_tags(len(renamed))):
+        c.tag = tag

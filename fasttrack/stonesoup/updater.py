@@ -32,7 +32,8 @@ from ._convert import (angle_rows, fast_kernel, fast_model, fits, floats, global
                        mod_bearing, plain_particles, sigma_parameters, typed_measurement,
                        uncached)
 from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
-from ._objects import builder, from_state
+from ._objects import builder, fresh_tags, from_state
+from ._pending import pending
 from .state import kernel_factors, remember_factors
 
 
@@ -353,6 +354,10 @@ class _PointProcess:
     updater or measurement model goes through Stone Soup's code."""
 
     def update(self, hypotheses):
+        groups = pending(hypotheses)
+        if groups is not None and all(tag is not None for tag in groups.tags) \
+                and not self._reason(groups.scan.detections):
+            return self._scan_update(groups, hypotheses)
         pairs = [hypothesis for multiple in hypotheses[:-1] for hypothesis in multiple]
         measurements = [hypothesis.measurement for hypothesis in pairs]
         reason = self._reason(measurements)
@@ -361,45 +366,86 @@ class _PointProcess:
             return super().update(hypotheses)
         detection = np.repeat(np.arange(len(hypotheses) - 1),
                               [len(multiple) for multiple in hypotheses[:-1]])
-        updated = []
-        weight_sums = np.zeros(len(hypotheses) - 1)
-        if pairs:
-            means, covars, weights = self._pair_updates(pairs, measurements)
-            weight_sums = np.bincount(detection, weights, minlength=len(hypotheses) - 1)
-            if self.normalisation:
-                weights = weights / (weight_sums[detection] + self.clutter_spatial_density)
-            for hypothesis, measurement, mean, covar, weight in zip(
-                    pairs, measurements, means[:, :, None], covars, weights.tolist()):
-                tag = hypothesis.prediction.tag
-                updated.append(_tagged_state(
-                    tag=tag if tag != "birth" else None, weight=weight,
-                    state_vector=mean.view(StateVector), covar=covar.view(CovarianceMatrix),
-                    timestamp=measurement.timestamp))
-        l1 = self._calculate_update_terms(list(weight_sums), hypotheses)
-        missed = (1 - self.prob_detection) * l1 * self.prob_survival
-        for hypothesis in hypotheses[-1]:
-            prediction = hypothesis.prediction
-            if prediction.tag != "birth":
-                updated.append(_tagged_state(
-                    tag=prediction.tag, weight=prediction.weight * missed,
-                    state_vector=prediction.mean, covar=prediction.covar,
-                    timestamp=prediction.timestamp))
-        for component in updated:
-            if component.weight == 0:
-                component.weight = np.finfo(float).eps
-        return GaussianMixtureUpdate(hypothesis=hypotheses, components=updated)
-
-    def _pair_updates(self, pairs, measurements):
-        """Posterior means (n, d), covariances (n, d, d) and unnormalised weights
-        ``P_D w q (P_S)`` of the pairs (and their measurements), as Stone Soup's
-        ``KalmanUpdater`` computes them."""
-        model = _measurement_model(self.updater, measurements[0])
-        h, r = model.matrix(), model.covar()
         predictions = [p.prediction for p in pairs]
+        tags = [prediction.tag for prediction in predictions]
         means = np.array([p.state_vector[:, 0] for p in predictions], dtype=np.float64)
         covars = np.array([p.covar for p in predictions], dtype=np.float64)
-        rows = {id(m): m.state_vector[:, 0] for m in measurements}
-        z = np.array([rows[id(m)] for m in measurements], dtype=np.float64)
+        updated, sums = self._detected(
+            means, covars, [float(p.weight) for p in predictions],
+            [tag == "birth" for tag in tags], tags, _rows(measurements),
+            _measurement_model(self.updater, measurements[0]) if pairs else None, detection,
+            [m.timestamp for m in measurements], len(hypotheses) - 1)
+        missed = [hypothesis.prediction for hypothesis in hypotheses[-1]]
+        updated += self._missed([p.mean for p in missed], [p.covar for p in missed],
+                                [p.weight for p in missed], [p.tag for p in missed],
+                                [p.timestamp for p in missed], sums, hypotheses)
+        return _mixture_update(hypotheses, updated)
+
+    def _scan_update(self, groups, hypotheses):
+        """The update of a drop-in hypothesiser's groups from its scan's arrays (the
+        hypotheses not built): the pair of component k and detection j has k's prediction,
+        weight and tag (a new one for a detected birth component), in the groups' order
+        (by detection, then component)."""
+        scan = groups.scan
+        owners = np.repeat(np.arange(len(scan.tracks)), np.diff(scan.starts))
+        order = np.argsort(scan.candidates, kind="stable")
+        k, detection = owners[order], scan.candidates[order]
+        tags = groups.tags
+        pair_tags = [tags[i] for i in k.tolist()]
+        born = [q for q, tag in enumerate(pair_tags) if tag == "birth"]
+        for q, tag in zip(born, fresh_tags(len(born))):
+            pair_tags[q] = tag
+        timestamps = [scan.timestamp] * max(k.size, len(tags))
+        updated, sums = self._detected(
+            scan.means[k], scan.covars[k], np.array(groups.weights, dtype=np.float64)[k],
+            np.zeros(k.size, dtype=np.bool_), pair_tags, _rows(scan.detections)[detection],
+            _measurement_model(self.updater, scan.detections[0]) if k.size else None,
+            detection, timestamps, len(scan.detections))
+        predicted = [scan.predicted(i) for i in range(len(tags))]
+        updated += self._missed([mean for mean, _ in predicted],
+                                [covar for _, covar in predicted], groups.weights, tags,
+                                timestamps, sums, hypotheses)
+        return _mixture_update(hypotheses, updated)
+
+    def _detected(self, means, covars, weights, born, tags, z, model, detection, timestamps,
+                  n_detections):
+        """The updated components of the (prediction, detection) pairs, and the sum of
+        their likelihood terms for each of the ``n_detections``: predicted ``means`` (n, d),
+        ``covars`` (n, d, d), ``weights`` (n,), ``born`` (n,) whether tagged 'birth',
+        ``tags`` (n,), measurements ``z`` (n, m) of ``model``, ``detection`` (n,) their
+        numbers, at ``timestamps``."""
+        if not len(tags):
+            return [], np.zeros(n_detections)
+        means, covars, weights = self._pair_updates(
+            means, covars, np.asarray(weights, dtype=np.float64), np.asarray(born), z, model)
+        sums = np.bincount(detection, weights, minlength=n_detections)
+        if self.normalisation:
+            weights = weights / (sums[detection] + self.clutter_spatial_density)
+        return [_tagged_state(tag=tag if tag != "birth" else None, weight=weight,
+                              state_vector=mean.view(StateVector),
+                              covar=covar.view(CovarianceMatrix), timestamp=timestamp)
+                for tag, mean, covar, weight, timestamp in zip(
+                    tags, means[:, :, None], covars, weights.tolist(), timestamps)], sums
+
+    def _missed(self, means, covars, weights, tags, timestamps, sums, hypotheses):
+        """The missed components (birth ones dropped) of predicted ``means`` (d, 1)
+        ``StateVector``s and ``covars`` (d, d) ``CovarianceMatrix``es, ``weights``, ``tags``
+        and ``timestamps``, scaled by the filter's own update terms (of the detections'
+        likelihood ``sums``)."""
+        l1 = self._calculate_update_terms(list(sums), hypotheses)
+        missed = (1 - self.prob_detection) * l1 * self.prob_survival
+        return [_tagged_state(tag=tag, weight=weight * missed, state_vector=mean,
+                              covar=covar, timestamp=timestamp)
+                for mean, covar, weight, tag, timestamp
+                in zip(means, covars, weights, tags, timestamps) if tag != "birth"]
+
+    def _pair_updates(self, means, covars, prior, born, z, model):
+        """Posterior means (n, d), covariances (n, d, d) and unnormalised weights
+        ``P_D w q (P_S)`` of the predicted ``means`` (n, d), ``covars`` (n, d, d) of
+        weights ``prior`` (n,) (``born`` (n,): tagged 'birth', no P_S) and measurements
+        ``z`` (n, m) of the linear Gaussian ``model``, as Stone Soup's ``KalmanUpdater``
+        computes them."""
+        h, r = model.matrix(), model.covar()
         cross = covars @ h.T
         innovation = h @ cross + r
         gains = cross @ np.linalg.inv(innovation)
@@ -412,9 +458,7 @@ class _PointProcess:
         _, log_det = np.linalg.slogdet(2 * np.pi * innovation)
         mahalanobis = np.einsum("ki,ki->k", v, np.linalg.solve(innovation, v[..., None])[..., 0])
         q = np.exp(-0.5 * (mahalanobis + log_det))
-        prior = np.array([float(p.weight) for p in predictions])
         weights = self.prob_detection * prior * q
-        born = np.array([p.tag == "birth" for p in predictions])
         weights = np.where(born, weights, weights * self.prob_survival)
         return means + np.einsum("kij,kj->ki", gains, v), post, weights
 
@@ -430,6 +474,21 @@ class _PointProcess:
         if models and type(next(iter(models.values()))) is not SSLinearGaussian:
             return f"a measurement model of type {type(next(iter(models.values()))).__name__}"
         return None
+
+
+def _rows(measurements):
+    """The measurements' state vectors as rows (n, m), each measurement read once."""
+    rows = {id(m): m for m in measurements}
+    rows = {key: m.state_vector[:, 0] for key, m in rows.items()}
+    return np.array([rows[id(m)] for m in measurements], dtype=np.float64)
+
+
+def _mixture_update(hypotheses, components):
+    """Stone Soup's ``GaussianMixtureUpdate`` of ``components``, a weight of 0 set to eps."""
+    for component in components:
+        if component.weight == 0:
+            component.weight = np.finfo(float).eps
+    return GaussianMixtureUpdate(hypothesis=hypotheses, components=components)
 
 
 class PHDUpdater(_PointProcess, ss_pointprocess.PHDUpdater):
