@@ -2,7 +2,8 @@
 (see :func:`fasttrack._jit.numpy_first`): ``fasttrack._jit.mixture.reduce``'s and
 ``component_gains``' rules, arguments, outputs and status codes, the reducer's candidate
 tests vectorised (each merge tests the live candidates against the merged mean at once,
-resuming after the one merged)."""
+resuming after the one merged; for a small mixture, Stone Soup's first tests of every pair
+in one table, so that a component with no candidate near is kept without a merge)."""
 import functools
 import operator
 
@@ -10,6 +11,9 @@ import numpy as np
 
 from .._jit.kinds import STONESOUP
 from .._validate import asymmetric
+
+#: The most components whose first merge tests are made at once (an n x n table).
+NEAR_UP_TO = 64
 
 
 def reduce(means, covars, weights, mode, prune_threshold, merging, merge_threshold,
@@ -75,6 +79,7 @@ def _merge(means, covars, weights, stonesoup, threshold, member):
     """The greedy merges (the kernel's ``_merge`` rules), heaviest first: a list of
     (heaviest, mean, covariance, weight); ``member[j]`` set to component j's merge."""
     precisions = np.linalg.inv(covars)
+    near = _near(means, precisions, threshold) if stonesoup else None
     by_rank = np.argsort(weights, kind="stable")
     alive = np.ones(weights.size, dtype=bool)
     groups = []
@@ -85,7 +90,10 @@ def _merge(means, covars, weights, stonesoup, threshold, member):
         alive[b] = False
         member[b] = len(groups)
         candidates = by_rank[:top][alive[by_rank[:top]]]  # ascending weight
-        if stonesoup:
+        if stonesoup and near is not None and not near[candidates, b].any():
+            groups.append((b, means[b].copy(), covars[b].copy(), weights[b]))
+            taken = candidates[:0]
+        elif stonesoup:
             merged = _merge_running(means, covars, weights, precisions, b, candidates,
                                     threshold)
             groups.append((b, *merged[:3]))
@@ -103,6 +111,16 @@ def _merge(means, covars, weights, stonesoup, threshold, member):
         alive[taken] = False
         member[taken] = len(groups) - 1
     return groups
+
+
+def _near(means, precisions, threshold):
+    """(n, n) bool: whether component c's covariance measures the mean of b within
+    ``threshold`` (``<``), Stone Soup's first test of c against b; None for more than
+    :data:`NEAR_UP_TO` components (the tests are then made merge by merge)."""
+    if means.shape[0] > NEAR_UP_TO:
+        return None
+    v = means[None, :, :] - means[:, None, :]
+    return np.einsum("cbi,cij,cbj->cb", v, precisions, v) < threshold
 
 
 def _merge_running(means, covars, weights, precisions, b, candidates, threshold):
