@@ -79,8 +79,12 @@ def _merge(means, covars, weights, stonesoup, threshold, member):
     """The greedy merges (the kernel's ``_merge`` rules), heaviest first: a list of
     (heaviest, mean, covariance, weight); ``member[j]`` set to component j's merge."""
     precisions = np.linalg.inv(covars)
-    near = _near(means, precisions, threshold) if stonesoup else None
     by_rank = np.argsort(weights, kind="stable")
+    near = _near(means, precisions, threshold) if stonesoup else None
+    if near is not None:  # no candidate near b, whatever has merged before
+        rank = np.empty(weights.size, dtype=np.int64)
+        rank[by_rank] = np.arange(weights.size)
+        lonely = ~(near & (rank[:, None] < rank[None, :])).any(axis=0)
     alive = np.ones(weights.size, dtype=bool)
     groups = []
     for top in range(weights.size - 1, -1, -1):
@@ -89,13 +93,14 @@ def _merge(means, covars, weights, stonesoup, threshold, member):
             continue
         alive[b] = False
         member[b] = len(groups)
+        if near is not None and lonely[b]:
+            groups.append((b, means[b], covars[b], weights[b]))
+            continue
         candidates = by_rank[:top][alive[by_rank[:top]]]  # ascending weight
-        if stonesoup and near is not None and not near[candidates, b].any():
-            groups.append((b, means[b].copy(), covars[b].copy(), weights[b]))
-            taken = candidates[:0]
-        elif stonesoup:
+        if stonesoup:
+            hits = None if near is None else np.flatnonzero(near[candidates, b])
             merged = _merge_running(means, covars, weights, precisions, b, candidates,
-                                    threshold)
+                                    threshold, hits)
             groups.append((b, *merged[:3]))
             taken = merged[3]
         else:
@@ -123,28 +128,37 @@ def _near(means, precisions, threshold):
     return np.einsum("cbi,cij,cbj->cb", v, precisions, v) < threshold
 
 
-def _merge_running(means, covars, weights, precisions, b, candidates, threshold):
+def _merge_running(means, covars, weights, precisions, b, candidates, threshold, hits=None):
     """Stone Soup's merge into component b: each candidate in turn (ascending weight)
     measured by its own covariance from the running merged mean, ``<``, merged pairwise
-    (spread included, weight capped at 1). Returns the mean, covariance, weight and the
+    (spread included, weight capped at 1); ``hits``, if given, the candidates' positions
+    within the threshold of b's own mean. Returns the mean, covariance, weight and the
     candidates taken."""
-    mean, covar, weight = means[b].copy(), covars[b].copy(), weights[b]
+    mean, covar, weight = means[b], covars[b], weights[b]
     taken, start = [], 0
     while start < candidates.size:
-        rest = candidates[start:]
-        v = means[rest] - mean
-        hits = np.flatnonzero(np.einsum("ki,kij,kj->k", v, precisions[rest], v) < threshold)
-        if not hits.size:
+        if hits is None:
+            rest = candidates[start:]
+            v = means[rest] - mean
+            hits = np.flatnonzero(np.einsum("ki,kij,kj->k", v, precisions[rest], v)
+                                  < threshold)
+            if not hits.size:
+                break
+            start += hits[0]
+        elif hits.size:
+            start = hits[0]
+        else:
             break
-        c = rest[hits[0]]
+        hits = None
+        c = candidates[start]
         total = weight + weights[c]
         w1, w2 = weight / total, weights[c] / total
         diff = mean - means[c]
         mean = mean * w1 + means[c] * w2
-        covar = covar * w1 + covars[c] * w2 + np.outer(diff, diff) * (w1 * w2)
+        covar = covar * w1 + covars[c] * w2 + diff[:, None] * diff * (w1 * w2)
         weight = min(total, 1.0)
         taken.append(c)
-        start += hits[0] + 1
+        start += 1
     return mean, covar, weight, np.array(taken, dtype=np.int64)
 
 
