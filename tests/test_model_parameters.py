@@ -207,3 +207,14 @@ def test_empty_batches_give_empty_results():
     assert means.shape == (0, 3, 4) and covars.shape == (0, 3, 4, 4)
     means, covars = batch.run(np.zeros((0, 4)), np.zeros((0, 4, 4)), np.zeros((5, 0, 2)), 1.0)
     assert means.shape == (5, 0, 4)
+
+
+def test_f_and_q_are_remembered_for_a_few_intervals_at_once():
+    from fasttrack.models import transition
+    cv = ft.ConstantVelocity(0.05)
+    for dt in [1.0, 0.0, 1.0, 2.5, 0.0, *np.linspace(3.0, 4.0, 20), 1.0]:
+        np.testing.assert_array_equal(cv._matrix(dt), [[1.0, dt], [0.0, 1.0]])
+        np.testing.assert_allclose(cv._covar(dt), 0.05 * np.array([[dt**3 / 3, dt**2 / 2],
+                                                                   [dt**2 / 2, dt]]))
+    assert 0 < len(cv.__dict__["_matrix_memo"]) <= transition.MEMO_INTERVALS
+    assert 0 < len(cv.__dict__["_covar_memo"]) <= transition.MEMO_INTERVALS

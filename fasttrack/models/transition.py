@@ -166,6 +166,22 @@ def _block_diag(blocks):
     return out
 
 
+#: How many intervals a model remembers F(dt) and Q(dt) for.
+MEMO_INTERVALS = 8
+
+
+def _memoised(model, name, key, compute):
+    """``compute()``, remembered in ``model``'s dictionary ``name`` under ``key`` (the
+    dictionary emptied when it holds :data:`MEMO_INTERVALS` keys)."""
+    memo = model.__dict__.setdefault(name, {})
+    value = memo.get(key)
+    if value is None:
+        if len(memo) >= MEMO_INTERVALS:
+            memo.clear()
+        value = memo[key] = compute()
+    return value
+
+
 #: Revision numbers of model parameters, unique over the process's lifetime.
 _REVISIONS = itertools.count()
 
@@ -180,31 +196,23 @@ class _LinearGaussian(TransitionModel):
         return None
 
     def _covar(self, dt):
-        """Q(dt) as a C-contiguous array, memoised for the last interval and noise
+        """Q(dt) as a C-contiguous array, memoised for the last few intervals and the noise
         parameters where the model names them."""
         parameters = self._noise_parameters()
         if parameters is None:
             return super()._covar(dt)
-        key = (dt, parameters)
-        memo = self.__dict__.get("_covar_memo")
-        if memo is None or memo[0] != key:
-            memo = (key, super()._covar(dt))
-            self.__dict__["_covar_memo"] = memo
-        return memo[1]
+        return _memoised(self, "_covar_memo", (dt, parameters),
+                         lambda: super(_LinearGaussian, self)._covar(dt))
 
     def _mean(self, x, dt):
         return self._matrix(dt) @ x
 
     def _matrix(self, dt):
-        """F(dt) as a C-contiguous array, memoised for the last interval and parameters
-        (filters step at a constant interval, and building F costs more than applying
-        it)."""
-        key = (dt, self._parameters())
-        memo = self.__dict__.get("_matrix_memo")
-        if memo is None or memo[0] != key:
-            memo = (key, np.ascontiguousarray(self.matrix(dt), dtype=np.float64))
-            self.__dict__["_matrix_memo"] = memo
-        return memo[1]
+        """F(dt) as a C-contiguous array, memoised for the last few intervals and the
+        parameters (filters step at a few intervals, and building F costs more than
+        applying it)."""
+        return _memoised(self, "_matrix_memo", (dt, self._parameters()),
+                         lambda: np.ascontiguousarray(self.matrix(dt), dtype=np.float64))
 
     def jacobian(self, state=None, time_interval=None):
         """The transition matrix F(dt) (d, d) (the model is linear).
