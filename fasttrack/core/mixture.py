@@ -172,9 +172,10 @@ def reduce(means, covars, weights, mode="textbook", prune_threshold=1e-9,
     cap = _validate.count(max_components, "max_components", default=_validate.MAX_COUNT)
     out = np.empty((j, d)), np.empty((j, d, d)), np.empty(j)
     source, member = np.empty(j, dtype=np.int64), np.empty(j, dtype=np.int64)
-    run = _numpy.reduce if _jit.numpy_first(j) else _mixture.reduce
+    run, axes = (_numpy.reduce, None) if _jit.numpy_first(j) \
+        else (_mixture.reduce, _grid_axes(means))
     count = run(means, covars, weights, MODES[mode], prune, _validate.flag(merging, "merging"),
-                merge, cap, _grid_axes(means), *out, source, member)
+                merge, cap, axes, *out, source, member)
     if count < 0:
         i, asymmetric = divmod(-(1 + count), 2)
         problem = "symmetric" if asymmetric else "positive definite"

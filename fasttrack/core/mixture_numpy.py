@@ -125,7 +125,7 @@ def _near(means, precisions, threshold):
     if means.shape[0] > NEAR_UP_TO:
         return None
     v = means[None, :, :] - means[:, None, :]
-    return np.einsum("cbi,cij,cbj->cb", v, precisions, v) < threshold
+    return np.einsum("cbj,cbj->cb", v @ precisions, v) < threshold
 
 
 def _merge_running(means, covars, weights, precisions, b, candidates, threshold, hits=None):

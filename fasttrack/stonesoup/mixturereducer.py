@@ -49,7 +49,7 @@ class GaussianMixtureReducer(ss.GaussianMixtureReducer):
             components, weights = _prune(components, weights, self.prune_threshold)
             if not components:
                 return components
-        means = np.hstack([c.state_vector for c in components]).T.astype(np.float64)
+        means = np.array([c.state_vector for c in components], dtype=np.float64)[:, :, 0]
         covars = np.array([c.covar for c in components], dtype=np.float64)
         cap = self.max_number_components
         means, covars, weights, source, member = _mixture.reduce(
@@ -84,7 +84,8 @@ class GaussianMixtureReducer(ss.GaussianMixtureReducer):
                if getattr(type(self), name) is not getattr(ss.GaussianMixtureReducer, name)]
         if own:
             return f"the subclass's own {', '.join(own)}"
-        if not all(isinstance(c, WeightedGaussianState) for c in components_list):
+        if not all(issubclass(kind, WeightedGaussianState)
+                   for kind in set(map(type, components_list))):
             return "components that are not weighted Gaussian states"
         if len({c.state_vector.shape for c in components_list}) > 1:
             return "components of different dimensions"

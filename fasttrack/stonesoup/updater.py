@@ -478,9 +478,12 @@ class _PointProcess:
 
 def _rows(measurements):
     """The measurements' state vectors as rows (n, m), each measurement read once."""
-    rows = {id(m): m for m in measurements}
-    rows = {key: m.state_vector[:, 0] for key, m in rows.items()}
-    return np.array([rows[id(m)] for m in measurements], dtype=np.float64)
+    unique = {id(m): m for m in measurements}
+    if not unique:
+        return np.zeros((0, 0))
+    rows = dict(zip(unique, np.array([m.state_vector for m in unique.values()],
+                                     dtype=np.float64)[:, :, 0]))
+    return np.array([rows[id(m)] for m in measurements])
 
 
 def _mixture_update(hypotheses, components):
