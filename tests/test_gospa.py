@@ -13,6 +13,7 @@ import pytest
 import fasttrack as ft
 from fasttrack import metrics
 from fasttrack._jit import assign as kernels
+from fasttrack.core import metric_numpy
 from fasttrack.metrics import gospa, gospa_over_time, ospa, ospa_over_time, position_rmse
 
 import reference.assign
@@ -194,7 +195,8 @@ def test_gospa_kernel_equals_its_mirror(seed, c, p, alpha):
 @pytest.mark.parametrize("seed", range(3))
 @pytest.mark.parametrize("p", [1.0, 2.0, 3.0, np.inf])
 @pytest.mark.parametrize("stonesoup", [False, True])
-def test_ospa_kernel_equals_its_mirror(seed, p, stonesoup):
+@pytest.mark.parametrize("implementation", ["kernel", "numpy"])
+def test_ospa_kernel_and_its_numpy_twin_equal_the_mirror(seed, p, stonesoup, implementation):
     truths, estimates, _, _ = _scenario(seed, steps=30, present=0.7)
     truths[3] = truths[3][:0]
     estimates[3] = estimates[3][:0]  # a step with neither
@@ -203,7 +205,8 @@ def test_ospa_kernel_equals_its_mirror(seed, p, stonesoup):
     t, t_offsets = _flat(truths)
     e, e_offsets = _flat(estimates)
     got, want = np.empty(30), np.empty(30)
-    kernels.ospa_steps(t, t_offsets, e, e_offsets, 4.0, p, stonesoup, got)
+    ospa_steps = kernels.ospa_steps if implementation == "kernel" else metric_numpy.ospa_steps
+    ospa_steps(t, t_offsets, e, e_offsets, 4.0, p, stonesoup, got)
     reference.assign.ospa_steps(t, t_offsets, e, e_offsets, 4.0, p, stonesoup, want)
     assert np.allclose(got, want, rtol=1e-12, atol=1e-12)
 

@@ -1,6 +1,6 @@
 """A process's first small calls run in NumPy (``fasttrack._jit.numpy_first``): stacks of
-Kalman predictions, gating, clusters, assignment, JPDA marginals, segment log-sum-exp and
-the particle filter's steps give the kernels' results and errors, and small tracking and
+Kalman predictions, gating, clusters, assignment, JPDA marginals, segment log-sum-exp,
+mixture reductions, OSPA and the particle filter's steps give the kernels' results and errors, and small tracking and
 particle-filter scripts never load Numba."""
 import json
 import subprocess
@@ -166,6 +166,20 @@ def test_mixture_reductions_are_the_kernels(monkeypatch, mode, cap):
     assert 7 <= found[0][2].size < 60
     for got, want in zip(found[1], found[0]):
         np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("p", [1.0, 2.5, np.inf])
+@pytest.mark.parametrize("stonesoup_pairs", [False, True])
+def test_ospa_is_the_kernels(monkeypatch, p, stonesoup_pairs):
+    rng = np.random.default_rng(4)
+    truths = [rng.uniform(-10.0, 10.0, (n, 2)) for n in rng.integers(0, 6, 40)]
+    estimates = [t[rng.permutation(len(t))] + rng.normal(0, 2.0, t.shape) if k % 3
+                 else rng.uniform(-10.0, 10.0, (int(rng.integers(0, 6)), 2))
+                 for k, t in enumerate(truths)]
+    found = _both(monkeypatch, lambda: ft.metrics.ospa_over_time(
+        truths, estimates, 5.0, p, stonesoup_pairs=stonesoup_pairs))
+    np.testing.assert_allclose(found[1], found[0], rtol=1e-13, atol=1e-13)
+    assert found[0].max() <= 5.0 + 1e-12 and np.count_nonzero(found[0]) > 30
 
 
 @pytest.mark.parametrize("bad, message", [(-np.eye(4), "not positive definite"),

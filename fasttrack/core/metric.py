@@ -2,13 +2,15 @@
 and OSPA at every step, one optimal assignment per step.
 
 Step k's truths are ``truths[truth_offsets[k]:truth_offsets[k + 1]]`` of (N, d) stacked
-truths, its estimates likewise; :mod:`fasttrack.metrics` validates and wraps.
+truths, its estimates likewise; :mod:`fasttrack.metrics` validates and wraps. A process's
+first small OSPA calls run in NumPy (:mod:`.metric_numpy`).
 """
 import numpy as np
 
 from .. import _jit
 from .. import threads as _threads
 from .._jit.tunables import SERIAL_BELOW_ASSIGN
+from . import metric_numpy as _numpy
 
 _assign = _jit.lazy("assign")
 
@@ -39,6 +41,10 @@ def ospa(truths, truth_offsets, estimates, estimate_offsets, c, p, stonesoup):
     """(steps,) OSPA at every step; ``stonesoup`` reproduces Stone Soup 1.9.1's choice of
     pairs (see :func:`fasttrack._jit.assign.ospa_steps`)."""
     out = np.empty(truth_offsets.size - 1)
+    if _jit.numpy_first(truths.shape[0] + estimates.shape[0]):
+        _numpy.ospa_steps(truths, truth_offsets, estimates, estimate_offsets, c, p,
+                          bool(stonesoup), out)
+        return out
     _by_steps(lambda t, e, lo, hi: _assign.ospa_steps(truths, t, estimates, e, c, p,
                                                       bool(stonesoup), out[lo:hi]),
               truths, truth_offsets, estimate_offsets)
