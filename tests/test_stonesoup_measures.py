@@ -68,3 +68,37 @@ def test_mahalanobis_of_particles_equals_stone_soup_and_runs_no_fallback(bearing
     assert fss.fallbacks(clear=True) == {  # one particle; two span a line (rank one)
         ("Mahalanobis", "__call__",
          "a covariance that is singular or ill-conditioned (Stone Soup's pseudo-inverse)"): 2}
+
+
+@pytest.mark.parametrize("noise", [True, False])
+def test_a_particle_measurement_prediction_is_measured_before_its_bearings_are_objects(noise):
+    """The drop-in updater's particle measurement prediction keeps its bearings as floats
+    until read; the drop-in ``Mahalanobis`` measures those floats, and gives what it gives
+    once they are ``Bearing`` objects, and Stone Soup's measure."""
+    import copy
+    import pickle
+
+    from stonesoup.models.measurement.nonlinear import CartesianToBearingRange
+    from stonesoup.types.prediction import ParticleMeasurementPrediction
+    from stonesoup.types.state import ParticleState
+
+    rng = np.random.default_rng(2)
+    sensor = CartesianToBearingRange(4, (0, 2), np.diag([0.01, 2.0]))
+    prior = ParticleState(StateVectors(np.r_[rng.normal(-40.0, 3.0, (1, 500)),
+                                             rng.normal(0, 1, (1, 500)),
+                                             rng.normal(0.0, 3.0, (1, 500)),
+                                             rng.normal(0, 1, (1, 500))]),
+                          log_weight=np.log(rng.uniform(0.1, 1, 500)), timestamp=None)
+    prediction = fss.ParticleUpdater(sensor).predict_measurement(prior, sensor,
+                                                                 measurement_noise=noise)
+    z = Detection(StateVector([[Bearing(3.1)], [40.0]]))
+    pending = fss.Mahalanobis()(prediction, z)
+    assert "_property_state_vector" not in vars(prediction)  # still floats
+    copied = copy.copy(prediction)  # a copy is of the built object
+    assert type(copied) is type(prediction) is ParticleMeasurementPrediction
+    assert isinstance(copied.state_vector[0, 0], Bearing)
+    assert fss.Mahalanobis()(prediction, z) == pytest.approx(pending, rel=1e-12)
+    assert ss_measures.Mahalanobis()(prediction, z) == pytest.approx(pending, rel=1e-9)
+    again = pickle.loads(pickle.dumps(prediction))
+    np.testing.assert_array_equal(np.asarray(again.state_vector, dtype=float),
+                                  np.asarray(prediction.state_vector, dtype=float))

@@ -1,34 +1,62 @@
-"""Hypotheses built when first read.
+"""Stone Soup objects whose bulkiest properties are built when first read.
 
-The drop-in ``GaussianMixtureHypothesiser`` returns its detection-ordered groups (one
-``MultipleHypothesis`` per detection, then the missed one) as :class:`PendingHypotheses`
-holding the scan's arrays, and the drop-in ``PHDUpdater`` updates from those arrays. Stone
-Soup's hypothesis objects (some 10,000 a scan at 100 targets and 100 detections) are built
-only when something reads a group: then every group of the scan is built at once, as the
-hypothesiser would have built it, from the components' weights and tags as they were when
-it was called.
+- The drop-in ``GaussianMixtureHypothesiser`` returns its detection-ordered groups (one
+  ``MultipleHypothesis`` per detection, then the missed one) as :class:`PendingHypotheses`
+  holding the scan's arrays, and the drop-in ``PHDUpdater`` updates from those arrays.
+  Stone Soup's hypothesis objects (some 10,000 a scan at 100 targets and 100 detections)
+  are built only when something reads a group: then every group of the scan at once, as
+  the hypothesiser would have built them, from the components' weights and tags as they
+  were when it was called.
+- The drop-in ``ParticleUpdater.predict_measurement`` returns a
+  :class:`PendingParticleMeasurement`: its particles' measurements as floats, their
+  bearings made ``Bearing`` objects (one a particle, as Stone Soup holds them) when its
+  state vectors are first read; the drop-in ``Mahalanobis`` reads the floats.
 """
+from stonesoup.types.angle import Bearing
+from stonesoup.types.array import StateVectors
 from stonesoup.types.multihypothesis import MultipleHypothesis
+from stonesoup.types.prediction import ParticleMeasurementPrediction
 
-__all__ = ["PendingGroups", "PendingHypotheses", "pending"]
+__all__ = ["PendingGroups", "PendingHypotheses", "PendingParticleMeasurement",
+           "PendingVectors", "bearing_vectors", "pending", "pending_values"]
 
 
-class PendingHypotheses(MultipleHypothesis):
+class BuiltWhenRead:
+    """Mixin (the last base) of a Stone Soup type (the first base) some of whose properties
+    an instance builds when first read: ``self.__dict__["_pending"].build()`` sets them,
+    removes ``_pending`` from every instance it serves and makes each of the Stone Soup
+    type."""
+
+    def __getattr__(self, name):
+        pending = self.__dict__.get("_pending")
+        if pending is None or not name.startswith("_property_"):
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        pending.build()
+        return self.__dict__[name]
+
+    def __reduce_ex__(self, protocol):
+        """Copies and pickles of the built object (of the Stone Soup type), not of what
+        builds it."""
+        self.__dict__["_pending"].build()
+        return self.__reduce_ex__(protocol)
+
+
+class PendingHypotheses(MultipleHypothesis, BuiltWhenRead):
     """A ``MultipleHypothesis`` whose ``single_hypotheses`` are built, with its sibling
     groups', when first read."""
 
-    def __getattr__(self, name):
-        groups = self.__dict__.get("_pending")
-        if name != "_property_single_hypotheses" or groups is None:
-            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-        groups.build()
-        return self.__dict__[name]
 
-    def __getstate__(self):
-        """The state with the hypotheses built (copies and pickles hold Stone Soup's objects,
-        not the scan)."""
-        self.single_hypotheses  # noqa: B018 - built by reading
-        return dict(self.__dict__)
+class PendingParticleMeasurement(ParticleMeasurementPrediction, BuiltWhenRead):
+    """A ``ParticleMeasurementPrediction`` whose state vectors are built when first read."""
+
+
+def _set_built(instance, name, value):
+    """Set a built property in ``instance``'s dictionary, ``_pending`` removed, and make
+    the instance of its Stone Soup type."""
+    state = instance.__dict__
+    del state["_pending"]
+    state[f"_property_{name}"] = value
+    instance.__class__ = type(instance).__bases__[0]
 
 
 class PendingGroups:
@@ -48,14 +76,37 @@ class PendingGroups:
             self.groups.append(group)
 
     def build(self):
-        """Build every group's hypotheses; the groups then hold only them."""
+        """Build every group's hypotheses."""
         for group, hypotheses in zip(self.groups, self._build_all()):
-            state = group.__dict__
-            rest = {key: value for key, value in state.items() if key != "_pending"}
-            state.clear()
-            state["_property_single_hypotheses"] = hypotheses
-            state.update(rest)
+            _set_built(group, "single_hypotheses", hypotheses)
         self._build_all = self.scan = None
+
+
+class PendingVectors:
+    """The (m, N) float ``values`` of the particle measurements of ``prediction`` (a
+    :class:`PendingParticleMeasurement`, its ``state_vector`` not yet set), ``angles`` the
+    rows of bearings."""
+
+    def __init__(self, prediction, values, angles):
+        self.values, self.angles = values, angles
+        prediction.__dict__["_pending"] = self
+        self._prediction = prediction
+
+    def build(self):
+        """Set the prediction's state vectors (:func:`bearing_vectors`)."""
+        _set_built(self._prediction, "state_vector", bearing_vectors(self.values, self.angles))
+        self._prediction = None
+
+
+def bearing_vectors(values, angles):
+    """``StateVectors`` of the (m, N) float ``values``, the rows ``angles`` ``Bearing``
+    objects."""
+    if not angles:
+        return StateVectors(values)
+    vectors = values.astype(object)
+    for row in angles:
+        vectors[row] = [Bearing(value) for value in values[row]]
+    return StateVectors(vectors)
 
 
 def pending(hypotheses):
@@ -69,3 +120,11 @@ def pending(hypotheses):
             or any(a is not b for a, b in zip(hypotheses, groups.groups)):
         return None
     return groups
+
+
+def pending_values(state):
+    """The :class:`PendingVectors` of a particle measurement prediction whose state vectors
+    are not yet built, or None."""
+    pending_vectors = state.__dict__.get("_pending") if isinstance(
+        state, PendingParticleMeasurement) else None
+    return pending_vectors if isinstance(pending_vectors, PendingVectors) else None

@@ -6,6 +6,7 @@ from stonesoup.types.state import GaussianState, ParticleState
 
 from ..core.gating import squared_distance
 from ._convert import floats, mod_bearing
+from ._pending import pending_values
 from ._fallback import fall_back
 
 __all__ = ["Mahalanobis"]
@@ -27,20 +28,41 @@ def _angle_rows(vectors, m):
     return rows
 
 
+def _particle_values(state):
+    """``(values (m, N) floats, angles (m,) bool)``: a particle state's vectors and the rows
+    of ``Bearing`` entries (read from a particle measurement prediction not yet made
+    objects); or the reason Stone Soup's own code is needed."""
+    pending_vectors = pending_values(state)
+    if pending_vectors is not None:  # the bearings as their Bearing objects will hold them
+        values = pending_vectors.values.copy()
+        angles = np.zeros(values.shape[0], dtype=np.bool_)
+        angles[pending_vectors.angles] = True
+        values[angles] = mod_bearing(values[angles])
+        return values, angles
+    vectors = state.state_vector
+    if not isinstance(vectors, np.ndarray) or vectors.ndim != 2 or vectors.shape[1] == 0:
+        return "particle state vectors that are not a 2-D array"
+    angles = _angle_rows((vectors,), vectors.shape[0])  # by each row's first entry
+    if angles is None:
+        return "angles other than bearings"
+    try:
+        return floats(vectors), angles
+    except (TypeError, ValueError):
+        return "values that are not numbers"
+
+
 def _particle_moments(state):
     """``(mean (m, 1), covar (m, m), angles (m,))`` of a particle state as Stone Soup's
     ``mean`` and ``covar`` compute them from its (m, N) state vectors and log weights, on
     floats: the ``angles`` rows (of ``Bearing`` entries) by their circular mean and wrapped
     deviations; or the reason Stone Soup's own code is needed."""
-    vectors = state.state_vector
-    if not isinstance(vectors, np.ndarray) or vectors.ndim != 2 or vectors.shape[1] == 0:
-        return "particle state vectors that are not a 2-D array"
-    m, n = vectors.shape
-    angles = _angle_rows((vectors,), m)  # Stone Soup types a row by its first entry
-    if angles is None:
-        return "angles other than bearings"
+    values = _particle_values(state)
+    if isinstance(values, str):
+        return values
+    values, angles = values
+    m, n = values.shape
     try:
-        values, log_weight = floats(vectors), floats(state.log_weight)
+        log_weight = floats(state.log_weight)
         covar = None if state.fixed_covar is None else floats(state.fixed_covar)
     except (TypeError, ValueError):
         return "values that are not numbers"

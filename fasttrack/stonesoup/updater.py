@@ -14,7 +14,7 @@ from stonesoup.models.base import GaussianModel
 from stonesoup.types.angle import Bearing
 from stonesoup.types.array import CovarianceMatrix, StateVector, StateVectors
 from stonesoup.models.measurement.linear import LinearGaussian as SSLinearGaussian
-from stonesoup.types.prediction import MeasurementPrediction
+from stonesoup.types.prediction import MeasurementPrediction, ParticleMeasurementPrediction
 from stonesoup.types.state import TaggedWeightedGaussianState
 from stonesoup.types.update import GaussianMixtureUpdate, Update
 from stonesoup.updater import kalman as ss_kalman
@@ -33,7 +33,7 @@ from ._convert import (angle_rows, fast_kernel, fast_model, fits, floats, global
                        uncached)
 from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
 from ._objects import builder, fresh_tags, from_state
-from ._pending import pending
+from ._pending import PendingParticleMeasurement, PendingVectors, bearing_vectors, pending
 from .state import kernel_factors, remember_factors
 
 
@@ -84,7 +84,7 @@ class ParticleUpdater(ss_particle.ParticleUpdater):
         """Stone Soup's particle measurement prediction: each particle measured by the
         model, plus a noise draw from the model's random state (Stone Soup's own draw)
         unless ``measurement_noise`` is False; angle rows as ``Bearing`` objects, computed
-        on floats."""
+        on floats and made objects when first read (see ``_pending``)."""
         model = self.measurement_model if measurement_model is None else measurement_model
         fast = fast_model(model)
         reason = unknown_model(model) if fast is None else (
@@ -104,14 +104,16 @@ class ParticleUpdater(ss_particle.ParticleUpdater):
             noise[angles] = mod_bearing(noise[angles])
             values = values + noise
             values[angles] = mod_bearing(values[angles])
-        vectors = values
-        if angles:
-            vectors = values.astype(object)
-            for row in angles:
-                vectors[row] = [Bearing(value) for value in values[row]]
-        return MeasurementPrediction.from_state(
-            predicted_state, state_vector=StateVectors(vectors),
+        prediction = MeasurementPrediction.from_state(
+            predicted_state, state_vector=StateVectors(values),
             timestamp=predicted_state.timestamp)
+        if angles and type(prediction) is ParticleMeasurementPrediction:
+            prediction.__class__ = PendingParticleMeasurement
+            del prediction.__dict__["_property_state_vector"]
+            PendingVectors(prediction, values, angles)
+        elif angles:
+            prediction.state_vector = bearing_vectors(values, angles)
+        return prediction
 
 
 #: The methods of Stone Soup's Kalman updaters that the fast path computes itself: a
