@@ -15,6 +15,7 @@ One module per family: :mod:`~fasttrack.core.particle`, :mod:`~fasttrack.core.re
 and :mod:`~fasttrack.core.metric`; :mod:`~fasttrack.core.stack` runs stacks of filters and
 :mod:`~fasttrack.core.kinds` names the kind codes that specs carry.
 """
-from . import akkf, kalman, particle
+from .._lazy import exports as _exports
 
 __all__ = ["akkf", "kalman", "particle"]
+__getattr__, __dir__ = _exports(__name__, {})  # each module imported when first used

@@ -17,26 +17,22 @@ while the program holds it. A :class:`Track` of updates thus keeps the updates, 
 particle clouds of the predictions between them. Links given to a constructor, and the
 indexed parent a resampler makes (which has no links of its own), are held strongly.
 """
-from .base import Link, check_timestamp, seconds, time_interval, weak
-from .gaussian import (Detection, GaussianMeasurementPrediction, GaussianState,
-                       GaussianStatePrediction, GaussianStateUpdate, GroundTruthState, State,
-                       WeightedGaussianState, column_vector)
-from .mixture import GaussianMixture, IMMTrackSet, TrackSet
-from .kernel import (KernelParticleState, KernelParticleStateMeasurementPrediction,
-                     KernelParticleStatePrediction, KernelParticleStateUpdate,
-                     dense_kernel_covar, factor_kernel_covar, isotropic_factors)
-from .particle import (Particle, ParticleState, ParticleStatePrediction, ParticleStateUpdate,
-                       as_particle_state)
-from .tracks import GroundTruthPath, SingleHypothesis, StateSequence, Track
+from .._lazy import exports as _exports
 
-__all__ = [
-    "Detection", "GaussianMeasurementPrediction", "GaussianState", "GaussianStatePrediction",
-    "GaussianMixture", "GaussianStateUpdate", "GroundTruthPath", "GroundTruthState",
-    "IMMTrackSet", "KernelParticleState",
-    "KernelParticleStateMeasurementPrediction", "KernelParticleStatePrediction",
-    "KernelParticleStateUpdate", "Link", "Particle", "ParticleState", "ParticleStatePrediction",
-    "ParticleStateUpdate", "SingleHypothesis", "State", "StateSequence", "Track", "TrackSet",
-    "WeightedGaussianState",
-    "as_particle_state", "check_timestamp", "column_vector", "dense_kernel_covar",
-    "factor_kernel_covar", "isotropic_factors", "seconds", "time_interval", "weak",
-]
+#: The public names, by the module that defines them (imported when first used).
+_MODULES = {
+    "base": ["Link", "check_timestamp", "seconds", "time_interval", "weak"],
+    "gaussian": ["Detection", "GaussianMeasurementPrediction", "GaussianState",
+                 "GaussianStatePrediction", "GaussianStateUpdate", "GroundTruthState", "State",
+                 "WeightedGaussianState", "column_vector"],
+    "mixture": ["GaussianMixture", "IMMTrackSet", "TrackSet"],
+    "kernel": ["KernelParticleState", "KernelParticleStateMeasurementPrediction",
+               "KernelParticleStatePrediction", "KernelParticleStateUpdate",
+               "dense_kernel_covar", "factor_kernel_covar", "isotropic_factors"],
+    "particle": ["Particle", "ParticleState", "ParticleStatePrediction", "ParticleStateUpdate",
+                 "as_particle_state"],
+    "tracks": ["GroundTruthPath", "SingleHypothesis", "StateSequence", "Track"],
+}
+
+__all__ = sorted(name for names in _MODULES.values() for name in names)
+__getattr__, __dir__ = _exports(__name__, _MODULES)
