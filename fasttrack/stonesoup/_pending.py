@@ -12,13 +12,15 @@
   bearings made ``Bearing`` objects (one a particle, as Stone Soup holds them) when its
   state vectors are first read; the drop-in ``Mahalanobis`` reads the floats.
 """
+import weakref
+
 from stonesoup.types.angle import Bearing
 from stonesoup.types.array import StateVectors
 from stonesoup.types.multihypothesis import MultipleHypothesis
 from stonesoup.types.prediction import ParticleMeasurementPrediction
 
 __all__ = ["PendingGroups", "PendingHypotheses", "PendingParticleMeasurement",
-           "PendingVectors", "bearing_vectors", "pending", "pending_values"]
+           "PendingVectors", "bearing_vectors", "pending", "pending_groups", "pending_values"]
 
 
 class BuiltWhenRead:
@@ -60,25 +62,29 @@ def _set_built(instance, name, value):
 
 
 class PendingGroups:
-    """The groups of one scan: ``groups`` (a :class:`PendingHypotheses` per detection of
-    ``scan.detections``, then the missed group) and what the updater reads: the ``scan``,
-    the components' ``weights`` (K,) and ``tags`` (K,) as they were. ``build_all()`` returns
-    the groups' lists of hypotheses, in the same order."""
+    """What builds the groups of one scan (see :func:`pending_groups`) and what the updater
+    reads: the ``scan``, the components' ``weights`` (K,) and ``tags`` (K,) as they were.
+    ``build_all()`` returns the groups' lists of hypotheses, in their order."""
 
-    def __init__(self, scan, weights, tags, build_all):
+    def __init__(self, scan, weights, tags, build_all, groups):
         self.scan, self.weights, self.tags = scan, weights, tags
         self._build_all = build_all
-        self.groups = []
-        for _ in range(len(scan.detections) + 1):
-            group = PendingHypotheses.__new__(PendingHypotheses)
+        self._groups = [weakref.ref(group) for group in groups]  # (no cycle)
+        for group in groups:
             group.__dict__.update(_property_normalise=False, _property_total_weight=1,
                                   _pending=self)
-            self.groups.append(group)
+
+    def is_of(self, hypotheses):
+        """Whether ``hypotheses`` is this scan's groups, in order."""
+        return len(hypotheses) == len(self._groups) and all(
+            group is ref() for group, ref in zip(hypotheses, self._groups))
 
     def build(self):
         """Build every group's hypotheses."""
-        for group, hypotheses in zip(self.groups, self._build_all()):
-            _set_built(group, "single_hypotheses", hypotheses)
+        for ref, hypotheses in zip(self._groups, self._build_all()):
+            group = ref()
+            if group is not None:
+                _set_built(group, "single_hypotheses", hypotheses)
         self._build_all = self.scan = None
 
 
@@ -90,12 +96,12 @@ class PendingVectors:
     def __init__(self, prediction, values, angles):
         self.values, self.angles = values, angles
         prediction.__dict__["_pending"] = self
-        self._prediction = prediction
+        self._prediction = weakref.ref(prediction)  # (no cycle)
 
     def build(self):
         """Set the prediction's state vectors (:func:`bearing_vectors`)."""
-        _set_built(self._prediction, "state_vector", bearing_vectors(self.values, self.angles))
-        self._prediction = None
+        _set_built(self._prediction(), "state_vector", bearing_vectors(self.values,
+                                                                       self.angles))
 
 
 def bearing_vectors(values, angles):
@@ -109,6 +115,15 @@ def bearing_vectors(values, angles):
     return StateVectors(vectors)
 
 
+def pending_groups(scan, weights, tags, build_all):
+    """A :class:`PendingHypotheses` for each detection of ``scan.detections``, then the
+    missed group (their :class:`PendingGroups` of these arguments)."""
+    groups = [PendingHypotheses.__new__(PendingHypotheses)
+              for _ in range(len(scan.detections) + 1)]
+    PendingGroups(scan, weights, tags, build_all, groups)
+    return groups
+
+
 def pending(hypotheses):
     """The :class:`PendingGroups` whose groups, none yet read, ``hypotheses`` is (the list
     the hypothesiser returned, in its order), or None."""
@@ -116,10 +131,7 @@ def pending(hypotheses):
             or type(hypotheses[0]) is not PendingHypotheses:
         return None
     groups = hypotheses[0].__dict__.get("_pending")
-    if groups is None or len(hypotheses) != len(groups.groups) \
-            or any(a is not b for a, b in zip(hypotheses, groups.groups)):
-        return None
-    return groups
+    return groups if groups is not None and groups.is_of(hypotheses) else None
 
 
 def pending_values(state):

@@ -16,7 +16,7 @@ from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianS
 
 from ._fallback import fall_back
 from ._objects import builder
-from ._pending import PendingGroups
+from ._pending import pending_groups
 from ._scan import _scan, vectorised
 
 __all__ = ["DistanceHypothesiser", "GaussianMixtureHypothesiser",
@@ -116,7 +116,7 @@ class GaussianMixtureHypothesiser(ss_gaussianmixture.GaussianMixtureHypothesiser
             scan = _scan(self.hypothesiser, components, detections, timestamp, kwargs)
         if self.order_by_detection and scan is not None and not isinstance(scan, str) \
                 and all(type(c) in _PREDICTIONS for c in components):
-            return _pending_groups(scan, components)
+            return _groups_when_read(scan, components)
         return self._groups(self._component_hypotheses(components, detections, timestamp,
                                                        kwargs, scan), detections)
 
@@ -169,7 +169,7 @@ def _by_detection(hypotheses, detections):
     return [by_detection[id(detection)] for detection in detections] + [missed]
 
 
-def _pending_groups(scan, components):
+def _groups_when_read(scan, components):
     """The detection-ordered groups of ``scan``, built when first read (see ``_pending``),
     from the components' weights and tags as they are now."""
     weights = [component.weight for component in components]
@@ -182,7 +182,7 @@ def _pending_groups(scan, components):
              for k, (component, weight, tag) in enumerate(zip(components, weights, tags))],
             scan.detections)
 
-    return PendingGroups(scan, weights, tags, build_all).groups
+    return pending_groups(scan, weights, tags, build_all)
 
 
 class GaussianMixtureKDTreeHypothesiser(ss_gaussianmixture.GaussianMixtureKDTreeHypothesiser,
