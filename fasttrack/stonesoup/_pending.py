@@ -12,6 +12,7 @@
   bearings made ``Bearing`` objects (one a particle, as Stone Soup holds them) when its
   state vectors are first read; the drop-in ``Mahalanobis`` reads the floats.
 """
+import threading
 import weakref
 
 from stonesoup.types.angle import Bearing
@@ -21,6 +22,9 @@ from stonesoup.types.prediction import ParticleMeasurementPrediction
 
 __all__ = ["PendingGroups", "PendingHypotheses", "PendingParticleMeasurement",
            "PendingVectors", "bearing_vectors", "pending", "pending_groups", "pending_values"]
+
+#: Held while an object is built (two threads reading at once build it once).
+_BUILDING = threading.RLock()
 
 
 class BuiltWhenRead:
@@ -34,13 +38,17 @@ class BuiltWhenRead:
         if pending is None or not name.startswith("_property_"):
             raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
         pending.build()
-        return self.__dict__[name]
+        if "_pending" in self.__dict__:  # (an object its pending builder does not know)
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        return getattr(self, name)
 
     def __reduce_ex__(self, protocol):
         """Copies and pickles of the built object (of the Stone Soup type), not of what
         builds it."""
-        self.__dict__["_pending"].build()
-        return self.__reduce_ex__(protocol)
+        pending = self.__dict__.get("_pending")
+        if pending is not None:
+            pending.build()
+        return object.__reduce_ex__(self, protocol)
 
 
 class PendingHypotheses(MultipleHypothesis, BuiltWhenRead):
@@ -80,12 +88,15 @@ class PendingGroups:
             group is ref() for group, ref in zip(hypotheses, self._groups))
 
     def build(self):
-        """Build every group's hypotheses."""
-        for ref, hypotheses in zip(self._groups, self._build_all()):
-            group = ref()
-            if group is not None:
-                _set_built(group, "single_hypotheses", hypotheses)
-        self._build_all = self.scan = None
+        """Build every group's hypotheses (once, whichever thread asks first)."""
+        with _BUILDING:
+            if self._build_all is None:
+                return
+            for ref, hypotheses in zip(self._groups, self._build_all()):
+                group = ref()
+                if group is not None:
+                    _set_built(group, "single_hypotheses", hypotheses)
+            self._build_all = self.scan = None
 
 
 class PendingVectors:
@@ -99,9 +110,12 @@ class PendingVectors:
         self._prediction = weakref.ref(prediction)  # (no cycle)
 
     def build(self):
-        """Set the prediction's state vectors (:func:`bearing_vectors`)."""
-        _set_built(self._prediction(), "state_vector", bearing_vectors(self.values,
-                                                                       self.angles))
+        """Set the prediction's state vectors (:func:`bearing_vectors`), once."""
+        with _BUILDING:
+            prediction = self._prediction()
+            if prediction is not None and "_pending" in prediction.__dict__:
+                _set_built(prediction, "state_vector",
+                           bearing_vectors(self.values, self.angles))
 
 
 def bearing_vectors(values, angles):
