@@ -119,3 +119,15 @@ class _WithSetter(GaussianState):
 @pytest.mark.parametrize("cls", [_OwnInit, _WithSetter])
 def test_a_type_it_cannot_know_is_built_by_its_constructor(cls):
     assert builder(cls) is cls
+
+
+def test_fresh_tags_are_new_version_4_uuids_as_stone_soup_makes_them():
+    import uuid
+
+    from fasttrack.stonesoup._objects import fresh_tags
+    tags = fresh_tags(500)
+    assert len(set(tags)) == 500 and fresh_tags(0) == []
+    for tag in tags:
+        parsed = uuid.UUID(tag)
+        assert str(parsed) == tag and parsed.version == 4
+        assert parsed.variant == uuid.uuid4().variant
