@@ -137,19 +137,14 @@ def _merge_running(means, covars, weights, precisions, b, candidates, threshold,
     mean, covar, weight = means[b], covars[b], weights[b]
     taken, start = [], 0
     while start < candidates.size:
-        if hits is None:
+        if hits is None:  # positions (from ``start`` on) within the threshold of the mean
             rest = candidates[start:]
             v = means[rest] - mean
-            hits = np.flatnonzero(np.einsum("ki,kij,kj->k", v, precisions[rest], v)
-                                  < threshold)
-            if not hits.size:
-                break
-            start += hits[0]
-        elif hits.size:
-            start = hits[0]
-        else:
+            hits = start + np.flatnonzero(np.einsum("ki,kij,kj->k", v, precisions[rest], v)
+                                          < threshold)
+        if not hits.size:
             break
-        hits = None
+        start, hits = hits[0], None
         c = candidates[start]
         total = weight + weights[c]
         w1, w2 = weight / total, weights[c] / total
