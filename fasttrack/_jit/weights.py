@@ -27,9 +27,22 @@ def _block_weights(log_w, start, log_w_max, buf):
     the filled view."""
     block = log_w[start:start + buf.size]
     w = buf[:block.size]
+    if _all_equal(block, log_w_max):  # equal weights, as after resampling: exp(0) is 1
+        w[:] = 1.0
+        return w
     for i in range(block.size):
         w[i] = fast_exp(block[i] - log_w_max)
     return w
+
+
+@jit()
+def _all_equal(values, value):
+    """Whether every element of 1-D ``values`` equals ``value`` (stops at the first that
+    does not)."""
+    for v in values:
+        if v != value:
+            return False
+    return True
 
 
 @jit()
