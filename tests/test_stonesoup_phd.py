@@ -294,3 +294,52 @@ def test_unbuilt_groups_hold_the_components_as_they_were():
     assert len(pickle.loads(pickle.dumps(hypotheses[0]))) == len(hypotheses[0])
     assert len(hypotheses) == len(scan) + 1
     assert sum(len(group) for group in hypotheses) > len(components)
+
+
+def _state_key(c):
+    return tuple(np.round(c.state_vector.ravel(), 8))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_drop_in_reducer_reduces_the_updates_arrays(seed):
+    """The drop-in update of the drop-in hypothesiser's groups holds its components as
+    arrays; the drop-in reducer reduces them, building only the components it returns
+    unmerged, with Stone Soup's result, and leaves the update's components (read afterwards)
+    as Stone Soup's reducer leaves its input."""
+    import copy
+    import pickle
+
+    from stonesoup.mixturereducer.gaussianmixture import GaussianMixtureReducer as SSReducer
+    from stonesoup.types.update import GaussianMixtureUpdate
+
+    from fasttrack.stonesoup import GaussianMixtureReducer
+    from fasttrack.stonesoup._pending import PendingMixtureUpdate
+
+    _, _, hypotheses, _ = _drop_in_hypotheses(seed)
+    updater = PHDUpdater(KalmanUpdater(SENSOR), clutter_spatial_density=1e-3,
+                         prob_detection=0.9, prob_survival=0.99)
+    mine, theirs = updater.update(hypotheses), list(updater.update(hypotheses))
+    assert type(mine) is PendingMixtureUpdate
+    settings = dict(prune_threshold=1e-4, merge_threshold=9)
+    fallbacks(clear=True)
+    got = GaussianMixtureReducer(**settings).reduce(mine)
+    assert not fallbacks() and type(mine) is PendingMixtureUpdate  # its list not built
+    want = SSReducer(**settings).reduce(theirs)
+    assert len(got) == len(want)
+    for g, w in zip(sorted(got, key=_key), sorted(want, key=_key)):
+        assert type(g) is type(w) and g.timestamp == w.timestamp
+        assert float(g.weight) == pytest.approx(float(w.weight), rel=1e-9)
+        np.testing.assert_allclose(g.state_vector, w.state_vector, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(g.covar, w.covar, rtol=1e-9, atol=1e-9)
+    assert len({c.tag for c in got}) == len(got)
+    built = list(mine)
+    assert type(mine) is GaussianMixtureUpdate and len(built) == len(theirs)
+    for b, t in zip(sorted(built, key=_state_key), sorted(theirs, key=_state_key)):
+        assert float(b.weight) == pytest.approx(float(t.weight), rel=1e-9)
+    unmerged = [c for c in got if any(c is b for b in built)]
+    assert 0 < len(unmerged) < len(got)
+    again = updater.update(hypotheses)
+    copied = copy.copy(again)
+    assert type(copied) is type(again) is GaussianMixtureUpdate
+    assert copied.components == again.components and copied.components is not again.components
+    assert len(pickle.loads(pickle.dumps(updater.update(hypotheses)))) == len(built)

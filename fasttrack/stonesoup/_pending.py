@@ -11,17 +11,30 @@
   :class:`PendingParticleMeasurement`: its particles' measurements as floats, their
   bearings made ``Bearing`` objects (one a particle, as Stone Soup holds them) when its
   state vectors are first read; the drop-in ``Mahalanobis`` reads the floats.
+- The drop-in ``PHDUpdater`` returns its update of those arrays as a
+  :class:`PendingMixtureUpdate`: the components' means, covariances, weights and tags as
+  arrays, each component's ``TaggedWeightedGaussianState`` built when first read, and the
+  drop-in ``GaussianMixtureReducer`` reduces the arrays, building only the components it
+  returns unmerged.
 """
+import copy
 import threading
 import weakref
 
 from stonesoup.types.angle import Bearing
-from stonesoup.types.array import StateVectors
+from stonesoup.types.array import CovarianceMatrix, StateVector, StateVectors
 from stonesoup.types.multihypothesis import MultipleHypothesis
 from stonesoup.types.prediction import ParticleMeasurementPrediction
+from stonesoup.types.state import TaggedWeightedGaussianState
+from stonesoup.types.update import GaussianMixtureUpdate
 
-__all__ = ["PendingGroups", "PendingHypotheses", "PendingParticleMeasurement",
-           "PendingVectors", "bearing_vectors", "pending", "pending_groups", "pending_values"]
+from ._objects import builder
+
+__all__ = ["PendingComponents", "PendingGroups", "PendingHypotheses", "PendingMixtureUpdate",
+           "PendingParticleMeasurement", "PendingVectors", "bearing_vectors", "pending",
+           "pending_components", "pending_groups", "pending_mixture", "pending_values"]
+
+_tagged_state = builder(TaggedWeightedGaussianState)
 
 #: Held while an object is built (two threads reading at once build it once).
 _BUILDING = threading.RLock()
@@ -58,6 +71,18 @@ class PendingHypotheses(MultipleHypothesis, BuiltWhenRead):
 
 class PendingParticleMeasurement(ParticleMeasurementPrediction, BuiltWhenRead):
     """A ``ParticleMeasurementPrediction`` whose state vectors are built when first read."""
+
+
+class PendingMixtureUpdate(GaussianMixtureUpdate, BuiltWhenRead):
+    """A ``GaussianMixtureUpdate`` whose components are built when first read."""
+
+    def __copy__(self):
+        """A copy of the built mixture (Stone Soup's copy reads the component list
+        directly)."""
+        pending = self.__dict__.get("_pending")
+        if pending is not None:
+            pending.build()
+        return copy.copy(self)
 
 
 def _set_built(instance, name, value):
@@ -116,6 +141,58 @@ class PendingVectors:
             if prediction is not None and "_pending" in prediction.__dict__:
                 _set_built(prediction, "state_vector",
                            bearing_vectors(self.values, self.angles))
+
+
+class PendingComponents:
+    """The components of one :class:`PendingMixtureUpdate`, all tagged and at
+    ``timestamp``, as what the drop-in reducer reads: ``means`` (n, d), ``covars`` (n, d, d),
+    ``weights`` (n,) float64 and ``tags`` (n,) a list. ``component(i)`` is component i's
+    ``TaggedWeightedGaussianState``, built once (``built`` holds those built); the mixture's
+    list, when first read, is made of them."""
+
+    def __init__(self, mixture, means, covars, weights, tags, timestamp):
+        self.means, self.covars, self.weights = means, covars, weights
+        self.tags, self.timestamp = tags, timestamp
+        self.built = {}
+        mixture.__dict__["_pending"] = self
+        self._mixture = weakref.ref(mixture)  # (no cycle)
+
+    def component(self, i):
+        """Component i's state (weight, tag: as the arrays hold them when first built)."""
+        with _BUILDING:
+            state = self.built.get(i)
+            if state is None:
+                state = self.built[i] = _tagged_state(
+                    tag=self.tags[i], weight=float(self.weights[i]),
+                    state_vector=self.means[i, :, None].view(StateVector),
+                    covar=self.covars[i].view(CovarianceMatrix), timestamp=self.timestamp)
+            return state
+
+    def build(self):
+        """Set the mixture's components (once)."""
+        with _BUILDING:
+            mixture = self._mixture()
+            if mixture is not None and "_pending" in mixture.__dict__:
+                _set_built(mixture, "components",
+                           [self.component(i) for i in range(len(self.tags))])
+
+
+def pending_mixture(hypothesis, means, covars, weights, tags, timestamp):
+    """A :class:`PendingMixtureUpdate` of ``hypothesis`` whose components are those of
+    the arrays (see :class:`PendingComponents`)."""
+    mixture = PendingMixtureUpdate.__new__(PendingMixtureUpdate)
+    mixture.__dict__["_property_hypothesis"] = hypothesis
+    PendingComponents(mixture, means, covars, weights, tags, timestamp)
+    return mixture
+
+
+def pending_components(mixture):
+    """The :class:`PendingComponents` of a :class:`PendingMixtureUpdate` whose components
+    are not yet read, none built, or None."""
+    if type(mixture) is not PendingMixtureUpdate:
+        return None
+    components = mixture.__dict__.get("_pending")
+    return components if components is not None and not components.built else None
 
 
 def bearing_vectors(values, angles):

@@ -10,6 +10,10 @@ mode "stonesoup"), gated by a grid instead of testing every pair.
 - The order is the merges' (each one's heaviest first; by weight after a truncation). Stone
   Soup regroups its list by tag, in set order, when it renames duplicate tags: its order
   then differs from run to run.
+- The drop-in ``PHDUpdater``'s update of the drop-in hypothesiser's groups holds its
+  components as arrays: they are reduced from those, and only the components returned
+  unmerged are built (the update's list, when read, is made of them and of the others with
+  their pruned weights).
 - A kd-tree gate (``kdtree_max_distance``), components that are not weighted Gaussian
   states of one dimension, and a subclass's own ``prune``, ``merge``, ``merge_components``
   or ``truncate`` run Stone Soup's code.
@@ -24,6 +28,7 @@ from ..core.mixture_numpy import ordered_sum
 from ._convert import mixture_components
 from ._fallback import fall_back
 from ._objects import builder, fresh_tags
+from ._pending import pending_components
 
 __all__ = ["GaussianMixtureReducer"]
 
@@ -37,91 +42,148 @@ class GaussianMixtureReducer(ss.GaussianMixtureReducer):
     """Stone Soup's ``GaussianMixtureReducer``, compiled."""
 
     def reduce(self, components_list):
-        components = mixture_components(components_list)
-        reason = self._reason(components)
+        source = pending_components(components_list)
+        if source is None:
+            components = mixture_components(components_list)
+            reason = self._reason() or _reason(components)
+        else:
+            reason = self._reason()
         if reason:
             fall_back(self, "reduce", reason)
             return super().reduce(components_list)
-        if not components:
+        source = _Objects(components) if source is None else _Arrays(source)
+        if not source.weights.size:
             return components_list
-        weights = np.array([c.weight for c in components], dtype=np.float64)
+        weights, kept = source.weights, np.arange(source.weights.size)
         if self.pruning:
-            components, weights = _prune(components, weights, self.prune_threshold)
-            if not components:
-                return components
-        means = np.array([c.state_vector for c in components], dtype=np.float64)[:, :, 0]
-        covars = np.array([c.covar for c in components], dtype=np.float64)
+            low = weights < self.prune_threshold
+            if low.any():
+                kept = np.flatnonzero(~low)
+                if not kept.size:
+                    return []
+                weights = weights[kept] + ordered_sum(weights[low]) / kept.size
+                source.set_weights(kept, weights)
         cap = self.max_number_components
-        means, covars, weights, source, member = _mixture.reduce(
-            means, covars, weights, "stonesoup", None, self.merge_threshold,
-            cap if self.truncating and cap < len(components) else None, self.merging)
-        alone = np.bincount(member[member >= 0], minlength=weights.size) == 1
-        reduced = []
+        means, covars, weights, heaviest, member = _mixture.reduce(
+            *source.arrays(kept), weights, "stonesoup", None, self.merge_threshold,
+            cap if self.truncating and cap < kept.size else None, self.merging)
+        alone = (np.bincount(member[member >= 0], minlength=weights.size) == 1).tolist()
+        heaviest = kept[heaviest].tolist()
         weights = weights.tolist()
-        for o, i in enumerate(source):
-            heaviest = components[i]
-            if alone[o]:
-                heaviest.weight = weights[o]
-                reduced.append(heaviest)
-            elif isinstance(heaviest, TaggedWeightedGaussianState):
-                reduced.append(_tagged_state(
-                    state_vector=means[o][:, None].view(StateVector),
-                    covar=covars[o].view(CovarianceMatrix), weight=weights[o],
-                    timestamp=heaviest.timestamp, tag=heaviest.tag))
-            else:
-                reduced.append(_weighted_state(
-                    state_vector=means[o][:, None].view(StateVector),
-                    covar=covars[o].view(CovarianceMatrix), weight=weights[o],
-                    timestamp=heaviest.timestamp))
-        _rename_shared_tags(reduced)
+        reduced = [source.kept(i, weight) if single else source.merged(i, mean, covar, weight)
+                   for i, single, mean, covar, weight in zip(heaviest, alone, means, covars,
+                                                             weights)]
+        tags = source.tags(heaviest)
+        if tags is not None:
+            renamed = _shared_tags(tags, weights)
+            for o, tag in zip(renamed, fresh_tags(len(renamed))):
+                reduced[o].tag = tag
         return reduced
 
-    def _reason(self, components_list):
-        """Why Stone Soup's code must reduce ``components_list``, or None."""
+    def _reason(self):
+        """Why Stone Soup's code must reduce, whatever the components, or None."""
         if self.kdtree_max_distance is not None:
             return "a kd-tree gate (kdtree_max_distance)"
         own = [name for name in _OWN_METHODS
                if getattr(type(self), name) is not getattr(ss.GaussianMixtureReducer, name)]
         if own:
             return f"the subclass's own {', '.join(own)}"
-        if not all(issubclass(kind, WeightedGaussianState)
-                   for kind in set(map(type, components_list))):
-            return "components that are not weighted Gaussian states"
-        if len({c.state_vector.shape for c in components_list}) > 1:
-            return "components of different dimensions"
         return None
 
 
-def _prune(components, weights, threshold):
-    """Stone Soup's ``prune`` of ``components`` of ``weights``: those of weight below
-    ``threshold`` dropped, their total weight (summed in order) shared evenly by the others,
-    whose ``weight`` is set; the kept components and their weights."""
-    low = weights < threshold
-    if not low.any():
-        return components, weights
-    kept = [c for c, dropped in zip(components, low.tolist()) if not dropped]
-    if not kept:
-        return kept, weights[:0]
-    weights = weights[~low] + ordered_sum(weights[low]) / len(kept)
-    for component, weight in zip(kept, weights.tolist()):
+def _reason(components):
+    """Why Stone Soup's code must reduce ``components``, or None."""
+    if not all(issubclass(kind, WeightedGaussianState) for kind in set(map(type, components))):
+        return "components that are not weighted Gaussian states"
+    if len({c.state_vector.shape for c in components}) > 1:
+        return "components of different dimensions"
+    return None
+
+
+class _Objects:
+    """What the reducer reads and builds for a list of Stone Soup ``components``: their
+    ``weights`` (J,) float64; the kept ones' weights set in place, as Stone Soup's prune
+    sets them; a component returned unmerged is itself."""
+
+    def __init__(self, components):
+        self.components = components
+        self.weights = np.array([c.weight for c in components], dtype=np.float64)
+
+    def set_weights(self, kept, weights):
+        for i, weight in zip(kept.tolist(), weights.tolist()):
+            self.components[i].weight = weight
+
+    def arrays(self, kept):
+        components = [self.components[i] for i in kept.tolist()]
+        return (np.array([c.state_vector for c in components], dtype=np.float64)[:, :, 0],
+                np.array([c.covar for c in components], dtype=np.float64))
+
+    def kept(self, i, weight):
+        """Component i, unmerged, of ``weight``."""
+        component = self.components[i]
         component.weight = weight
-    return kept, weights
+        return component
+
+    def merged(self, i, mean, covar, weight):
+        """A new state of component i's class (tagged or not), tag and timestamp: the
+        merge whose heaviest is i."""
+        heaviest = self.components[i]
+        values = dict(state_vector=mean[:, None].view(StateVector),
+                      covar=covar.view(CovarianceMatrix), weight=weight,
+                      timestamp=heaviest.timestamp)
+        if isinstance(heaviest, TaggedWeightedGaussianState):
+            return _tagged_state(tag=heaviest.tag, **values)
+        return _weighted_state(**values)
+
+    def tags(self, index):
+        """The tags of the components ``index``, or None unless every one is tagged."""
+        components = [self.components[i] for i in index]
+        if not all(isinstance(c, TaggedWeightedGaussianState) for c in components):
+            return None
+        return [c.tag for c in components]
 
 
-def _rename_shared_tags(components):
-    """Stone Soup's rule when every component is tagged: a tag on several components stays
-    with the heaviest (the first of equals), the others get new uuids."""
-    if not all(isinstance(c, TaggedWeightedGaussianState) for c in components):
-        return
+class _Arrays(_Objects):
+    """As :class:`_Objects`, for the components of a pending mixture update
+    (:class:`~._pending.PendingComponents`), read from its arrays: a weight set on a
+    component not built is set in the arrays (it is built with it), and only the
+    components returned unmerged are built."""
+
+    def __init__(self, pending):
+        self.pending, self.weights = pending, pending.weights
+
+    def set_weights(self, kept, weights):
+        self.weights[kept] = weights
+
+    def arrays(self, kept):
+        return self.pending.means[kept], self.pending.covars[kept]
+
+    def kept(self, i, weight):
+        self.weights[i] = weight
+        return self.pending.component(i)
+
+    def merged(self, i, mean, covar, weight):
+        return _tagged_state(tag=self.pending.tags[i], weight=weight,
+                             state_vector=mean[:, None].view(StateVector),
+                             covar=covar.view(CovarianceMatrix),
+                             timestamp=self.pending.timestamp)
+
+    def tags(self, index):
+        return [self.pending.tags[i] for i in index]
+
+
+def _shared_tags(tags, weights):
+    """Stone Soup's rule when every component is tagged, on the components' ``tags`` and
+    ``weights``: a tag on several stays with the heaviest (the first of equals); the
+    positions of the others, which get new uuids."""
     heaviest, renamed = {}, []
-    for c in components:
-        kept = heaviest.get(c.tag)
+    for o, (tag, weight) in enumerate(zip(tags, weights)):
+        kept = heaviest.get(tag)
         if kept is None:
-            heaviest[c.tag] = c
-        elif c.weight > kept.weight:
+            heaviest[tag] = o
+        elif weight > weights[kept]:
             renamed.append(kept)
-            heaviest[c.tag] = c
+            heaviest[tag] = o
         else:
-            renamed.append(c)
-    for c, tag in zip(renamed, fresh_tags(len(renamed))):
-        c.tag = tag
+            renamed.append(o)
+    return renamed

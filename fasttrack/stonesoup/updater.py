@@ -33,7 +33,8 @@ from ._convert import (angle_rows, fast_kernel, fast_model, fits, floats, global
                        uncached)
 from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
 from ._objects import builder, fresh_tags, from_state
-from ._pending import PendingParticleMeasurement, PendingVectors, bearing_vectors, pending
+from ._pending import (PendingParticleMeasurement, PendingVectors, bearing_vectors, pending,
+                       pending_mixture)
 from .state import kernel_factors, remember_factors
 
 
@@ -344,6 +345,7 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
 
 
 _tagged_state = builder(TaggedWeightedGaussianState)
+_EPS = np.finfo(float).eps  # Stone Soup's weight for a component of weight 0
 
 
 class _PointProcess:
@@ -352,13 +354,18 @@ class _PointProcess:
     and one linear Gaussian measurement model, by Stone Soup's rules: P_S applied at the
     update to every component not tagged 'birth' (a detected birth component is given a new
     tag), a missed birth component dropped, the likelihoods in linear terms, a weight of 0
-    set to eps; the missed components scaled by the filter's own update terms. Another
-    updater or measurement model goes through Stone Soup's code."""
+    set to eps; the missed components scaled by the filter's own update terms. The update
+    of the drop-in hypothesiser's groups (P_D and P_S plain numbers) holds its components as
+    arrays until they are read (a :class:`~._pending.PendingMixtureUpdate`, which the
+    drop-in reducer reduces as arrays). Another updater or measurement model goes through
+    Stone Soup's code."""
 
     def update(self, hypotheses):
         groups = pending(hypotheses)
         if groups is not None and all(tag is not None for tag in groups.tags) \
-                and not self._reason(groups.scan.detections):
+                and not self._reason(groups.scan.detections) \
+                and all(type(p) in (float, int, np.float64) for p in (self.prob_detection,
+                                                                      self.prob_survival)):
             return self._scan_update(groups, hypotheses)
         pairs = [hypothesis for multiple in hypotheses[:-1] for hypothesis in multiple]
         measurements = [hypothesis.measurement for hypothesis in pairs]
@@ -370,24 +377,34 @@ class _PointProcess:
                               [len(multiple) for multiple in hypotheses[:-1]])
         predictions = [p.prediction for p in pairs]
         tags = [prediction.tag for prediction in predictions]
-        means = np.array([p.state_vector[:, 0] for p in predictions], dtype=np.float64)
-        covars = np.array([p.covar for p in predictions], dtype=np.float64)
-        updated, sums = self._detected(
-            means, covars, [float(p.weight) for p in predictions],
-            [tag == "birth" for tag in tags], tags, _rows(measurements),
+        means, covars, weights, sums = self._detected(
+            np.array([p.state_vector[:, 0] for p in predictions], dtype=np.float64),
+            np.array([p.covar for p in predictions], dtype=np.float64),
+            [float(p.weight) for p in predictions], [tag == "birth" for tag in tags],
+            _rows(measurements),
             _measurement_model(self.updater, measurements[0]) if pairs else None, detection,
-            [m.timestamp for m in measurements], len(hypotheses) - 1)
-        missed = [hypothesis.prediction for hypothesis in hypotheses[-1]]
-        updated += self._missed([p.mean for p in missed], [p.covar for p in missed],
-                                [p.weight for p in missed], [p.tag for p in missed],
-                                [p.timestamp for p in missed], sums, hypotheses)
-        return _mixture_update(hypotheses, updated)
+            len(hypotheses) - 1)
+        updated = [_tagged_state(tag=tag if tag != "birth" else None, weight=weight,
+                                 state_vector=mean[:, None].view(StateVector),
+                                 covar=covar.view(CovarianceMatrix), timestamp=m.timestamp)
+                   for tag, mean, covar, weight, m in zip(
+                       tags, means, covars, weights.tolist(), measurements)]
+        missed = self._missed_factor(sums, hypotheses)
+        updated += [_tagged_state(tag=p.tag, weight=p.weight * missed, state_vector=p.mean,
+                                  covar=p.covar, timestamp=p.timestamp)
+                    for p in (hypothesis.prediction for hypothesis in hypotheses[-1])
+                    if p.tag != "birth"]
+        for component in updated:
+            if component.weight == 0:
+                component.weight = _EPS
+        return GaussianMixtureUpdate(hypothesis=hypotheses, components=updated)
 
     def _scan_update(self, groups, hypotheses):
         """The update of a drop-in hypothesiser's groups from its scan's arrays (the
-        hypotheses not built): the pair of component k and detection j has k's prediction,
-        weight and tag (a new one for a detected birth component), in the groups' order
-        (by detection, then component)."""
+        hypotheses not built), a :class:`~._pending.PendingMixtureUpdate`: the pair of
+        component k and detection j has k's prediction, weight and tag (a new one for a
+        detected birth component), in the groups' order (by detection, then component),
+        then the missed components in the components' order."""
         scan = groups.scan
         owners = np.repeat(np.arange(len(scan.tracks)), np.diff(scan.starts))
         order = np.argsort(scan.candidates, kind="stable")
@@ -397,49 +414,40 @@ class _PointProcess:
         born = [q for q, tag in enumerate(pair_tags) if tag == "birth"]
         for q, tag in zip(born, fresh_tags(len(born))):
             pair_tags[q] = tag
-        timestamps = [scan.timestamp] * max(k.size, len(tags))
-        updated, sums = self._detected(
-            scan.means[k], scan.covars[k], np.array(groups.weights, dtype=np.float64)[k],
-            np.zeros(k.size, dtype=np.bool_), pair_tags, _rows(scan.detections)[detection],
+        prior = np.array(groups.weights, dtype=np.float64)
+        means, covars, weights, sums = self._detected(
+            scan.means[k], scan.covars[k], prior[k], np.zeros(k.size, dtype=np.bool_),
+            _rows(scan.detections)[detection],
             _measurement_model(self.updater, scan.detections[0]) if k.size else None,
-            detection, timestamps, len(scan.detections))
-        predicted = [scan.predicted(i) for i in range(len(tags))]
-        updated += self._missed([mean for mean, _ in predicted],
-                                [covar for _, covar in predicted], groups.weights, tags,
-                                timestamps, sums, hypotheses)
-        return _mixture_update(hypotheses, updated)
+            detection, len(scan.detections))
+        kept = [i for i, tag in enumerate(tags) if tag != "birth"]
+        weights = np.concatenate([weights, prior[kept] * self._missed_factor(sums, hypotheses)])
+        weights[weights == 0] = _EPS
+        return pending_mixture(hypotheses, np.concatenate([means, scan.means[kept]]),
+                               np.concatenate([covars, scan.covars[kept]]), weights,
+                               pair_tags + [tags[i] for i in kept], scan.timestamp)
 
-    def _detected(self, means, covars, weights, born, tags, z, model, detection, timestamps,
-                  n_detections):
-        """The updated components of the (prediction, detection) pairs, and the sum of
-        their likelihood terms for each of the ``n_detections``: predicted ``means`` (n, d),
-        ``covars`` (n, d, d), ``weights`` (n,), ``born`` (n,) whether tagged 'birth',
-        ``tags`` (n,), measurements ``z`` (n, m) of ``model``, ``detection`` (n,) their
-        numbers, at ``timestamps``."""
-        if not len(tags):
-            return [], np.zeros(n_detections)
+    def _detected(self, means, covars, weights, born, z, model, detection, n_detections):
+        """The posterior means (n, d), covariances (n, d, d) and weights (n,) of the
+        (prediction, detection) pairs, and the sum of their likelihood terms for each of
+        the ``n_detections``: predicted ``means`` (n, d), ``covars`` (n, d, d), ``weights``
+        (n,), ``born`` (n,) whether tagged 'birth', measurements ``z`` (n, m) of ``model``,
+        ``detection`` (n,) their numbers."""
+        if not detection.size:
+            return means, covars, np.zeros(0), np.zeros(n_detections)
         means, covars, weights = self._pair_updates(
             means, covars, np.asarray(weights, dtype=np.float64), np.asarray(born), z, model)
         sums = np.bincount(detection, weights, minlength=n_detections)
         if self.normalisation:
             weights = weights / (sums[detection] + self.clutter_spatial_density)
-        return [_tagged_state(tag=tag if tag != "birth" else None, weight=weight,
-                              state_vector=mean.view(StateVector),
-                              covar=covar.view(CovarianceMatrix), timestamp=timestamp)
-                for tag, mean, covar, weight, timestamp in zip(
-                    tags, means[:, :, None], covars, weights.tolist(), timestamps)], sums
+        return means, covars, weights, sums
 
-    def _missed(self, means, covars, weights, tags, timestamps, sums, hypotheses):
-        """The missed components (birth ones dropped) of predicted ``means`` (d, 1)
-        ``StateVector``s and ``covars`` (d, d) ``CovarianceMatrix``es, ``weights``, ``tags``
-        and ``timestamps``, scaled by the filter's own update terms (of the detections'
-        likelihood ``sums``)."""
-        l1 = self._calculate_update_terms(list(sums), hypotheses)
-        missed = (1 - self.prob_detection) * l1 * self.prob_survival
-        return [_tagged_state(tag=tag, weight=weight * missed, state_vector=mean,
-                              covar=covar, timestamp=timestamp)
-                for mean, covar, weight, tag, timestamp
-                in zip(means, covars, weights, tags, timestamps) if tag != "birth"]
+    def _missed_factor(self, sums, hypotheses):
+        """What scales a missed component's weight: ``(1 - P_D) l1 P_S``, ``l1`` the
+        filter's own update term of the detections' likelihood ``sums``."""
+        return (1 - self.prob_detection) * self._calculate_update_terms(list(sums),
+                                                                        hypotheses) \
+            * self.prob_survival
 
     def _pair_updates(self, means, covars, prior, born, z, model):
         """Posterior means (n, d), covariances (n, d, d) and unnormalised weights
@@ -486,14 +494,6 @@ def _rows(measurements):
     rows = dict(zip(unique, np.array([m.state_vector for m in unique.values()],
                                      dtype=np.float64)[:, :, 0]))
     return np.array([rows[id(m)] for m in measurements])
-
-
-def _mixture_update(hypotheses, components):
-    """Stone Soup's ``GaussianMixtureUpdate`` of ``components``, a weight of 0 set to eps."""
-    for component in components:
-        if component.weight == 0:
-            component.weight = np.finfo(float).eps
-    return GaussianMixtureUpdate(hypothesis=hypotheses, components=components)
 
 
 class PHDUpdater(_PointProcess, ss_pointprocess.PHDUpdater):
