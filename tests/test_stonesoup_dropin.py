@@ -416,6 +416,12 @@ def test_a_changed_model_parameter_is_seen():
     sensor.noise_covar[0, 0] = 4.0
     changed = fast_model(sensor)
     assert changed is not first and changed.noise_covar[0, 0] == 4.0
+    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                    ConstantVelocity)
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.1)] * 2)
+    first = fast_model(transition)
+    transition.model_list[1].noise_diff_coeff = np.float64(0.5)  # a part's (a Stone Soup model)
+    assert fast_model(transition) is not first
 
 
 def test_resampled_weights_are_stone_soups_to_the_bit():

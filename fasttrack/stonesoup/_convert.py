@@ -57,13 +57,14 @@ _PLAIN_VALUES = {float, int, bool, str, type(None)}
 
 def _snapshot(value):
     """A comparable copy of a model's parameters (arrays by value)."""
-    if type(value) in _PLAIN_VALUES:
+    kind = type(value)
+    if kind in _PLAIN_VALUES:
         return value
-    if isinstance(value, Base):  # its properties are stored as ``_property_<name>``
-        return type(value), tuple(_snapshot(item) for name, item in vars(value).items()
-                                  if name.startswith("_property_"))
     if isinstance(value, np.ndarray):
         return value.shape, value.dtype.str, value.tobytes()
+    if Base in kind.__mro__:  # (isinstance would walk Base's subclasses for a new type)
+        return kind, tuple(_snapshot(item) for name, item in vars(value).items()
+                           if name.startswith("_property_"))
     if isinstance(value, (list, tuple)):
         return tuple(_snapshot(item) for item in value)
     return value
