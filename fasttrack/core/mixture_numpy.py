@@ -28,19 +28,23 @@ def reduce(means, covars, weights, mode, prune_threshold, merging, merge_thresho
     means, covars = means[kept], covars[kept]
     n = kept.size
     local_member = np.arange(n)
+    merged = {}  # output -> (mean, covariance, weight) of a merge of several
     if merging and n > 1:
         failed = _first_bad_covariance(covars)
         if failed >= 0:
             j, kind = divmod(failed, 2)
             return -(1 + 2 * int(kept[j]) + kind)
         with np.errstate(divide="ignore", invalid="ignore"):
-            groups = _merge(means, covars, work, stonesoup, merge_threshold, local_member)
+            heads = _merge(means, covars, work, stonesoup, merge_threshold, local_member,
+                           merged)
     else:
-        groups = [(j, means[j], covars[j], work[j]) for j in range(n)]
-    count = len(groups)
-    for o, (heaviest, mean, covar, weight) in enumerate(groups):
+        heads = np.arange(n)
+    count = heads.size
+    out_means[:count], out_covars[:count], out_weights[:count] = \
+        means[heads], covars[heads], work[heads]
+    for o, (mean, covar, weight) in merged.items():
         out_means[o], out_covars[o], out_weights[o] = mean, covar, weight
-        source[o] = kept[heaviest]
+    source[:count] = kept[heads]
     member[:] = -1
     member[kept] = local_member
     if count > max_components:
@@ -75,47 +79,48 @@ def _first_bad_covariance(covars):
     return -1
 
 
-def _merge(means, covars, weights, stonesoup, threshold, member):
-    """The greedy merges (the kernel's ``_merge`` rules), heaviest first: a list of
-    (heaviest, mean, covariance, weight); ``member[j]`` set to component j's merge."""
+def _merge(means, covars, weights, stonesoup, threshold, member, merged):
+    """The greedy merges (the kernel's ``_merge`` rules), heaviest first: the (L,) heaviest
+    component of each, in order; ``merged[o]`` set to merge o's (mean, covariance, weight)
+    where it took others, ``member[j]`` to component j's merge."""
     precisions = np.linalg.inv(covars)
     by_rank = np.argsort(weights, kind="stable")
     near = _near(means, precisions, threshold) if stonesoup else None
+    lonely = [False] * weights.size
     if near is not None:  # no candidate near b, whatever has merged before
         rank = np.empty(weights.size, dtype=np.int64)
         rank[by_rank] = np.arange(weights.size)
-        lonely = ~(near & (rank[:, None] < rank[None, :])).any(axis=0)
+        lonely = (~(near & (rank[:, None] < rank[None, :])).any(axis=0)).tolist()
     alive = np.ones(weights.size, dtype=bool)
-    groups = []
-    for top in range(weights.size - 1, -1, -1):
-        b = by_rank[top]
+    heads = []
+    for top, b in zip(range(weights.size - 1, -1, -1), by_rank[::-1].tolist()):
         if not alive[b]:
             continue
         alive[b] = False
-        member[b] = len(groups)
-        if near is not None and lonely[b]:
-            groups.append((b, means[b], covars[b], weights[b]))
+        member[b] = len(heads)
+        heads.append(b)
+        if lonely[b]:
             continue
         candidates = by_rank[:top][alive[by_rank[:top]]]  # ascending weight
         if stonesoup:
             hits = None if near is None else np.flatnonzero(near[candidates, b])
-            merged = _merge_running(means, covars, weights, precisions, b, candidates,
-                                    threshold, hits)
-            groups.append((b, *merged[:3]))
-            taken = merged[3]
+            *group, taken = _merge_running(means, covars, weights, precisions, b, candidates,
+                                           threshold, hits)
         else:
             v = means[candidates] - means[b]
             taken = candidates[np.einsum("ki,ij,kj->k", v, precisions[b], v) <= threshold]
-            group = np.r_[b, taken]
-            total = ordered_sum(weights[group])
-            w = weights[group] / total
-            mean = w @ means[group]
-            spread = means[group] - mean
-            groups.append((b, mean, np.einsum("k,kij->ij", w, covars[group])
-                           + (spread.T * w) @ spread, total))
-        alive[taken] = False
-        member[taken] = len(groups) - 1
-    return groups
+            members = np.r_[b, taken]
+            total = ordered_sum(weights[members])
+            w = weights[members] / total
+            mean = w @ means[members]
+            spread = means[members] - mean
+            group = mean, np.einsum("k,kij->ij", w, covars[members]) \
+                + (spread.T * w) @ spread, total
+        if taken.size:
+            merged[len(heads) - 1] = group
+            alive[taken] = False
+            member[taken] = len(heads) - 1
+    return np.array(heads, dtype=np.int64)
 
 
 def _near(means, precisions, threshold):
@@ -135,13 +140,13 @@ def _merge_running(means, covars, weights, precisions, b, candidates, threshold,
     within the threshold of b's own mean. Returns the mean, covariance, weight and the
     candidates taken."""
     mean, covar, weight = means[b], covars[b], weights[b]
+    pool_means, pool_precisions = means[candidates], precisions[candidates]
     taken, start = [], 0
     while start < candidates.size:
         if hits is None:  # positions (from ``start`` on) within the threshold of the mean
-            rest = candidates[start:]
-            v = means[rest] - mean
-            hits = start + np.flatnonzero(np.einsum("ki,kij,kj->k", v, precisions[rest], v)
-                                          < threshold)
+            v = pool_means[start:] - mean
+            hits = start + np.flatnonzero(
+                np.einsum("ki,kij,kj->k", v, pool_precisions[start:], v) < threshold)
         if not hits.size:
             break
         start, hits = hits[0], None
