@@ -217,18 +217,17 @@ def stack_predict(transition_model, sensor, method, intervals, means, covars):
     k, d = means.shape
     m = sensor.ndim_meas
     status = np.zeros(k, dtype=np.int64)
-    out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))
     if sensor.kind == SELECT and k > 1 and _all_positive_definite(covars):
         h = jacobian(sensor, method, means[0, :, None])
-        for interval in np.unique(intervals):  # a stacked pass for each interval
-            rows = intervals == interval
-            spec = transition_model.spec(float(interval))
-            x = means[rows] @ spec.matrix.T
-            covar = _symmetric(spec.matrix @ covars[rows] @ spec.matrix.T + spec.noise)
-            for whole, value in zip(out, (x, covar, x[:, sensor.mapping],
-                                          _symmetric(h @ covar @ h.T + sensor.noise_covar))):
-                whole[rows] = value
-        return (status, *out)
+        values, which = np.unique(intervals, return_inverse=True)  # each filter's F and Q
+        specs = [transition_model.spec(float(interval)) for interval in values]
+        f = np.stack([spec.matrix for spec in specs])[which]
+        x = (f @ means[:, :, None])[:, :, 0]
+        covar = _symmetric(f @ covars @ f.transpose(0, 2, 1)
+                           + np.stack([spec.noise for spec in specs])[which])
+        return status, x, covar, x[:, sensor.mapping], _symmetric(
+            h @ covar @ h.T + sensor.noise_covar)
+    out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))
     for t in range(k):
         status[t], x, covar = predict(transition_model.spec(float(intervals[t])),
                                       means[t, :, None], covars[t])
