@@ -25,6 +25,28 @@ def _describe(value):
     return type(value).__name__
 
 
+def iterator(value, name):
+    """An iterator over ``value`` (an iterable, not a string), else a TypeError naming it."""
+    if not isinstance(value, (str, bytes)):
+        try:
+            return iter(value)
+        except TypeError:
+            pass
+    raise TypeError(f"{name} must be an iterable (a list, for instance), got "
+                    f"{_describe(value)}")
+
+
+def instances(value, kind, name):
+    """The items of the iterable ``value`` as a list, each a ``kind``, else a TypeError
+    naming ``name`` or the item."""
+    items = list(iterator(value, name))
+    for i, item in enumerate(items):
+        if not isinstance(item, kind):
+            raise TypeError(f"{name}[{i}] must be of type {kind.__name__}, got "
+                            f"{_describe(item)}")
+    return items
+
+
 def is_real(value):
     """Whether ``value`` is a real number (Python or NumPy), not a bool."""
     return type(value) in _PLAIN_REALS or (isinstance(value, numbers.Real)

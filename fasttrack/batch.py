@@ -24,13 +24,18 @@ def check_models(transition_model, measurement_model, nonlinear=False):
         kind = "TransitionModel" if nonlinear else "linear-Gaussian TransitionModel"
         raise TypeError(f"transition_model must be a {kind}, "
                         f"got {type(transition_model).__name__}")
+    check_measurement_model(measurement_model)
+    if measurement_model.ndim_state != transition_model.ndim_state:
+        raise ValueError(f"the models disagree on the state dimension: "
+                         f"{transition_model.ndim_state} and {measurement_model.ndim_state}")
+
+
+def check_measurement_model(measurement_model):
+    """A TypeError unless ``measurement_model`` is a built-in MeasurementModel."""
     if not isinstance(measurement_model, MeasurementModel) \
             or isinstance(measurement_model, NonlinearGaussianMeasurement):
         raise TypeError(f"measurement_model must be a built-in MeasurementModel, "
                         f"got {type(measurement_model).__name__}")
-    if measurement_model.ndim_state != transition_model.ndim_state:
-        raise ValueError(f"the models disagree on the state dimension: "
-                         f"{transition_model.ndim_state} and {measurement_model.ndim_state}")
 
 
 class _BatchFilter:

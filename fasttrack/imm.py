@@ -6,15 +6,18 @@ import numpy as np
 
 from . import _validate
 from ._states import step_intervals
-from .batch import check_models
+from .batch import check_measurement_model, check_models
 from .core import imm as _imm
 from .core import imm_smooth as _imm_smooth
+from .core.mixture import check_covariances
 from .models.measurement import LinearGaussian
+from .models.transition import TransitionModel
 from .predictor.base import Predictor
 from .predictor.kalman import KalmanPredictor
 from .types.gaussian import GaussianState
 from .types.mixture import GaussianMixture
 from .types.tracks import SingleHypothesis
+from .updater.base import Updater
 from .updater.kalman import KalmanUpdater
 
 __all__ = ["BatchGPBFilter", "BatchIMMFilter", "IMMPredictor", "IMMUpdater"]
@@ -23,8 +26,8 @@ __all__ = ["BatchGPBFilter", "BatchIMMFilter", "IMMPredictor", "IMMUpdater"]
 class _Models:
     """A list of per-model predictors or updaters and the switching matrix."""
 
-    def __init__(self, models, transition_matrix, name):
-        self._models = list(models)
+    def __init__(self, models, transition_matrix, name, kind):
+        self._models = _validate.instances(models, kind, name)
         if not self._models:
             raise ValueError(f"{name} must hold at least one model's")
         self.transition_matrix = _imm.transition_matrix(transition_matrix, len(self._models))
@@ -60,7 +63,7 @@ class IMMPredictor(_Models):
     """
 
     def __init__(self, predictors, transition_matrix):
-        super().__init__(predictors, transition_matrix, "predictors")
+        super().__init__(predictors, transition_matrix, "predictors", Predictor)
         self.predictors = self._models
 
     def predict(self, prior, timestamp):
@@ -131,7 +134,7 @@ class IMMUpdater(_Models):
     """
 
     def __init__(self, updaters, transition_matrix):
-        super().__init__(updaters, transition_matrix, "updaters")
+        super().__init__(updaters, transition_matrix, "updaters", Updater)
         self.updaters = self._models
 
     def update(self, hypothesis):
@@ -152,6 +155,7 @@ class IMMUpdater(_Models):
             raise TypeError(f"hypothesis must be a SingleHypothesis, got "
                             f"{type(hypothesis).__name__}")
         predicted = self._mixture(hypothesis.prediction, "hypothesis.prediction")
+        check_covariances(hypothesis.prediction.covars, "hypothesis.prediction.covars")
         detection = hypothesis.measurement
         if detection is None:
             raise ValueError("hypothesis.measurement is None: an IMM update needs a detection")
@@ -258,9 +262,10 @@ class BatchIMMFilter:
     algorithm = "imm"
 
     def __init__(self, transition_models, measurement_model, transition_matrix):
-        models = list(transition_models)
+        models = _validate.instances(transition_models, TransitionModel, "transition_models")
         if not models:
             raise ValueError("transition_models must hold at least one model")
+        check_measurement_model(measurement_model)
         self._has = _imm.components(models, measurement_model.ndim_state)
         for model in models:
             check_models(model, measurement_model, nonlinear=True)
@@ -456,7 +461,7 @@ class BatchGPBFilter(BatchIMMFilter):
     """
 
     def __init__(self, transition_models, measurement_model, transition_matrix, order=2):
-        if order not in (1, 2) or isinstance(order, bool):
+        if not _validate.is_integer(order) or order not in (1, 2):
             raise ValueError(f"order must be 1 or 2 (GPB1 or GPB2), got {order!r}")
         super().__init__(transition_models, measurement_model, transition_matrix)
         self.order = order

@@ -51,6 +51,8 @@ def position_rmse(track, truth, mapping=(0, 2), pair="order"):
         with the truth state of its timestamp (a truth with states at other times too, e.g.
         a track that started late or missed steps).
     """
+    track = list(_validate.iterator(track, "track"))
+    truth = list(_validate.iterator(truth, "truth"))
     if pair == "timestamp":
         by_time = {state.timestamp: state for state in truth}
         missing = [s.timestamp for s in track if s.timestamp not in by_time]
@@ -149,6 +151,9 @@ def _points(value, name):
                             f"got {_describe(value)} that is not a rectangular array") from None
     if a.dtype.kind not in "fiu":
         raise TypeError(f"{name} must hold real numbers, got {_describe(a)}")
+    if a.ndim == 2 and a.shape[0] and not a.shape[1]:
+        raise ValueError(f"{name} must have at least one coordinate a point, got shape "
+                         f"{a.shape}")
     if a.size == 0:
         return np.empty((0, a.shape[1] if a.ndim == 2 else 0))
     if a.ndim != 2:

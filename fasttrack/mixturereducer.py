@@ -36,9 +36,7 @@ class GaussianMixtureReducer:
         self.merging = _validate.flag(merging, "merging")
         self.pruning = _validate.flag(pruning, "pruning")
         self.truncating = _validate.flag(truncating, "truncating")
-        if mode not in _mixture.MODES:
-            raise ValueError(f"mode must be one of {', '.join(map(repr, _mixture.MODES))}, "
-                             f"got {mode!r}")
+        _mixture.check_mode(mode)
         self.mode = mode
 
     def reduce(self, mixture, first_label=None):
@@ -52,7 +50,8 @@ class GaussianMixtureReducer:
         ----------
         mixture : GaussianMixture
         first_label : int, optional
-            The first new label (default: one above the largest in ``mixture``).
+            The first new label, above every label of ``mixture`` (default: one above the
+            largest).
 
         Returns
         -------
@@ -65,10 +64,17 @@ class GaussianMixtureReducer:
             mixture.means, mixture.covars, np.exp(mixture.log_weights), self.mode,
             self.prune_threshold if self.pruning else None, self.merge_threshold,
             self.max_number_components if self.truncating else None, self.merging)
+        above = int(mixture.labels.max()) + 1 if len(mixture) else 0
         if first_label is None:
-            first_label = int(mixture.labels.max()) + 1 if len(mixture) else 0
+            first_label = above
         elif not _validate.is_integer(first_label):
             raise TypeError(f"first_label must be an int, got {type(first_label).__name__}")
+        elif first_label < above:
+            raise ValueError(f"first_label must be above every label of the mixture (>= "
+                             f"{above}), got {first_label}")
+        if first_label + len(weights) > np.iinfo(np.int64).max:
+            raise ValueError(f"first_label leaves no room for new labels below 2**63, got "
+                             f"{first_label}")
         labels = _mixture.relabel(mixture.labels[source], weights, first_label)
         with np.errstate(divide="ignore"):
             return GaussianMixture._made(means, covars, np.log(weights), labels)

@@ -7,11 +7,18 @@ import math
 import numpy as np
 
 from . import _validate
+from .batch import check_models
 from .core import cphd as _cphd
 from .core import kalman as _kalman
+from .core import mixture as _mixture
 from .core import phd as _phd
 from .mixturereducer import GaussianMixtureReducer
 from .types.mixture import GaussianMixture
+
+_LOG_LARGEST = math.log(np.finfo(np.float64).max)
+
+#: The largest cardinality a CPHDTracker carries (its recursions cost O(N^2) a scan).
+MAX_TARGETS = 10_000
 
 
 class _IntensityTracker:
@@ -22,11 +29,17 @@ class _IntensityTracker:
 
     def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
                  clutter_intensity, gate_threshold, reducer, unscented):
+        check_models(transition_model, measurement_model)
         if not isinstance(birth, GaussianMixture):
             raise TypeError(f"birth must be a GaussianMixture, got {type(birth).__name__}")
         if birth.means.shape[1] != measurement_model.ndim_state:
             raise ValueError(f"birth must have {measurement_model.ndim_state}-D components "
                              f"(the models' state), got {birth.means.shape[1]}-D")
+        _mixture.check_covariances(birth.covars, "birth.covars")
+        if len(birth) and birth.log_weights.max() > _LOG_LARGEST:
+            raise ValueError(f"birth.log_weights must be at most {_LOG_LARGEST:.1f} (the "
+                             f"expected births a scan, their exponentials, finite), got "
+                             f"{birth.log_weights.max()}")
         self.transition_model, self.measurement_model = transition_model, measurement_model
         self.birth = birth
         self.prob_detect = _validate.probability(prob_detect, "prob_detect")
@@ -93,7 +106,8 @@ class _IntensityTracker:
         """
         time_interval = _validate.positive(time_interval, "time_interval")
         start = 0.0 if self.time is None else self.time + time_interval
-        return [self.step(scan, start + t * time_interval) for t, scan in enumerate(scans)]
+        return [self.step(scan, start + t * time_interval)
+                for t, scan in enumerate(_validate.iterator(scans, "scans"))]
 
     def _picked(self, index):
         """The components ``index`` (a mask or indices) of the intensity."""
@@ -212,8 +226,8 @@ class CPHDTracker(_IntensityTracker):
         Expected clutter detections a scan, > 0 (``clutter_intensity`` times the volume
         observed).
     max_targets : int
-        N: the largest number of targets represented (default 100); the predicted
-        probability above N is dropped.
+        N: the largest number of targets represented, at most 10,000 (default 100); the
+        predicted probability above N is dropped.
     gate_threshold : float, optional
         As :class:`PHDTracker`'s.
     reducer : ~fasttrack.mixturereducer.GaussianMixtureReducer, optional
@@ -237,7 +251,8 @@ class CPHDTracker(_IntensityTracker):
         super().__init__(transition_model, measurement_model, birth, prob_detect,
                          prob_survival, clutter_intensity, gate_threshold, reducer, unscented)
         self.clutter_rate = _validate.positive(clutter_rate, "clutter_rate")
-        self.log_cardinality = np.full(_validate.count(max_targets, "max_targets") + 1,
+        self.log_cardinality = np.full(_validate.count(max_targets, "max_targets",
+                                                       maximum=MAX_TARGETS) + 1,
                                        -np.inf)
         self.log_cardinality[0] = 0.0
 

@@ -24,8 +24,7 @@ from .core import smooth as _smooth
 from .core import unscented as _unscented
 from .models.base import check_model
 from .models.transition import TransitionModel
-from .types import (GaussianState, GaussianStatePrediction, GaussianStateUpdate,
-                    StateSequence)
+from .types import GaussianStatePrediction, GaussianStateUpdate, StateSequence
 
 __all__ = ["KalmanSmoother", "ExtendedKalmanSmoother", "UnscentedKalmanSmoother", "ffbs"]
 
@@ -323,6 +322,10 @@ class KalmanSmoother:
             if covar_pred.shape != shape + (d,):
                 raise ValueError(f"predicted_covars must have the shape of covars "
                                  f"{shape + (d,)}, got {covar_pred.shape}")
+            bad = _validate.asymmetric(covar_pred.reshape(-1, d, d))
+            if bad.any():
+                where = ", ".join(map(str, np.unravel_index(np.argmax(bad), shape[:-1])))
+                raise ValueError(f"predicted_covars[{where}] is not symmetric")
             x_pred, covar_pred = x_pred.reshape(x.shape), covar_pred.reshape(covar.shape)
             recompute = np.zeros(n, dtype=np.uint8)
         intervals = step_intervals(time_intervals, n)
@@ -492,7 +495,7 @@ def ffbs(particle_states, transition_model, n_paths, rng=None, method="rejection
     check_model(transition_model, TransitionModel, "transition_model")
     m = _validate.count(n_paths, "n_paths")
     states = list(particle_states.states if isinstance(particle_states, StateSequence)
-                  else particle_states)
+                  else _validate.iterator(particle_states, "particle_states"))
     if not states:
         raise ValueError("particle_states must hold at least one state, got none")
     for k, state in enumerate(states):

@@ -4,10 +4,11 @@ import numpy as np
 
 from . import _validate
 from .association import gate, global_nearest_neighbour, nearest_neighbour
-from .batch import check_models
+from .batch import check_measurement_model, check_models
 from .core import imm as _imm
 from .core import kalman as _kalman
 from .models.measurement import LinearGaussian
+from .models.transition import TransitionModel
 from .types.mixture import IMMTrackSet, TrackSet
 
 _ASSOCIATORS = {"gnn": global_nearest_neighbour, "nn": nearest_neighbour}
@@ -71,7 +72,11 @@ class MultiTargetTracker:
         self.transition_model = transition_model
         self.measurement_model = measurement_model
         d = transition_model.ndim_state
-        mean = _validate.finite_array(prior_mean, "prior_mean").reshape(-1)
+        mean = _validate.finite_array(prior_mean, "prior_mean")
+        if mean.ndim == 2 and mean.shape[1] == 1:  # a (d, 1) column
+            mean = mean[:, 0]
+        if mean.ndim != 1:
+            raise ValueError(f"prior_mean must be a (d,) vector, got shape {mean.shape}")
         if mean.shape != (d,):
             raise ValueError(f"prior_mean must have {d} components, got {mean.size}")
         covar = _validate.psd_covariance(prior_covar, "prior_covar", d)
@@ -211,7 +216,8 @@ class MultiTargetTracker:
         """
         time_interval = _validate.positive(time_interval, "time_interval")
         start = 0.0 if self.time is None else self.time + time_interval
-        return [self.step(scan, start + t * time_interval) for t, scan in enumerate(scans)]
+        return [self.step(scan, start + t * time_interval)
+                for t, scan in enumerate(_validate.iterator(scans, "scans"))]
 
 
 class IMMTracker(MultiTargetTracker):
@@ -268,25 +274,28 @@ class IMMTracker(MultiTargetTracker):
     def __init__(self, transition_models, measurement_model, transition_matrix, prior_mean,
                  prior_covar, mode_probs=None, association="gnn", prob_detect=0.9,
                  clutter_density=None, **options):
-        models = list(transition_models)
+        models = _validate.instances(transition_models, TransitionModel, "transition_models")
         if not models:
             raise ValueError("transition_models must hold at least one model")
+        check_measurement_model(measurement_model)
         self._has = _imm.components(models, measurement_model.ndim_state)
+        for model in models:
+            check_models(model, measurement_model, self._nonlinear_transitions)
         self.jpda = association == "jpda"
         super().__init__(models[0], measurement_model, prior_mean, prior_covar,
                          association="gnn" if self.jpda else association, **options)
+        prob_detect = _validate.probability(prob_detect, "prob_detect")  # (read by JPDA)
+        if clutter_density is not None:
+            clutter_density = _validate.positive(clutter_density, "clutter_density")
         if self.jpda:
-            self.prob_detect = _validate.probability(prob_detect, "prob_detect")
+            self.prob_detect, self.clutter_density = prob_detect, clutter_density
             if not self.prob_detect > 0:
                 raise ValueError("prob_detect must be > 0 for JPDA")
             if clutter_density is None:
                 raise ValueError("association='jpda' needs clutter_density (> 0)")
-            self.clutter_density = _validate.positive(clutter_density, "clutter_density")
             from scipy.special import gammainc  # chi2.cdf, without scipy.stats' import
             self.prob_gate = float(gammainc(measurement_model.ndim_meas / 2,
                                             self.missed_distance ** 2 / 2))
-        for model in models[1:]:
-            check_models(model, measurement_model, self._nonlinear_transitions)
         self.transition_models = models
         self.transition_matrix = _imm.transition_matrix(transition_matrix, len(models))
         self.mode_probs = (np.full(len(models), 1.0 / len(models)) if mode_probs is None

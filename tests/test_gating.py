@@ -276,7 +276,9 @@ def _hand_built(**changes):
     (dict(starts=[0, 3, 2]), ValueError, "starts must be .* non-decreasing from 0"),
     (dict(starts=[0.0, 2.0, 3.0]), TypeError, "starts must be a 1-D array of integers"),
     (dict(detections=[2, 0, 1]), ValueError, "ascending .* within each track"),
-    (dict(distances2=[1.0, np.nan, 3.0]), ValueError, "distances2 must be .* not NaN"),
+    (dict(distances2=[1.0, np.nan, 3.0]), ValueError, "distances2 must be finite"),
+    (dict(distances2=[1.0, np.inf, 3.0]), ValueError, "distances2 must be finite"),
+    (dict(log_likelihoods=[1.0, np.inf, 3.0]), ValueError, "log_likelihoods must not be NaN"),
     (dict(distances2=[1.0, -2.0, 3.0]), ValueError, "distances2 must be >= 0"),
     (dict(log_likelihoods=[1.0]), ValueError, "log_likelihoods must be starts"),
     (dict(n_detections=-1), ValueError, "n_detections must be >= 0"),
@@ -295,12 +297,14 @@ def test_gates_and_clusters_written_after_they_are_built_are_refused_on_use():
     for write in (lambda g: g.detections.__setitem__(1, 10**9),
                   lambda g: g.detections.__setitem__(0, -5),
                   lambda g: g.starts.__setitem__(2, 10**6),
-                  lambda g: g.starts.__setitem__(1, 5)):
+                  lambda g: g.starts.__setitem__(1, 5),
+                  lambda g: g.distances2.__setitem__(1, np.nan)):
         bad = _hand_built()
         write(bad)
         for call in (clusters, lambda g: global_nearest_neighbour(g, 3.0),
                      lambda g: nearest_neighbour(g, 3.0)):
-            with pytest.raises(ValueError, match=r"gate\.(detections|starts) must be"):
+            with pytest.raises(ValueError,
+                               match=r"gate\.(detections|starts|distances2) must be"):
                 call(bad)
     found = clusters(good)
     with pytest.raises(ValueError, match="track_labels must lie in"):

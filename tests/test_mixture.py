@@ -280,7 +280,7 @@ def test_the_numpy_twin_names_a_bad_covariance_as_the_kernel_does(bad, code):
 
 
 def test_zero_weights_merged_without_pruning_are_an_error():
-    with pytest.raises(ValueError, match="zero weight merged"):
+    with pytest.raises(ValueError, match="components of zero weight .* merged"):
         mixture.reduce([[0.0], [0.1]], [[[1.0]], [[1.0]]], [0.0, 0.0], prune_threshold=None)
 
 

@@ -371,7 +371,7 @@ def test_multi_target_runs_on_dask(dask_client, serial_tracking):
 def test_multi_target_metric_names_and_cutoff_are_checked():
     with pytest.raises(ValueError, match="a multi-target scenario's gospa"):
         mc.run_trials(mt_scenario, make_tracker, 2, metrics=("position_error",), processes=1)
-    with pytest.raises(ValueError, match="gospa_cutoff must be > 0"):
+    with pytest.raises(ValueError, match="gospa_cutoff must be finite and > 0"):
         mc.run_trials(mt_scenario, make_tracker, 2, gospa_cutoff=0.0, processes=1)
     results = mc.run_trials(mt_scenario, make_tracker, 2, seed=1, metrics=("gospa",),
                             gospa_cutoff=4.0, processes=1, progress=False)

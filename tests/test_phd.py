@@ -96,7 +96,7 @@ def test_far_detections_keep_their_weight_in_logs():
     (dict(clutter_intensity=0.0), "clutter_intensity must be finite and > 0"),
     (dict(log_weights=[np.nan, 0.0]), "log_weights must be 2 numbers"),
     (dict(detections=[[0.0, 0.0, 0.0]]), r"detections must have shape \(M, 2\)"),
-    (dict(covars=[np.eye(4), -np.eye(4)]), "not positive definite"),
+    (dict(covars=[np.eye(4), -np.eye(4)]), r"covars\[1\] is not positive semi-definite"),
     (dict(means=np.zeros((2, 3))), "means must have 4 columns"),
     (dict(gate_threshold=-1.0), "gate_threshold must be finite and > 0"),
 ])

@@ -158,7 +158,9 @@ def update_sums(log_e, esf_without, log_cardinality, log_missed, log_total, log_
 def predict_cardinality(log_cardinality, log_survive, log_die, birth_mean, out):
     """The predicted log cardinality into ``out``: each target survives with probability
     exp(log_survive) (exp(log_die) = 1 minus it), a Poisson number of mean ``birth_mean`` is
-    born; truncated to the same 0..N and normalised."""
+    born; truncated to the same 0..N and normalised (the births' Poisson terms without
+    their common factor exp(-mean), which the normalisation removes: a mean of 1e300 puts
+    the mass at N, where the factor would have made every term zero)."""
     size = log_cardinality.size
     log_factorial = _log_factorials(size)
     survived = np.empty(size)
@@ -173,8 +175,8 @@ def predict_cardinality(log_cardinality, log_survive, log_die, birth_mean, out):
     norm = -np.inf
     for n in range(size):
         total = -np.inf
-        for s in range(n + 1):
-            born = -birth_mean + _power(log_mean, n - s) - log_factorial[n - s]
+        for s in range(n + 1):  # (the Poisson terms without their common exp(-mean))
+            born = _power(log_mean, n - s) - log_factorial[n - s]
             total = _add(total, _times(born, survived[s]))
         out[n] = total
         norm = _add(norm, total)

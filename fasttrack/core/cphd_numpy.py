@@ -116,8 +116,8 @@ def predict_cardinality(log_cardinality, log_survive, log_die, birth_mean):
     thinning = np.where(before >= survivors, thinning, -np.inf)
     survived = logsumexp(thinning + log_cardinality[None, :], axis=1)
     with np.errstate(divide="ignore"):
-        log_birth = -birth_mean + _log_power(np.log(birth_mean), np.arange(size)) \
-            - gammaln(np.arange(size) + 1.0)
+        log_birth = _log_power(np.log(birth_mean), np.arange(size)) \
+            - gammaln(np.arange(size) + 1.0)  # (without exp(-mean), as the kernel)
     born = np.arange(size)[:, None] - np.arange(size)[None, :]  # n - survivors
     terms = np.where(born >= 0, log_birth[np.maximum(born, 0)], -np.inf) + survived[None, :]
     predicted = logsumexp(terms, axis=1)

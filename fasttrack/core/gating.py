@@ -53,9 +53,10 @@ class Gate:
         if not rising.all():
             raise ValueError("detections must be ascending (no repeats) within each track")
         for name in ("distances2", "log_likelihoods"):
-            if getattr(self, name).shape != (n,) or np.isnan(getattr(self, name)).any():
-                raise ValueError(f"{name} must be starts[-1] = {n} numbers, not NaN, got "
-                                 f"shape {getattr(self, name).shape}")
+            if getattr(self, name).shape != (n,):
+                raise ValueError(f"{name} must be starts[-1] = {n} numbers, got shape "
+                                 f"{getattr(self, name).shape}")
+        self._check_values()
         if (self.distances2 < 0).any():
             raise ValueError("distances2 must be >= 0")
 
@@ -70,6 +71,15 @@ class Gate:
         if detections.shape != (n,) or (n and (detections.min() < 0 or detections.max() >= m)):
             raise ValueError(f"gate.detections must be starts[-1] = {n} indices in "
                              f"[0, n_detections = {m}), got {detections}")
+        self._check_values()
+
+    def _check_values(self):
+        """ValueError unless the candidates' distances are finite and their likelihoods
+        not NaN or +inf (a gate holds only what lies within a finite threshold)."""
+        if not np.isfinite(self.distances2).all():
+            raise ValueError("gate.distances2 must be finite")
+        if np.isnan(self.log_likelihoods).any() or (self.log_likelihoods == np.inf).any():
+            raise ValueError("gate.log_likelihoods must not be NaN or +inf")
 
     @property
     def n_tracks(self):

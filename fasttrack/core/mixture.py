@@ -5,6 +5,7 @@ import numpy as np
 
 from .. import _jit, _validate
 from .._jit.kinds import STONESOUP, TEXTBOOK
+from . import kalman_numpy as _kalman_numpy
 from . import mixture_numpy as _numpy
 
 _mixture = _jit.lazy("mixture")
@@ -53,6 +54,48 @@ def component_gains(covars, cross, innovation):
     return gains, updated
 
 
+def check_mode(mode):
+    """ValueError unless ``mode`` names reduction rules (see :func:`reduce`)."""
+    if not isinstance(mode, str) or mode not in MODES:
+        raise ValueError(f"mode must be one of {', '.join(map(repr, MODES))}, got {mode!r}")
+
+
+def stack(means, covars):
+    """The finite float64 (K, d) ``means``, d >= 1, and (K, d, d) ``covars`` of a stack of
+    Gaussians, else an error naming the argument."""
+    means = _validate.finite_array(means, "means", 2)
+    k, d = means.shape
+    if d < 1:
+        raise ValueError(f"means must have at least one state dimension, got shape "
+                         f"{means.shape}")
+    covars = _validate.finite_array(covars, "covars", 3)
+    if covars.shape != (k, d, d):
+        raise ValueError(f"covars must have shape ({k}, {d}, {d}), got {covars.shape}")
+    return means, covars
+
+
+def check_covariances(covars, name):
+    """ValueError naming the first of the (K, d, d) ``covars`` that is not symmetric
+    positive semi-definite, by the kernels' rule (see
+    :func:`~fasttrack.core.kalman_numpy.covariance_statuses`)."""
+    status = _kalman_numpy.covariance_statuses(covars, 1, 2)
+    bad = np.flatnonzero(status)
+    if bad.size:
+        problem = "symmetric" if status[bad[0]] == 1 else "positive semi-definite"
+        raise ValueError(f"{name}[{bad[0]}] is not {problem}")
+
+
+def label_array(labels, k):
+    """(K,) int64 ``labels`` (integers that int64 holds), else an error naming them."""
+    labels = np.asarray(labels)
+    if labels.shape != (k,) or labels.dtype.kind not in "iu":
+        raise ValueError(f"labels must be {k} integers, got {labels.dtype} of shape "
+                         f"{labels.shape}")
+    if labels.dtype.kind == "u" and k and labels.max() > np.iinfo(np.int64).max:
+        raise ValueError(f"labels must be below 2**63, got {labels.max()}")
+    return labels.astype(np.int64)
+
+
 def groups(labels):
     """``(order, starts, unique)``: the stable order that sorts int64 ``labels`` (K,), the
     CSR starts of its runs and the distinct labels, ascending."""
@@ -88,8 +131,15 @@ def moment_match(means, covars, log_weights, labels=None):
     ValueError
         If a group has no positive finite total weight, naming its label.
     """
-    if labels is None:
-        labels = np.zeros(means.shape[0], dtype=np.int64)
+    means, covars = stack(means, covars)
+    log_weights = _validate.float_array(log_weights, "log_weights", 1)
+    if log_weights.shape != (means.shape[0],):
+        raise ValueError(f"log_weights must have shape ({means.shape[0]},), got "
+                         f"{log_weights.shape}")
+    if np.isnan(log_weights).any() or (log_weights == np.inf).any():
+        raise ValueError("log_weights must not be NaN or +inf")
+    labels = np.zeros(means.shape[0], dtype=np.int64) if labels is None \
+        else label_array(labels, means.shape[0])
     order, starts, unique = groups(labels)
     if not np.array_equal(order, np.arange(order.size)):
         means, covars, log_weights = means[order], covars[order], log_weights[order]
@@ -153,13 +203,9 @@ def reduce(means, covars, weights, mode="textbook", prune_threshold=1e-9,
         For weights that are negative or not finite, a covariance that is not symmetric
         or not positive definite, or thresholds out of range, naming the argument.
     """
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {', '.join(map(repr, MODES))}, got {mode!r}")
-    means = _validate.finite_array(means, "means", 2)
+    check_mode(mode)
+    means, covars = stack(means, covars)
     j, d = means.shape
-    covars = _validate.finite_array(covars, "covars", 3)
-    if covars.shape != (j, d, d):
-        raise ValueError(f"covars must have shape ({j}, {d}, {d}), got {covars.shape}")
     weights = _validate.finite_array(weights, "weights", 1)
     if weights.shape != (j,):
         raise ValueError(f"weights must have shape ({j},), got {weights.shape}")
@@ -181,8 +227,9 @@ def reduce(means, covars, weights, mode="textbook", prune_threshold=1e-9,
         problem = "symmetric" if asymmetric else "positive definite"
         raise ValueError(f"covars[{i}] is not {problem}")
     if not (np.isfinite(out[0][:count]).all() and np.isfinite(out[2][:count]).all()):
-        raise ValueError("weights: components of zero weight merged (there is no weight to "
-                         "average them by); prune them (prune_threshold > 0)")
+        raise ValueError("weights: components of zero weight (or below 2.2e-308, which the "
+                         "kernels count as zero) merged: there is no weight to average them "
+                         "by; prune them (prune_threshold > 0)")
     return out[0][:count], out[1][:count], out[2][:count], source[:count], member
 
 

@@ -15,6 +15,7 @@ from . import gating as _gating
 from . import mixture as _mixture
 from . import kalman_numpy as _kalman_numpy
 from . import unscented as _unscented
+from ..models.measurement import MeasurementModel
 from .kinds import FUNCTION, SELECT
 
 #: Below this many (component, detection) pairs the gate tests every pair: a grid costs more.
@@ -90,9 +91,11 @@ def posterior(pairs, prob_detect, log_clutter):
 
 def detections_of(model, detections):
     """The scan ``detections`` as a validated (M, m) float array for ``model`` (a built-in
-    model, else a ValueError naming its type)."""
-    spec = getattr(model, "spec", None)
-    if spec is None or spec.kind == FUNCTION:
+    model, else an error naming its type)."""
+    if not isinstance(model, MeasurementModel):
+        raise TypeError(f"model must be a MeasurementModel, got {type(model).__name__}")
+    spec = model.spec
+    if spec.kind == FUNCTION:
         raise ValueError("the Gaussian-mixture updates take a built-in measurement model "
                          "(LinearGaussian, CartesianToBearingRange, Cartesian2DToBearing), "
                          f"got {type(model).__name__}")
@@ -147,7 +150,9 @@ def detected_pairs(model, means, covars, log_weights, scan, prob_detect, gate_th
     log_detect = log_probability(_validate.probability(prob_detect, "prob_detect"))
     threshold = np.inf if gate_threshold is None else \
         _validate.positive(gate_threshold, "gate_threshold")
-    _validate.symmetric_stack(covars, "covars")
+    _mixture.check_covariances(covars, "covars")
+    if unscented is not None:  # (checked whatever the model: a linear one reads none)
+        unscented = unscented_parameters(unscented)
     return gated_pairs(spec, means, covars, log_weights, scan, log_detect, threshold,
                        unscented)
 

@@ -6,6 +6,7 @@ import numbers
 
 import numpy as np
 
+from .._validate import iterator
 from ..types import GaussianMeasurementPrediction, GaussianState
 
 
@@ -54,7 +55,7 @@ def _check_metrics(metrics, multi_target=False):
     known = MULTI_TARGET_METRICS if multi_target else METRICS
     if metrics is None:
         return known
-    metrics = tuple(metrics)
+    metrics = tuple(iterator(metrics, "metrics"))
     unknown = [m for m in metrics if m not in known]
     if unknown or not metrics or len(set(metrics)) != len(metrics):
         kind = "a multi-target scenario's" if multi_target else "a filter's"

@@ -7,11 +7,11 @@ import warnings
 
 import numpy as np
 
-from .._validate import count
+from .._validate import count, flag
 from ..simulate import MultiTargetScenario
 from .metrics import _check_mapping, _check_mapping_fits, _check_metrics, _row_dtype
 from .workers import _client, _local_cores, _run_dask, _run_local, _serialise, check_main_guard
-from .trial import _children, _root_seed
+from .trial import _check_run, _children, _root_seed
 from .results import TrialResults
 
 
@@ -97,7 +97,7 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=None, client=No
         Times a batch whose local worker process died is rerun (Dask retries tasks of lost
         workers by its own ``allowed-failures`` setting).
     gospa_cutoff : float
-        The GOSPA cut-off c of a multi-target scenario, in position units, > 0.
+        The GOSPA cut-off c of a multi-target scenario, in position units, finite and > 0.
 
     Returns
     -------
@@ -118,9 +118,8 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=None, client=No
     if client is not None and processes is not None:
         raise ValueError("processes is for local runs; with a client, the cluster's "
                          "workers run the tasks")
-    cutoff = float(gospa_cutoff)
-    if not cutoff > 0:
-        raise ValueError(f"gospa_cutoff must be > 0, got {gospa_cutoff}")
+    cutoff = _check_run(scenario, make_filter, gospa_cutoff)
+    progress = flag(progress, "progress")
     root = _root_seed(seed)
     mapping = _check_mapping(position_mapping)
     first = scenario(seed=_children(_children(root, 1)[0], 2)[0])

@@ -9,7 +9,7 @@ import traceback
 import numpy as np
 
 from .. import _jit
-from .._validate import count
+from .._validate import count, positive
 from ..types import SingleHypothesis, time_interval
 from ..simulate import MultiTargetScenario
 from .metrics import (_check_mapping, _check_mapping_fits, _check_metrics, _row_dtype, _score,
@@ -45,6 +45,15 @@ def _root_seed(seed):
     if seed < 0:
         raise ValueError(f"seed must be >= 0, got {seed}")
     return np.random.SeedSequence(int(seed))
+
+
+def _check_run(scenario, make_filter, gospa_cutoff):
+    """The GOSPA cut-off (finite, > 0), after a TypeError for a ``scenario`` or
+    ``make_filter`` that is not callable."""
+    for name, value in (("scenario", scenario), ("make_filter", make_filter)):
+        if not callable(value):
+            raise TypeError(f"{name} must be callable, got {type(value).__name__}")
+    return positive(gospa_cutoff, "gospa_cutoff")
 
 
 def _children(seed, n):
@@ -84,6 +93,7 @@ def run_trial(scenario, make_filter, run_seed, metrics=None, position_mapping=(0
     Exception
         Whatever the scenario, the filter or the scoring raises.
     """
+    gospa_cutoff = _check_run(scenario, make_filter, gospa_cutoff)
     mapping = _check_mapping(position_mapping)
     if not isinstance(run_seed, np.random.SeedSequence):
         raise TypeError(f"run_seed must be a numpy.random.SeedSequence (see run_seeds), "

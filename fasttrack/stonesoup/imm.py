@@ -9,6 +9,7 @@ fasttrack kernel call; otherwise each model's own predictor (updater) runs.
 """
 import numpy as np
 from stonesoup.predictor import kalman as ss_predictor
+from stonesoup.predictor.base import Predictor
 from stonesoup.types.array import StateVector
 from stonesoup.types.hypothesis import SingleHypothesis
 from stonesoup.types.mixture import GaussianMixture
@@ -16,6 +17,7 @@ from stonesoup.types.prediction import GaussianStatePrediction, WeightedGaussian
 from stonesoup.types.state import GaussianState
 from stonesoup.types.update import WeightedGaussianStateUpdate
 from stonesoup.updater import kalman as ss_updater
+from stonesoup.updater.base import Updater
 
 from .. import imm as ft_imm_classes
 from ..core import imm as ft_imm
@@ -67,7 +69,7 @@ class IMMPredictor(_Models):
     """
 
     def __init__(self, predictors, transition_matrix):
-        super().__init__(predictors, transition_matrix, "predictors")
+        super().__init__(predictors, transition_matrix, "predictors", Predictor)
         self.predictors = self._models
 
     def predict(self, prior, timestamp=None, **kwargs):
@@ -143,7 +145,7 @@ class IMMUpdater(_Models):
     """
 
     def __init__(self, updaters, transition_matrix):
-        super().__init__(updaters, transition_matrix, "updaters")
+        super().__init__(updaters, transition_matrix, "updaters", Updater)
         self.updaters = self._models
 
     def update(self, hypothesis, **kwargs):

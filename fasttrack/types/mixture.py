@@ -44,23 +44,18 @@ class GaussianMixture:
                                 ("log_weights", _log([c.weight for c in components]))):
                 object.__setattr__(self, name, value)
         object.__setattr__(self, "_timestamp", timestamp)
-        means = _validate.finite_array(self.means, "means", 2)
-        k, d = means.shape
-        covars = _validate.finite_array(self.covars, "covars", 3)
-        if covars.shape != (k, d, d):
-            raise ValueError(f"covars must have shape ({k}, {d}, {d}), got {covars.shape}")
+        means, covars = _mixture.stack(self.means, self.covars)
+        k = means.shape[0]
         log_weights = np.zeros(k) if self.log_weights is None else \
             _validate.float_array(self.log_weights, "log_weights", 1)
         if log_weights.shape != (k,):
             raise ValueError(f"log_weights must have shape ({k},), got {log_weights.shape}")
         if np.isnan(log_weights).any() or (log_weights == np.inf).any():
             raise ValueError("log_weights must not be NaN or +inf")
-        labels = np.zeros(k, dtype=np.int64) if self.labels is None else np.asarray(self.labels)
-        if labels.shape != (k,) or labels.dtype.kind not in "iu":
-            raise ValueError(f"labels must be {k} integers, got {labels.dtype} of shape "
-                             f"{labels.shape}")
+        labels = np.zeros(k, dtype=np.int64) if self.labels is None \
+            else _mixture.label_array(self.labels, k)
         for name, value in (("means", means), ("covars", covars), ("log_weights", log_weights),
-                            ("labels", labels.astype(np.int64))):
+                            ("labels", labels)):
             object.__setattr__(self, name, value)
 
     @classmethod

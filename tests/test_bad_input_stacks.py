@@ -1,0 +1,202 @@
+"""Bad input to the faces that carry stacks of Gaussians (mixtures and their reducer, the
+PHD and CPHD filters, the IMM, the trackers) and to the runners around them: each error
+names the argument (TypeError for a type, ValueError for a value); none crashes."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import fasttrack as ft
+from fasttrack import _jit, imm, metrics, montecarlo, smoother, tracker
+from fasttrack.core import cphd as core_cphd
+from fasttrack.core import mixture as core_mixture
+from fasttrack.core import phd as core_phd
+from fasttrack.phd import CPHDTracker, PHDTracker
+from fasttrack.scenarios import vo_linear_birth
+
+CV = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+CV6 = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 3)
+SENSOR = ft.LinearGaussian(4, (0, 2), np.eye(2))
+SWITCH = [[0.9, 0.1], [0.1, 0.9]]
+MEANS = np.array([[0.0, 0.0, 0.0, 0.0], [1.0, 0.0, 1.0, 0.0], [100.0, 0.0, 100.0, 0.0]])
+COVARS = np.tile(np.eye(4), (3, 1, 1))
+ZEROS = np.zeros(3)
+
+
+def _raises(call, error, match):
+    with pytest.raises(error, match=match):
+        call()
+
+
+@pytest.mark.parametrize("call, error, match", [
+    (lambda: ft.GaussianMixture(np.zeros((3, 0)), np.zeros((3, 0, 0))), ValueError,
+     "means must have at least one state dimension"),
+    (lambda: core_mixture.reduce(np.zeros((3, 0)), np.zeros((3, 0, 0)), [0.5, 0.3, 0.2]),
+     ValueError, "means must have at least one state dimension"),
+    (lambda: core_mixture.reduce(MEANS, COVARS, [0.5, 0.3, 0.2], mode=["textbook"]),
+     ValueError, "mode must be one of"),
+    (lambda: ft.GaussianMixtureReducer(mode={}), ValueError, "mode must be one of"),
+    (lambda: core_mixture.moment_match(MEANS, np.zeros((3, 2, 4)), ZEROS), ValueError,
+     r"covars must have shape \(3, 4, 4\)"),
+    (lambda: core_mixture.moment_match(MEANS, COVARS, ZEROS, [0, 1]), ValueError,
+     "labels must be 3 integers"),
+    (lambda: core_mixture.moment_match(MEANS, COVARS, np.full(3, np.nan)), ValueError,
+     "log_weights must not be NaN"),
+    (lambda: ft.GaussianMixture(MEANS, COVARS, None, np.array([2**64 - 1, 0, 1], np.uint64)),
+     ValueError, r"labels must be below 2\*\*63"),
+])
+def test_mixtures_name_a_bad_argument(call, error, match):
+    _raises(call, error, match)
+
+
+@pytest.mark.parametrize("first_label, match", [
+    (0, r"first_label must be above every label of the mixture \(>= 2\), got 0"),
+    (2**63 - 1, "first_label leaves no room for new labels below 2\\*\\*63"),
+    (2**70, "first_label leaves no room"),
+])
+def test_new_labels_cannot_collide_or_wrap(first_label, match):
+    mixture = ft.GaussianMixture(MEANS, COVARS, ZEROS, [0, 0, 1])
+    with pytest.raises(ValueError, match=match):
+        ft.GaussianMixtureReducer(merge_threshold=0.0).reduce(mixture, first_label=first_label)
+    assert sorted(ft.GaussianMixtureReducer(merge_threshold=0.0).reduce(mixture).labels) == \
+        [0, 1, 2]
+
+
+def test_zero_dimensional_components_are_refused_by_the_kernels_too():
+    """Once the kernels run, a mixture of 0-D components crashed the merge kernel."""
+    code = ("import numpy as np, fasttrack._jit as j\n"
+            "from fasttrack.core import mixture\n"
+            "j.kernels_from_now()\n"
+            "try:\n"
+            "    mixture.reduce(np.zeros((3, 0)), np.zeros((3, 0, 0)), [0.5, 0.3, 0.2])\n"
+            "except ValueError as error:\n"
+            "    print(error)\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "means must have at least one state dimension" in done.stdout
+
+
+@pytest.mark.parametrize("kind", [PHDTracker, CPHDTracker])
+@pytest.mark.parametrize("models, birth, error, match", [
+    ((CV6, SENSOR), None, ValueError, "the models disagree on the state dimension: 6 and 4"),
+    ((None, SENSOR), None, TypeError, "transition_model must be a linear-Gaussian"),
+    ((CV, None), None, TypeError, "measurement_model must be a built-in MeasurementModel"),
+    ((CV, CV), None, TypeError, "measurement_model must be a built-in MeasurementModel"),
+    ((CV, SENSOR), "indefinite", ValueError, r"birth.covars\[0\] is not positive semi-definite"),
+    ((CV, SENSOR), "asymmetric", ValueError, r"birth.covars\[0\] is not symmetric"),
+    ((CV, SENSOR), "heavy", ValueError, "birth.log_weights must be at most 709.8"),
+])
+def test_intensity_trackers_check_models_and_birth_when_built(kind, models, birth, error,
+                                                              match):
+    births = vo_linear_birth()
+    covars = births.covars.copy()
+    if birth == "indefinite":
+        covars[0, 1, 1] = -1.0
+    if birth == "asymmetric":
+        covars[0, 0, 1] += 1.0
+    log_weights = np.full(len(births), 800.0) if birth == "heavy" else births.log_weights
+    births = ft.GaussianMixture(births.means, covars, log_weights)
+    with pytest.raises(error, match=match):
+        kind(*models, births, 0.9, 0.99, 1e-5, *([10.0] if kind is CPHDTracker else []))
+
+
+@pytest.mark.parametrize("covars", [np.eye(4) * [-0.5, 1, -0.5, 1], np.eye(4) * [1, -1, 1, -1]])
+def test_phd_and_cphd_updates_refuse_an_indefinite_prediction(covars):
+    covars = np.tile(covars, (3, 1, 1))
+    scan = np.array([[0.0, 0.0], [5.0, 5.0]])
+    with pytest.raises(ValueError, match=r"covars\[0\] is not positive semi-definite"):
+        core_phd.update(SENSOR, MEANS, covars, ZEROS, scan, 0.9, 1e-4)
+    with pytest.raises(ValueError, match=r"covars\[0\] is not positive semi-definite"):
+        core_cphd.update(SENSOR, MEANS, covars, ZEROS, np.log(np.full(11, 1 / 11)), scan,
+                         0.9, 1e-4, 2.0)
+
+
+@pytest.mark.parametrize("numpy_first", [False, True])
+def test_a_huge_birth_mean_puts_the_predicted_cardinality_at_the_top(numpy_first, monkeypatch):
+    """The Poisson births' common factor exp(-mean) underflowed, leaving every count at 0
+    in logs (probability 1 each); the kernel and the NumPy twin."""
+    monkeypatch.setattr(_jit, "numpy_first", lambda work=1: numpy_first)
+    uniform = np.log(np.full(11, 1 / 11))
+    for birth_mean, top in ((1e300, 1.0), (1e6, 1 - 1e-5)):  # p(9) / p(10) = 10 / mean
+        predicted = np.exp(core_cphd.predict_cardinality(uniform, 0.9, birth_mean))
+        assert predicted.sum() == pytest.approx(1.0, rel=1e-12)
+        assert predicted[-1] == pytest.approx(top, rel=1e-9)
+    moderate = np.exp(core_cphd.predict_cardinality(uniform, 0.9, 2.0))
+    assert moderate.sum() == pytest.approx(1.0) and 0.05 < moderate.max() < 0.2
+
+
+@pytest.mark.parametrize("call, error, match", [
+    (lambda: imm.BatchIMMFilter(None, SENSOR, SWITCH), TypeError,
+     "transition_models must be an iterable"),
+    (lambda: imm.BatchIMMFilter([CV, "x"], SENSOR, SWITCH), TypeError,
+     r"transition_models\[1\] must be of type TransitionModel, got str"),
+    (lambda: imm.BatchIMMFilter([CV, CV], None, SWITCH), TypeError,
+     "measurement_model must be a built-in MeasurementModel"),
+    (lambda: imm.IMMPredictor(["a", "b"], SWITCH), TypeError,
+     r"predictors\[0\] must be of type Predictor, got str"),
+    (lambda: imm.IMMPredictor(None, SWITCH), TypeError, "predictors must be an iterable"),
+    (lambda: imm.IMMUpdater([ft.KalmanUpdater(SENSOR), 3], SWITCH), TypeError,
+     r"updaters\[1\] must be of type Updater, got int"),
+    (lambda: imm.BatchGPBFilter([CV, CV], SENSOR, SWITCH, order=2.0), ValueError,
+     "order must be 1 or 2"),
+    (lambda: tracker.IMMTracker(None, SENSOR, SWITCH, np.zeros(4), np.eye(4)), TypeError,
+     "transition_models must be an iterable"),
+    (lambda: tracker.IMMTracker([CV, None], SENSOR, SWITCH, np.zeros(4), np.eye(4)),
+     TypeError, r"transition_models\[1\] must be of type TransitionModel"),
+    (lambda: tracker.IMMTracker([CV, CV], SENSOR, SWITCH, np.zeros(4), np.eye(4),
+                                prob_detect=5.0), ValueError, "prob_detect must lie in"),
+    (lambda: tracker.IMMTracker([CV, CV], SENSOR, SWITCH, np.zeros(4), np.eye(4),
+                                clutter_density=-1), ValueError, "clutter_density must be"),
+    (lambda: tracker.MultiTargetTracker(CV, SENSOR, np.zeros((2, 2)), np.eye(4)), ValueError,
+     r"prior_mean must be a \(d,\) vector, got shape \(2, 2\)"),
+    (lambda: tracker.MultiTargetTracker(CV, SENSOR, np.zeros(4), np.eye(4)).run(None),
+     TypeError, "scans must be an iterable"),
+    (lambda: PHDTracker(CV, SENSOR, vo_linear_birth(), 0.9, 0.99, 1e-5).run(5), TypeError,
+     "scans must be an iterable"),
+    (lambda: smoother.ffbs(None, CV, 5), TypeError, "particle_states must be an iterable"),
+    (lambda: metrics.position_rmse(None, [1]), TypeError, "track must be an iterable"),
+    (lambda: metrics.gospa(np.zeros((3, 0)), np.zeros((2, 0)), 10.0), ValueError,
+     r"truths must have at least one coordinate a point, got shape \(3, 0\)"),
+    (lambda: ft.KalmanSmoother(CV).smooth_arrays(MEANS, COVARS, 1.0, MEANS,
+                                                 COVARS + np.triu(np.ones((4, 4)), 1)),
+     ValueError, r"predicted_covars\[0\] is not symmetric"),
+    (lambda: core_phd.update(CV, MEANS, COVARS, ZEROS, np.zeros((1, 2)), 0.9, 1e-4),
+     TypeError, "model must be a MeasurementModel, got CombinedLinearGaussianTransitionModel"),
+    (lambda: core_phd.update(SENSOR, MEANS, COVARS, ZEROS, np.zeros((1, 2)), 0.9, 1e-4,
+                             unscented=(np.nan, 2.0, 0.0)), ValueError, "alpha must be finite"),
+    (lambda: CPHDTracker(CV, SENSOR, vo_linear_birth(), 0.9, 0.99, 1e-5, 10.0,
+                         max_targets=2**40), ValueError, "max_targets must be <= 10000"),
+])
+def test_multiple_models_trackers_and_smoothers_name_a_bad_argument(call, error, match):
+    _raises(call, error, match)
+
+
+def test_an_imm_update_refuses_an_indefinite_prediction():
+    predictor = imm.IMMPredictor([ft.KalmanPredictor(CV)] * 2, SWITCH)
+    updater = imm.IMMUpdater([ft.KalmanUpdater(SENSOR)] * 2, SWITCH)
+    prior = ft.GaussianMixture([ft.WeightedGaussianState(np.zeros(4), np.eye(4), weight=0.5,
+                                                         timestamp=0.0)] * 2)
+    prediction = predictor.predict(prior, timestamp=1.0)
+    bad = ft.GaussianMixture([ft.WeightedGaussianState(mean, -0.1 * np.eye(4), weight=0.5,
+                                                       timestamp=1.0)
+                              for mean in prediction.means])
+    detection = ft.Detection(np.zeros((2, 1)), timestamp=1.0)
+    updater.update(ft.SingleHypothesis(prediction, detection))  # (the legal one)
+    with pytest.raises(ValueError, match=r"hypothesis.prediction.covars\[0\] is not positive"):
+        updater.update(ft.SingleHypothesis(bad, detection))
+
+
+@pytest.mark.parametrize("arguments, error, match", [
+    (dict(scenario=None), TypeError, "scenario must be callable, got NoneType"),
+    (dict(make_filter=None), TypeError, "make_filter must be callable, got NoneType"),
+    (dict(gospa_cutoff="10"), TypeError, "gospa_cutoff must be a real number"),
+    (dict(gospa_cutoff=np.inf), ValueError, "gospa_cutoff must be finite"),
+    (dict(gospa_cutoff=True), TypeError, "gospa_cutoff must be a real number"),
+    (dict(progress="yes"), TypeError, "progress must be a bool"),
+    (dict(metrics=5), TypeError, "metrics must be an iterable"),
+])
+def test_run_trials_names_a_bad_argument(arguments, error, match):
+    settings = dict(scenario=lambda seed: None, make_filter=lambda world, rng: None, n_runs=2)
+    with pytest.raises(error, match=match):
+        montecarlo.run_trials(**{**settings, **arguments})
