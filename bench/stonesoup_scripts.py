@@ -12,7 +12,9 @@ written (``plain``) and twice with every ``from stonesoup.X import Name`` follow
 (``switched``, what a user does by hand). The two modes alternate; the first run of each
 fills the kernel cache and any downloads, and the medians of the next ``--repeats`` runs
 are reported, whole process (interpreter start to exit, shutdown included), with the
-median of the paired differences (switched minus plain). One more switched run counts the
+median of the paired differences (switched minus plain). A third process in each round
+runs only the script's own top-level imports, as written (``imports``): the part of its
+plain time that no drop-in can shorten. One more switched run counts the
 calls that ran Stone Soup's own code (``fasttrack.stonesoup.fallbacks``), with their
 reasons.
 
@@ -82,6 +84,13 @@ def switch_imports(source, names):
     return "".join(lines), switched
 
 
+def imports_only(source):
+    """The top-level import statements of a script's ``source``, in order."""
+    tree = ast.parse(source)
+    return "".join(ast.get_source_segment(source, node) + "\n" for node in tree.body
+                   if isinstance(node, (ast.Import, ast.ImportFrom)))
+
+
 #: Appended to a switched script: writes what ``fasttrack.stonesoup.fallbacks`` counted.
 _REPORT = """
 import json as _json, os as _os
@@ -132,28 +141,32 @@ def measure(root, script, names, repeats):
     switched_source, switched = switch_imports(source, names)
     twin = path.with_name(f"_fasttrack_{path.name}")
     twin.write_text(switched_source)
+    floor = path.with_name(f"_fasttrack_imports_{path.name}")
+    floor.write_text(imports_only(source))
     report = path.with_name(f"_fasttrack_{path.stem}.json")
-    plain, fast = [], []
+    plain, fast, imports = [], [], []
     try:
         for attempt in range(repeats + 1):
-            times = _seconds(path), _seconds(twin)
+            times = _seconds(path), _seconds(twin), _seconds(floor)
             if attempt:
-                plain.append(times[0])
-                fast.append(times[1])
+                for kept, seconds in zip((plain, fast, imports), times):
+                    kept.append(seconds)
         twin.write_text(switched_source + _REPORT)  # one more run, for the fallbacks
         _seconds(twin, FASTTRACK_FALLBACK_REPORT=str(report))
         fallbacks = json.loads(report.read_text())
     finally:
         twin.unlink()
+        floor.unlink()
         report.unlink(missing_ok=True)
-    result = {"script": script, "plain": plain, "switched": fast, "classes": switched,
-              "ratio": statistics.median(fast) / statistics.median(plain),
+    result = {"script": script, "plain": plain, "switched": fast, "imports": imports,
+              "classes": switched, "ratio": statistics.median(fast) / statistics.median(plain),
               "difference": statistics.median(f - p for f, p in zip(fast, plain)),
               "fallbacks": fallbacks}
     print(f"{script:<52} plain {statistics.median(plain):6.2f} s  switched "
           f"{statistics.median(fast):6.2f} s  ratio {result['ratio']:.2f}  difference "
-          f"{result['difference']:+.2f} s  ({switched} classes, "
-          f"{sum(f[-1] for f in fallbacks)} calls ran Stone Soup's code)", flush=True)
+          f"{result['difference']:+.2f} s  imports {statistics.median(imports):.2f} s  "
+          f"({switched} classes, {sum(f[-1] for f in fallbacks)} calls ran Stone Soup's "
+          f"code)", flush=True)
     return result
 
 
@@ -206,9 +219,10 @@ def suite(root):
 
 def table(results):
     """The Markdown table of ``results``."""
-    rows = ["| script | plain (s) | switched (s) | ratio | difference (s) | classes switched "
-            "| calls that ran Stone Soup's code (most frequent reason) |",
-            "|---|---|---|---|---|---|---|"]
+    rows = ["| script | plain (s) | switched (s) | ratio | difference (s) | its imports "
+            "alone (s, of plain) | classes switched | calls that ran Stone Soup's code (most "
+            "frequent reason) |",
+            "|---|---|---|---|---|---|---|---|"]
     for r in results:
         calls = sum(f[-1] for f in r["fallbacks"])
         top = r["fallbacks"][0] if r["fallbacks"] else None
@@ -216,7 +230,9 @@ def table(results):
         rows.append(f"| `{pathlib.PurePath(r['script']).name}` | "
                     f"{statistics.median(r['plain']):.2f} | "
                     f"{statistics.median(r['switched']):.2f} | {r['ratio']:.2f} | "
-                    f"{r['difference']:+.2f} | {r['classes']} | {calls}{reason} |")
+                    f"{r['difference']:+.2f} | {statistics.median(r['imports']):.2f} "
+                    f"({statistics.median(r['imports']) / statistics.median(r['plain']):.2f})"
+                    f" | {r['classes']} | {calls}{reason} |")
     return "\n".join(rows)
 
 
