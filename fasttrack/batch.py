@@ -118,6 +118,8 @@ class _BatchFilter:
         ValueError
             If a filter's update is undefined (naming the first such filter and why).
         """
+        if measurements is None:
+            raise TypeError("measurements must be a (K, m) array, got None")
         means, covars, measurements = self._arrays(means, covars, measurements, ())
         return self._update(means, covars, measurements)
 
@@ -209,7 +211,7 @@ class BatchExtendedKalmanFilter(_BatchFilter):
     def __init__(self, transition_model, measurement_model, use_joseph_cov=True,
                  jacobian="analytic"):
         super().__init__(transition_model, measurement_model)
-        self.use_joseph_cov = bool(use_joseph_cov)
+        self.use_joseph_cov = _validate.flag(use_joseph_cov, "use_joseph_cov")
         self.jacobian = _kalman.check_jacobian(jacobian)
 
     def _predict(self, intervals, means, covars):
@@ -254,7 +256,7 @@ class BatchUnscentedKalmanFilter(_BatchFilter):
         super().__init__(transition_model, measurement_model)
         self.alpha, self.beta, self.kappa = _unscented.check_parameters(alpha, beta, kappa)
         self._kappa = _unscented.scaling(self.alpha, self.kappa, transition_model.ndim_state)
-        self.use_joseph_cov = bool(use_joseph_cov)
+        self.use_joseph_cov = _validate.flag(use_joseph_cov, "use_joseph_cov")
 
     @property
     def _parameters(self):

@@ -1,4 +1,5 @@
 """Running a filter over a sequence of detections."""
+from . import _validate
 from .types import Detection, SingleHypothesis, Track
 
 
@@ -24,12 +25,22 @@ def run_filter(predictor, updater, prior, detections):
         The posterior after each detection, with its ``hypothesis`` (the detection, and the
         prediction as a weak link: see :mod:`fasttrack.types`).
     """
+    for name, value, method, article in (("predictor", predictor, "predict", "a"),
+                                         ("updater", updater, "update", "an")):
+        if not callable(getattr(value, method, None)):
+            raise TypeError(f"{name} must have {article} {method} method (a fasttrack "
+                            f"{name}), got {type(value).__name__}")
     track = Track()
     state = prior
-    for k, detection in enumerate(detections):
+    for k, detection in enumerate(_validate.iterator(detections, "detections")):
         if not isinstance(detection, Detection):
             raise TypeError(f"detections[{k}] must be a Detection, got "
                             f"{type(detection).__name__}")
+        if None not in (detection.timestamp, state.timestamp) \
+                and detection.timestamp < state.timestamp:
+            raise ValueError(f"detections must be in time order, after the prior: "
+                             f"detections[{k}] is at {detection.timestamp}, before "
+                             f"{state.timestamp}")
         prediction = predictor.predict(state, detection.timestamp)
         state = updater.update(SingleHypothesis(prediction, detection))
         track.append(state)

@@ -168,9 +168,9 @@ class ESSResampler(Resampler):
                                  f"got {threshold}")
         if resampler is None:
             resampler = SystematicResampler()
-        if not callable(getattr(resampler, "resample", None)):
-            raise TypeError(f"resampler must have a resample method, "
-                            f"got {type(resampler).__name__}")
+        if isinstance(resampler, type) or not callable(getattr(resampler, "resample", None)):
+            raise TypeError(f"resampler must be a resampler (an object with a resample "
+                            f"method, e.g. SystematicResampler()), got {resampler!r}")
         self.threshold = threshold
         self.resampler = resampler
 

@@ -145,3 +145,64 @@ def test_an_akkf_measurement_whose_kernel_value_overflows_is_named(numpy_first, 
 def test_ess_threshold_must_be_positive(threshold):
     with pytest.raises(ValueError, match="threshold must be finite and > 0"):
         ft.ESSResampler(threshold=threshold)
+
+
+def _identity(x, dt):
+    return x
+
+
+@pytest.mark.parametrize("predictor", [ft.ExtendedKalmanPredictor, ft.UnscentedKalmanPredictor,
+                                       ft.ParticlePredictor])
+def test_a_user_noise_that_is_not_psd_is_named_by_every_predictor(predictor):
+    import numba
+    model = ft.NonlinearGaussianTransitionModel(numba.njit(_identity), lambda dt: -2 * np.eye(4),
+                                                4)
+    prior = (ft.ParticleState(np.zeros((4, 10)), timestamp=0.0) if predictor is ft.ParticlePredictor
+             else ft.GaussianState([10.0, 1.0, 10.0, 1.0], np.eye(4), 0.0))
+    with pytest.raises(ValueError, match=r"covariance\(dt\) is not positive semi-definite"):
+        predictor(model).predict(prior, 1.0)
+
+
+def _detection(t):
+    return ft.Detection(np.zeros((2, 1)), timestamp=t, measurement_model=SENSOR)
+
+
+PRIOR = ft.GaussianState([0.0, 1.0, 0.0, 1.0], np.eye(4), 0.0)
+
+
+@pytest.mark.parametrize("call, error, match", [
+    (lambda: ft.KalmanUpdater(SENSOR, use_joseph_cov="no"), TypeError,
+     "use_joseph_cov must be a bool, got str"),
+    (lambda: ft.BatchExtendedKalmanFilter(TRANSITION, SENSOR, use_joseph_cov=None), TypeError,
+     "use_joseph_cov must be a bool"),
+    (lambda: ft.run_filter(ft.KalmanPredictor(TRANSITION), ft.KalmanUpdater(SENSOR), PRIOR,
+                           [_detection(2.0), _detection(1.0)]), ValueError,
+     r"detections must be in time order, after the prior: detections\[1\] is at 1.0"),
+    (lambda: ft.run_filter(ft.KalmanPredictor(TRANSITION), ft.KalmanUpdater(SENSOR), PRIOR,
+                           [_detection(-1.0)]), ValueError, r"detections\[0\] is at -1.0"),
+    (lambda: ft.run_filter(None, ft.KalmanUpdater(SENSOR), PRIOR, [_detection(1.0)]), TypeError,
+     "predictor must have a predict method"),
+    (lambda: ft.run_filter(ft.KalmanPredictor(TRANSITION), None, PRIOR, [_detection(1.0)]),
+     TypeError, "updater must have an update method"),
+    (lambda: ft.run_filter(ft.KalmanPredictor(TRANSITION), ft.KalmanUpdater(SENSOR), PRIOR, 5),
+     TypeError, "detections must be an iterable"),
+    (lambda: ft.BatchExtendedKalmanFilter(TRANSITION, SENSOR).update(
+        np.zeros((2, 4)), np.tile(np.eye(4), (2, 1, 1)), None), TypeError,
+     "measurements must be a"),
+])
+def test_filters_name_a_bad_argument(call, error, match):
+    with pytest.raises(error, match=match):
+        call()
+
+
+def test_the_akkf_updater_names_a_bad_model_or_measurement_prediction():
+    updater = ft.AdaptiveKernelKalmanUpdater(SENSOR)
+    state = ft.KernelParticleState(np.random.default_rng(0).normal(size=(4, 20)), timestamp=1.0)
+    with pytest.raises(TypeError, match="measurement_model must be a MeasurementModel"):
+        updater.predict_measurement(state, "x")
+    with pytest.raises(TypeError, match="measurement_model must be a MeasurementModel"):
+        updater.predict_measurement(state, TRANSITION)
+    hypothesis = ft.SingleHypothesis(state, _detection(1.0), measurement_prediction="x")
+    with pytest.raises(TypeError, match="hypothesis.measurement_prediction must be a "
+                                        "measurement prediction"):
+        updater.update(hypothesis)

@@ -126,8 +126,9 @@ def test_ess_resampler_bad_arguments():
         ESSResampler(threshold="half")
     with pytest.raises(ValueError, match="threshold must be finite"):
         ESSResampler(threshold=np.nan)
-    with pytest.raises(TypeError, match="resampler must have a resample method"):
-        ESSResampler(resampler=object())
+    for resampler in (object(), SystematicResampler):  # (the class, not one)
+        with pytest.raises(TypeError, match="resampler must be a resampler"):
+            ESSResampler(resampler=resampler)
 
 
 def test_default_rng_follows_seed():

@@ -506,16 +506,17 @@ class NonlinearGaussianTransitionModel(TransitionModel):
                                    doc="The user's function f (fixed).")
 
     def covar(self, time_interval):
-        """Q(dt) (d, d): the fixed Q, or ``covariance(dt)`` (checked to be finite and
-        symmetric) when a callable was given.
+        """Q(dt) (d, d): the fixed Q, or ``covariance(dt)`` (checked to be finite, symmetric
+        and positive semi-definite) when a callable was given.
 
         Parameters
         ----------
         time_interval : datetime.timedelta or float seconds
             dt, passed to a callable ``covariance`` in seconds.
         """
-        return _validate.covariance(self._covariance(self._seconds(time_interval)),
-                                    "covariance(dt)", self.ndim_state)
+        covar = _validate.covariance(self._covariance(self._seconds(time_interval)),
+                                     "covariance(dt)", self.ndim_state)
+        return gaussian_noise(covar, "covariance(dt)").covar  # (PSD: checked once a value)
 
     def _mean(self, x, dt):
         return self._function(x, dt)

@@ -6,6 +6,8 @@ from .. import random as _random
 from ..core import akkf as _akkf
 from ..core import particle as _particle
 from ..kernel import as_kernel
+from ..models.base import check_model
+from ..models.measurement import MeasurementModel
 from ..types import (KernelParticleState, KernelParticleStateMeasurementPrediction,
                      KernelParticleStateUpdate)
 from .base import Updater
@@ -53,6 +55,7 @@ class AdaptiveKernelKalmanUpdater(Updater):
         model = measurement_model or self.measurement_model
         if model is None:
             raise ValueError("no measurement model: give the updater one")
+        check_model(model, MeasurementModel, "measurement_model")
         return self._measurement_prediction(model, predicted_state)
 
     def _measurement_prediction(self, model, prediction):
@@ -89,7 +92,11 @@ class AdaptiveKernelKalmanUpdater(Updater):
         z = model.measurement_vector(hypothesis.measurement, "hypothesis.measurement")
         if hypothesis.measurement_prediction is None:
             hypothesis.measurement_prediction = self._measurement_prediction(model, prediction)
-        y = hypothesis.measurement_prediction.state_vector
+        y = getattr(hypothesis.measurement_prediction, "state_vector", None)
+        if not isinstance(y, np.ndarray):
+            raise TypeError(f"hypothesis.measurement_prediction must be a measurement "
+                            f"prediction (predict_measurement's), got "
+                            f"{type(hypothesis.measurement_prediction).__name__}")
         x = prediction.state_vector
         if y.shape != (model.ndim_meas, x.shape[1]):
             raise ValueError(f"hypothesis.measurement_prediction must have shape "

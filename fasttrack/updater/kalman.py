@@ -1,6 +1,7 @@
 """The Kalman and extended Kalman updaters."""
 import numpy as np
 
+from .. import _validate
 from ..core import kalman as _kalman
 from ..models.base import check_model
 from ..models.measurement import LinearGaussian, MeasurementModel
@@ -33,7 +34,7 @@ class KalmanUpdater(Updater):
                  use_joseph_cov=True):
         super().__init__(measurement_model)
         self.force_symmetric_covariance = bool(force_symmetric_covariance)
-        self.use_joseph_cov = bool(use_joseph_cov)
+        self.use_joseph_cov = _validate.flag(use_joseph_cov, "use_joseph_cov")
 
     def _check_model(self, model):
         if not isinstance(model, LinearGaussian):
