@@ -85,6 +85,17 @@ def check_covariances(covars, name):
         raise ValueError(f"{name}[{bad[0]}] is not {problem}")
 
 
+def log_weight_array(log_weights, k):
+    """(K,) float64 ``log_weights`` (-inf for a zero weight; not NaN or +inf), else an error
+    naming them."""
+    log_weights = _validate.float_array(log_weights, "log_weights", 1)
+    if log_weights.shape != (k,):
+        raise ValueError(f"log_weights must have shape ({k},), got {log_weights.shape}")
+    if np.isnan(log_weights).any() or (log_weights == np.inf).any():
+        raise ValueError("log_weights must not be NaN or +inf")
+    return log_weights
+
+
 def label_array(labels, k):
     """(K,) int64 ``labels`` (integers that int64 holds), else an error naming them."""
     labels = np.asarray(labels)
@@ -132,12 +143,7 @@ def moment_match(means, covars, log_weights, labels=None):
         If a group has no positive finite total weight, naming its label.
     """
     means, covars = stack(means, covars)
-    log_weights = _validate.float_array(log_weights, "log_weights", 1)
-    if log_weights.shape != (means.shape[0],):
-        raise ValueError(f"log_weights must have shape ({means.shape[0]},), got "
-                         f"{log_weights.shape}")
-    if np.isnan(log_weights).any() or (log_weights == np.inf).any():
-        raise ValueError("log_weights must not be NaN or +inf")
+    log_weights = log_weight_array(log_weights, means.shape[0])
     labels = np.zeros(means.shape[0], dtype=np.int64) if labels is None \
         else label_array(labels, means.shape[0])
     order, starts, unique = groups(labels)

@@ -4,7 +4,6 @@ import dataclasses
 
 import numpy as np
 
-from .. import _validate
 from ..core import imm as _imm
 from ..core import mixture as _mixture
 
@@ -47,11 +46,7 @@ class GaussianMixture:
         means, covars = _mixture.stack(self.means, self.covars)
         k = means.shape[0]
         log_weights = np.zeros(k) if self.log_weights is None else \
-            _validate.float_array(self.log_weights, "log_weights", 1)
-        if log_weights.shape != (k,):
-            raise ValueError(f"log_weights must have shape ({k},), got {log_weights.shape}")
-        if np.isnan(log_weights).any() or (log_weights == np.inf).any():
-            raise ValueError("log_weights must not be NaN or +inf")
+            _mixture.log_weight_array(self.log_weights, k)
         labels = np.zeros(k, dtype=np.int64) if self.labels is None \
             else _mixture.label_array(self.labels, k)
         for name, value in (("means", means), ("covars", covars), ("log_weights", log_weights),
