@@ -27,7 +27,8 @@ def gate(z_hats, covars, detections, threshold, angles):
             except np.linalg.LinAlgError:
                 return t
     innovations = detections[None] - z_hats[:, None]  # (K, M, m)
-    innovations[:, :, angles] = wrap(innovations[:, :, angles])
+    if angles.any():
+        innovations[:, :, angles] = wrap(innovations[:, :, angles])
     whitened = np.linalg.solve(lower, innovations.transpose(0, 2, 1))  # (K, m, M)
     distances2 = np.einsum("kij,kij->kj", whitened, whitened)
     tracks, candidates = np.nonzero(distances2 < threshold)  # by track, then detection

@@ -208,6 +208,18 @@ def update(sensor, method, joseph, x, covar, z):
     return _correct(status, sensor, joseph, x, covar, z, z_hat, h, s, cross)
 
 
+def _transitions(transition_model, intervals):
+    """Each filter's F and Q (K, d, d) over its interval of the (K,) ``intervals``, or the
+    one (d, d) pair when the intervals are all equal."""
+    values = sorted(set(intervals.tolist()))
+    specs = [transition_model.spec(float(interval)) for interval in values]
+    if len(specs) == 1:
+        return specs[0].matrix, specs[0].noise
+    which = np.searchsorted(np.array(values), intervals)
+    return (np.array([spec.matrix for spec in specs])[which],
+            np.array([spec.noise for spec in specs])[which])
+
+
 def stack_predict(transition_model, sensor, method, intervals, means, covars):
     """``(status, means, covars, z_hats, S)``: K filters (means (K, d), covariances
     (K, d, d)) predicted ``intervals`` (K,) seconds ahead through a linear
@@ -219,12 +231,9 @@ def stack_predict(transition_model, sensor, method, intervals, means, covars):
     status = np.zeros(k, dtype=np.int64)
     if sensor.kind == SELECT and k > 1 and _all_positive_definite(covars):
         h = jacobian(sensor, method, means[0, :, None])
-        values, which = np.unique(intervals, return_inverse=True)  # each filter's F and Q
-        specs = [transition_model.spec(float(interval)) for interval in values]
-        f = np.stack([spec.matrix for spec in specs])[which]
+        f, q = _transitions(transition_model, intervals)
         x = (f @ means[:, :, None])[:, :, 0]
-        covar = _symmetric(f @ covars @ f.transpose(0, 2, 1)
-                           + np.stack([spec.noise for spec in specs])[which])
+        covar = _symmetric(f @ covars @ np.swapaxes(f, -1, -2) + q)
         return status, x, covar, x[:, sensor.mapping], _symmetric(
             h @ covar @ h.T + sensor.noise_covar)
     out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))

@@ -82,26 +82,24 @@ def _first_bad_covariance(covars):
 def _merge(means, covars, weights, stonesoup, threshold, member, merged):
     """The greedy merges (the kernel's ``_merge`` rules), heaviest first: the (L,) heaviest
     component of each, in order; ``merged[o]`` set to merge o's (mean, covariance, weight)
-    where it took others, ``member[j]`` to component j's merge."""
+    where it took others, ``member[j]`` to component j's merge. A component takes only
+    lighter ones, so one with none near it (Stone Soup's first test) takes none, whatever
+    merged before: only the others are visited."""
     precisions = np.linalg.inv(covars)
     by_rank = np.argsort(weights, kind="stable")
+    descending = by_rank[::-1]
+    rank = np.empty(weights.size, dtype=np.int64)
+    rank[by_rank] = np.arange(weights.size)
     near = _near(means, precisions, threshold) if stonesoup else None
-    lonely = [False] * weights.size
-    if near is not None:  # no candidate near b, whatever has merged before
-        rank = np.empty(weights.size, dtype=np.int64)
-        rank[by_rank] = np.arange(weights.size)
-        lonely = (~(near & (rank[:, None] < rank[None, :])).any(axis=0)).tolist()
-    alive = np.ones(weights.size, dtype=bool)
-    heads = []
-    for top, b in zip(range(weights.size - 1, -1, -1), by_rank[::-1].tolist()):
+    takers = descending if near is None \
+        else descending[(near & (rank[:, None] < rank[None, :])).any(axis=0)[descending]]
+    alive = np.ones(weights.size, dtype=bool)  # not taken by a heavier one
+    groups = []  # (heaviest, (mean, covariance, weight), taken) of each merge of several
+    for b in takers.tolist():
         if not alive[b]:
             continue
-        alive[b] = False
-        member[b] = len(heads)
-        heads.append(b)
-        if lonely[b]:
-            continue
-        candidates = by_rank[:top][alive[by_rank[:top]]]  # ascending weight
+        lighter = by_rank[:rank[b]]
+        candidates = lighter[alive[lighter]]  # ascending weight
         if stonesoup:
             hits = None if near is None else np.flatnonzero(near[candidates, b])
             *group, taken = _merge_running(means, covars, weights, precisions, b, candidates,
@@ -117,10 +115,15 @@ def _merge(means, covars, weights, stonesoup, threshold, member, merged):
             group = mean, np.einsum("k,kij->ij", w, covars[members]) \
                 + (spread.T * w) @ spread, total
         if taken.size:
-            merged[len(heads) - 1] = group
             alive[taken] = False
-            member[taken] = len(heads) - 1
-    return np.array(heads, dtype=np.int64)
+            groups.append((b, group, taken))
+    heads = descending[alive[descending]]
+    member[heads] = np.arange(heads.size)
+    for b, group, taken in groups:
+        o = int(member[b])
+        merged[o] = group
+        member[taken] = o
+    return heads
 
 
 def _near(means, precisions, threshold):

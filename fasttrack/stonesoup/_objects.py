@@ -144,6 +144,8 @@ def _made_from(kind, state_type):
 def fresh_tags(n):
     """``n`` new tags as Stone Soup's tagged states make them (``str(uuid.uuid4())``: random
     version-4 uuids), from one read of the system's randomness."""
+    if not n:
+        return []
     raw = np.frombuffer(os.urandom(16 * n), np.uint8).reshape(n, 16).copy()
     raw[:, 6] = raw[:, 6] & 0x0F | 0x40  # the version
     raw[:, 8] = raw[:, 8] & 0x3F | 0x80  # the variant

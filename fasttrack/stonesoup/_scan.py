@@ -30,9 +30,9 @@ from stonesoup.types.prediction import (GaussianMeasurementPrediction, GaussianS
 from stonesoup.types.state import GaussianState, State, StateMutableSequence
 from stonesoup.types.update import GaussianStateUpdate
 
-from ..association import Gate, gate, global_nearest_neighbour, nearest_neighbour
+from ..association import Gate, global_nearest_neighbour, nearest_neighbour
 from ..core import kalman as ft_kalman
-from ..core.gating import gate_arrays
+from ..core.gating import default_axes, gate_arrays
 from ..core.jpda import gate_marginals
 from ..core.mixture import segment_logsumexp
 from ..models import LinearGaussian
@@ -159,10 +159,11 @@ class _Scan:
     """One scan of tracks and detections through fasttrack's kernels.
 
     Holds the predicted states (K, d), (K, d, d), measurements (K, m) and innovation
-    covariances (K, m, m), and the candidate (track, detection) pairs that the
-    hypothesiser keeps, in CSR form (``starts`` (K + 1,), ``candidates`` (n,) detection
-    indices, ascending per track), with their distances (distance hypothesisers) or log
-    weights (PDA). Stone Soup objects are built on request.
+    covariances (K, m, m), the detections' ``measurements`` (M, m), and the candidate
+    (track, detection) pairs that the hypothesiser keeps, in CSR form (``starts`` (K + 1,),
+    ``candidates`` (n,) detection indices, ascending per track), with their distances
+    (distance hypothesisers) or log weights (PDA). Stone Soup objects are built on
+    request.
 
     ``single`` (one track, the hypothesiser's own ``hypothesise``) takes the prediction and
     measurement prediction from the predictor and updater, memoised as Stone Soup's are;
@@ -196,7 +197,7 @@ class _Scan:
                 self._predict_one()
             else:
                 self._predict_all()
-            self._measurements = self._detection_array()
+            self.measurements = self._detection_array()
             self._candidates()
         except (ValueError, TypeError) as error:  # a kernel's, or input Stone Soup handles
             raise _NotFast(f"refused by fasttrack ({error})") from None
@@ -264,18 +265,22 @@ class _Scan:
         z = np.array([d.state_vector for d in self.detections], dtype=np.float64)
         if z.shape != (len(self.detections), m, 1):
             raise _NotFast("detections of another shape than the model's")
+        if not np.isfinite(z).all():
+            raise _NotFast("a detection that is not finite")
         return z.reshape(-1, m)
 
     def _gate(self, threshold, covars, angles):
-        """Candidates with squared distance below ``threshold`` (+inf: every pair)."""
+        """Candidates with squared distance below ``threshold`` (+inf: every pair), of
+        the scan's own predictions (symmetric ``covars``) and finite detections."""
         k, m = self.z_hats.shape
-        if self._measurements.shape[0] == 0 or k == 0 or not threshold > 0:
+        if self.measurements.shape[0] == 0 or k == 0 or not threshold > 0:
             return Gate(np.zeros(k + 1, dtype=np.int64), np.zeros(0, dtype=np.int64),
-                        np.zeros(0), np.zeros(0), self._measurements.shape[0])
-        if np.isfinite(threshold):
-            return gate(self.z_hats, covars, self._measurements, threshold, angles)
-        return gate_arrays(self.z_hats, covars, self._measurements, np.inf, angles,
-                           np.empty(0, dtype=np.int64))
+                        np.zeros(0), np.zeros(0), self.measurements.shape[0])
+        if not (np.isfinite(self.z_hats).all() and np.isfinite(covars).all()):
+            raise _NotFast("a prediction that is not finite")
+        angles = np.zeros(m, dtype=np.bool_) if angles is None else angles
+        axes = default_axes(angles) if np.isfinite(threshold) else np.empty(0, dtype=np.int64)
+        return gate_arrays(self.z_hats, covars, self.measurements, threshold, angles, axes)
 
     def _candidates(self):
         """The hypothesiser's candidates and their distances or log weights."""
@@ -345,6 +350,10 @@ class _Scan:
         self._final_normaliser = None
 
     def _keep(self, pairs, keep, distances=None, log_weights=None):
+        if keep.all():
+            self.starts, self.candidates = pairs.starts, pairs.detections
+            self.distances, self.log_weights = distances, log_weights
+            return
         self.starts = _csr_filter(pairs.starts, keep)
         self.candidates = np.ascontiguousarray(pairs.detections[keep])
         self.distances = None if distances is None else np.ascontiguousarray(distances[keep])

@@ -380,7 +380,8 @@ class _PointProcess:
         means, covars, weights, sums = self._detected(
             np.array([p.state_vector[:, 0] for p in predictions], dtype=np.float64),
             np.array([p.covar for p in predictions], dtype=np.float64),
-            [float(p.weight) for p in predictions], [tag == "birth" for tag in tags],
+            np.array([float(p.weight) for p in predictions]),
+            np.array([tag == "birth" for tag in tags]), np.arange(len(pairs)),
             _rows(measurements),
             _measurement_model(self.updater, measurements[0]) if pairs else None, detection,
             len(hypotheses) - 1)
@@ -416,8 +417,8 @@ class _PointProcess:
             pair_tags[q] = tag
         prior = np.array(groups.weights, dtype=np.float64)
         means, covars, weights, sums = self._detected(
-            scan.means[k], scan.covars[k], prior[k], np.zeros(k.size, dtype=np.bool_),
-            _rows(scan.detections)[detection],
+            scan.means, scan.covars, prior, np.zeros(prior.size, dtype=np.bool_), k,
+            scan.measurements[detection],
             _measurement_model(self.updater, scan.detections[0]) if k.size else None,
             detection, len(scan.detections))
         kept = [i for i, tag in enumerate(tags) if tag != "birth"]
@@ -427,16 +428,17 @@ class _PointProcess:
                                np.concatenate([covars, scan.covars[kept]]), weights,
                                pair_tags + [tags[i] for i in kept], scan.timestamp)
 
-    def _detected(self, means, covars, weights, born, z, model, detection, n_detections):
+    def _detected(self, means, covars, weights, born, component, z, model, detection,
+                  n_detections):
         """The posterior means (n, d), covariances (n, d, d) and weights (n,) of the
         (prediction, detection) pairs, and the sum of their likelihood terms for each of
-        the ``n_detections``: predicted ``means`` (n, d), ``covars`` (n, d, d), ``weights``
-        (n,), ``born`` (n,) whether tagged 'birth', measurements ``z`` (n, m) of ``model``,
-        ``detection`` (n,) their numbers."""
+        the ``n_detections``: predicted ``means`` (K, d), ``covars`` (K, d, d), ``weights``
+        (K,), ``born`` (K,) whether tagged 'birth', each pair's ``component`` (n,) of them,
+        measurement ``z`` (n, m) of ``model`` and ``detection`` (n,) number."""
         if not detection.size:
-            return means, covars, np.zeros(0), np.zeros(n_detections)
-        means, covars, weights = self._pair_updates(
-            means, covars, np.asarray(weights, dtype=np.float64), np.asarray(born), z, model)
+            return means[component], covars[component], np.zeros(0), np.zeros(n_detections)
+        means, covars, weights = self._pair_updates(means, covars, weights, born, component,
+                                                    z, model)
         sums = np.bincount(detection, weights, minlength=n_detections)
         if self.normalisation:
             weights = weights / (sums[detection] + self.clutter_spatial_density)
@@ -449,28 +451,31 @@ class _PointProcess:
                                                                         hypotheses) \
             * self.prob_survival
 
-    def _pair_updates(self, means, covars, prior, born, z, model):
+    def _pair_updates(self, means, covars, prior, born, component, z, model):
         """Posterior means (n, d), covariances (n, d, d) and unnormalised weights
-        ``P_D w q (P_S)`` of the predicted ``means`` (n, d), ``covars`` (n, d, d) of
-        weights ``prior`` (n,) (``born`` (n,): tagged 'birth', no P_S) and measurements
-        ``z`` (n, m) of the linear Gaussian ``model``, as Stone Soup's ``KalmanUpdater``
-        computes them."""
-        h, r = model.matrix(), model.covar()
+        ``P_D w q (P_S)`` of the pairs of predicted ``means`` (K, d), ``covars`` (K, d, d)
+        of weights ``prior`` (K,) (``born`` (K,): tagged 'birth', no P_S), each pair's
+        ``component`` (n,) of them and measurement ``z`` (n, m) of the linear Gaussian
+        ``model``, as Stone Soup's ``KalmanUpdater`` computes them (its gain and posterior
+        covariance once per component)."""
+        h, r = floats(model.matrix()), floats(model.covar())
         cross = covars @ h.T
         innovation = h @ cross + r
         gains = cross @ np.linalg.inv(innovation)
-        v = z - means @ h.T
         if self.updater.use_joseph_cov:
             i_kh = np.eye(means.shape[1]) - gains @ h
             post = i_kh @ covars @ i_kh.transpose(0, 2, 1) + gains @ r @ gains.transpose(0, 2, 1)
         else:
             post = covars - gains @ innovation @ gains.transpose(0, 2, 1)
         _, log_det = np.linalg.slogdet(2 * np.pi * innovation)
-        mahalanobis = np.einsum("ki,ki->k", v, np.linalg.solve(innovation, v[..., None])[..., 0])
-        q = np.exp(-0.5 * (mahalanobis + log_det))
-        weights = self.prob_detection * prior * q
-        weights = np.where(born, weights, weights * self.prob_survival)
-        return means + np.einsum("kij,kj->ki", gains, v), post, weights
+        means, k = means[component], component
+        v = z - means @ h.T
+        mahalanobis = np.einsum("ki,ki->k", v,
+                                np.linalg.solve(innovation[k], v[..., None])[..., 0])
+        q = np.exp(-0.5 * (mahalanobis + log_det[k]))
+        weights = self.prob_detection * prior[k] * q
+        weights = np.where(born[k], weights, weights * self.prob_survival)
+        return means + np.einsum("kij,kj->ki", gains[k], v), post[k], weights
 
     def _reason(self, measurements):
         """Why Stone Soup's code must update the pairs of these measurements, or None."""
