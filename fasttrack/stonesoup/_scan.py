@@ -296,6 +296,7 @@ class _Scan:
             keep = np.ones(distances.size, dtype=np.bool_) if base.include_all \
                 else distances < missed
             self._keep(pairs, keep, distances=distances)
+            self._log_likelihoods = None  # of the Euclidean gate's identity covariances
             return
         gates = np.array(recipe.gates)
         if recipe.kind == "distance":
@@ -353,12 +354,19 @@ class _Scan:
         if keep.all():
             self.starts, self.candidates = pairs.starts, pairs.detections
             self.distances, self.log_weights = distances, log_weights
+            self._log_likelihoods = pairs.log_likelihoods
             return
         self.starts = _csr_filter(pairs.starts, keep)
         self.candidates = np.ascontiguousarray(pairs.detections[keep])
         self.distances = None if distances is None else np.ascontiguousarray(distances[keep])
         self.log_weights = None if log_weights is None \
             else np.ascontiguousarray(log_weights[keep])
+        self._log_likelihoods = pairs.log_likelihoods[keep]
+
+    def log_likelihoods(self, model):
+        """The candidates' Gaussian log-likelihoods (n,) under the Stone Soup measurement
+        ``model``, or None unless the scan gated with its innovation covariances."""
+        return self._log_likelihoods if model is self._model else None
 
     # -- Stone Soup objects ------------------------------------------------------------------
 

@@ -416,11 +416,12 @@ class _PointProcess:
         for q, tag in zip(born, fresh_tags(len(born))):
             pair_tags[q] = tag
         prior = np.array(groups.weights, dtype=np.float64)
+        model = _measurement_model(self.updater, scan.detections[0]) if k.size else None
+        log_likelihoods = scan.log_likelihoods(model)
         means, covars, weights, sums = self._detected(
             scan.means, scan.covars, prior, np.zeros(prior.size, dtype=np.bool_), k,
-            scan.measurements[detection],
-            _measurement_model(self.updater, scan.detections[0]) if k.size else None,
-            detection, len(scan.detections))
+            scan.measurements[detection], model, detection, len(scan.detections),
+            None if log_likelihoods is None else log_likelihoods[order])
         kept = [i for i, tag in enumerate(tags) if tag != "birth"]
         weights = np.concatenate([weights, prior[kept] * self._missed_factor(sums, hypotheses)])
         weights[weights == 0] = _EPS
@@ -429,16 +430,17 @@ class _PointProcess:
                                pair_tags + [tags[i] for i in kept], scan.timestamp)
 
     def _detected(self, means, covars, weights, born, component, z, model, detection,
-                  n_detections):
+                  n_detections, log_likelihoods=None):
         """The posterior means (n, d), covariances (n, d, d) and weights (n,) of the
         (prediction, detection) pairs, and the sum of their likelihood terms for each of
         the ``n_detections``: predicted ``means`` (K, d), ``covars`` (K, d, d), ``weights``
         (K,), ``born`` (K,) whether tagged 'birth', each pair's ``component`` (n,) of them,
-        measurement ``z`` (n, m) of ``model`` and ``detection`` (n,) number."""
+        measurement ``z`` (n, m) of ``model``, ``detection`` (n,) number and, if known,
+        Gaussian ``log_likelihoods`` (n,)."""
         if not detection.size:
             return means[component], covars[component], np.zeros(0), np.zeros(n_detections)
         means, covars, weights = self._pair_updates(means, covars, weights, born, component,
-                                                    z, model)
+                                                    z, model, log_likelihoods)
         sums = np.bincount(detection, weights, minlength=n_detections)
         if self.normalisation:
             weights = weights / (sums[detection] + self.clutter_spatial_density)
@@ -451,13 +453,14 @@ class _PointProcess:
                                                                         hypotheses) \
             * self.prob_survival
 
-    def _pair_updates(self, means, covars, prior, born, component, z, model):
+    def _pair_updates(self, means, covars, prior, born, component, z, model,
+                      log_likelihoods=None):
         """Posterior means (n, d), covariances (n, d, d) and unnormalised weights
         ``P_D w q (P_S)`` of the pairs of predicted ``means`` (K, d), ``covars`` (K, d, d)
         of weights ``prior`` (K,) (``born`` (K,): tagged 'birth', no P_S), each pair's
         ``component`` (n,) of them and measurement ``z`` (n, m) of the linear Gaussian
         ``model``, as Stone Soup's ``KalmanUpdater`` computes them (its gain and posterior
-        covariance once per component)."""
+        covariance once per component); ``q`` from ``log_likelihoods`` (n,) if given."""
         h, r = floats(model.matrix()), floats(model.covar())
         cross = covars @ h.T
         innovation = h @ cross + r
@@ -467,12 +470,14 @@ class _PointProcess:
             post = i_kh @ covars @ i_kh.transpose(0, 2, 1) + gains @ r @ gains.transpose(0, 2, 1)
         else:
             post = covars - gains @ innovation @ gains.transpose(0, 2, 1)
-        _, log_det = np.linalg.slogdet(2 * np.pi * innovation)
         means, k = means[component], component
         v = z - means @ h.T
-        mahalanobis = np.einsum("ki,ki->k", v,
-                                np.linalg.solve(innovation[k], v[..., None])[..., 0])
-        q = np.exp(-0.5 * (mahalanobis + log_det[k]))
+        if log_likelihoods is None:
+            _, log_det = np.linalg.slogdet(2 * np.pi * innovation)
+            log_likelihoods = -0.5 * (np.einsum(
+                "ki,ki->k", v, np.linalg.solve(innovation[k], v[..., None])[..., 0])
+                + log_det[k])
+        q = np.exp(log_likelihoods)
         weights = self.prob_detection * prior[k] * q
         weights = np.where(born[k], weights, weights * self.prob_survival)
         return means + np.einsum("kij,kj->ki", gains[k], v), post[k], weights
