@@ -101,7 +101,7 @@ def _merge(means, covars, weights, stonesoup, threshold, member, merged):
         lighter = by_rank[:rank[b]]
         candidates = lighter[alive[lighter]]  # ascending weight
         if stonesoup:
-            hits = None if near is None else np.flatnonzero(near[candidates, b])
+            hits = None if near is None else near[candidates, b].nonzero()[0]
             *group, taken = _merge_running(means, covars, weights, precisions, b, candidates,
                                            threshold, hits)
         else:
@@ -148,12 +148,12 @@ def _merge_running(means, covars, weights, precisions, b, candidates, threshold,
     while start < candidates.size:
         if hits is None:  # positions (from ``start`` on) within the threshold of the mean
             v = pool_means[start:] - mean
-            hits = start + np.flatnonzero(
-                np.einsum("ki,kij,kj->k", v, pool_precisions[start:], v) < threshold)
+            hits = start + (np.einsum("ki,kij,kj->k", v, pool_precisions[start:], v)
+                            < threshold).nonzero()[0]
         if not hits.size:
             break
-        start, hits = hits[0], None
-        c = candidates[start]
+        start, hits = int(hits[0]), None
+        c = int(candidates[start])
         total = weight + weights[c]
         w1, w2 = weight / total, weights[c] / total
         diff = mean - means[c]
