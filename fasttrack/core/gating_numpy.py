@@ -29,7 +29,7 @@ def gate(z_hats, covars, detections, threshold, angles):
     innovations = detections[None] - z_hats[:, None]  # (K, M, m)
     if angles.any():
         innovations[:, :, angles] = wrap(innovations[:, :, angles])
-    whitened = np.linalg.solve(lower, innovations.transpose(0, 2, 1))  # (K, m, M)
+    whitened = _forward(lower, innovations.transpose(0, 2, 1))  # (K, m, M)
     distances2 = np.einsum("kij,kij->kj", whitened, whitened)
     tracks, candidates = np.nonzero(distances2 < threshold)  # by track, then detection
     starts = np.zeros(k + 1, dtype=np.int64)
@@ -38,6 +38,17 @@ def gate(z_hats, covars, detections, threshold, angles):
     inside = distances2[tracks, candidates]
     return (starts, candidates.astype(np.int64), inside,
             -0.5 * inside - log_norm[tracks])
+
+
+def _forward(lower, b):
+    """``L^-1 b`` for lower-triangular ``lower`` (K, m, m) and ``b`` (K, m, M), by forward
+    substitution (row by row over the stack)."""
+    out = np.empty_like(b)
+    out[:, 0] = b[:, 0] / lower[:, 0, 0, None]
+    for i in range(1, b.shape[1]):
+        out[:, i] = (b[:, i] - np.einsum("kj,kjn->kn", lower[:, i, :i], out[:, :i])) \
+            / lower[:, i, i, None]
+    return out
 
 
 def clusters(starts, candidates, n_detections):
