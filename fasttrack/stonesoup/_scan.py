@@ -189,8 +189,9 @@ class _Scan:
             self.priors = [_prior(track) for track in self.tracks]
         except (AttributeError, IndexError):
             raise _NotFast("a track without a last state") from None
-        if any(type(prior) not in _predictor._GAUSSIAN_STATES or prior.timestamp is None
-               for prior in self.priors):
+        self._stamps = [prior.timestamp for prior in self.priors]
+        if not set(map(type, self.priors)).issubset(_predictor._GAUSSIAN_STATES) \
+                or None in self._stamps:
             raise _NotFast("a track whose last state is not a timed Gaussian state")
         try:
             if single:
@@ -252,8 +253,9 @@ class _Scan:
                 or not (np.isfinite(means).all() and np.isfinite(covars).all()):
             raise _NotFast("ragged or non-finite track states")  # Stone Soup's arithmetic
         means = means.reshape(k, d)
-        intervals = np.array([(self.timestamp - prior.timestamp).total_seconds()
-                              for prior in self.priors])
+        seconds = {stamp: (self.timestamp - stamp).total_seconds()
+                   for stamp in set(self._stamps)}
+        intervals = np.array([seconds[stamp] for stamp in self._stamps])
         self.means, self.covars, self.z_hats, self.innovation_covars = \
             ft_kalman.stack_predict(transition, self._fast, intervals, means, covars,
                                     "forward", by_interval=True)

@@ -115,7 +115,7 @@ class GaussianMixtureHypothesiser(ss_gaussianmixture.GaussianMixtureHypothesiser
         if type(self).generate_hypotheses is GaussianMixtureHypothesiser.generate_hypotheses:
             scan = _scan(self.hypothesiser, components, detections, timestamp, kwargs)
         if self.order_by_detection and scan is not None and not isinstance(scan, str) \
-                and all(type(c) in _PREDICTIONS for c in components):
+                and _PREDICTIONS.keys() >= set(map(type, components)):
             return _groups_when_read(scan, components)
         return self._groups(self._component_hypotheses(components, detections, timestamp,
                                                        kwargs, scan), detections)
