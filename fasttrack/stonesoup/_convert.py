@@ -54,6 +54,9 @@ _FAST_MODELS = weakref.WeakKeyDictionary()
 
 _PLAIN_VALUES = {float, int, bool, str, type(None)}
 
+#: The attribute names under which each Stone Soup class met so far keeps its properties.
+_PROPERTY_KEYS = {}
+
 
 def _snapshot(value):
     """A comparable copy of a model's parameters (arrays by value)."""
@@ -62,9 +65,12 @@ def _snapshot(value):
         return value
     if isinstance(value, np.ndarray):
         return value.shape, value.dtype.str, value.tobytes()
-    if Base in kind.__mro__:  # (isinstance would walk Base's subclasses for a new type)
-        return kind, tuple(_snapshot(item) for name, item in vars(value).items()
-                           if name.startswith("_property_"))
+    keys = _PROPERTY_KEYS.get(kind)
+    if keys is None and Base in kind.__mro__:  # (isinstance walks Base's subclasses)
+        keys = _PROPERTY_KEYS[kind] = tuple(f"_property_{name}" for name in kind.properties)
+    if keys is not None:
+        state = vars(value)
+        return kind, tuple(_snapshot(state.get(key)) for key in keys)
     if isinstance(value, (list, tuple)):
         return tuple(_snapshot(item) for item in value)
     return value

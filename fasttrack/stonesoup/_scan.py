@@ -185,13 +185,17 @@ class _Scan:
         self._model, self._fast = self._measurement_model()
         self._predictions = [None] * len(self.tracks)
         self._measurement_predictions = [None] * len(self.tracks)
-        try:
-            self.priors = [_prior(track) for track in self.tracks]
-        except (AttributeError, IndexError):
-            raise _NotFast("a track without a last state") from None
+        kinds = set(map(type, self.tracks))
+        if kinds.issubset(_predictor._GAUSSIAN_STATES):  # states: their own priors
+            self.priors = self.tracks
+        else:
+            try:
+                self.priors = [_prior(track) for track in self.tracks]
+            except (AttributeError, IndexError):
+                raise _NotFast("a track without a last state") from None
+            kinds = set(map(type, self.priors))
         self._stamps = [prior.timestamp for prior in self.priors]
-        if not set(map(type, self.priors)).issubset(_predictor._GAUSSIAN_STATES) \
-                or None in self._stamps:
+        if not kinds.issubset(_predictor._GAUSSIAN_STATES) or None in self._stamps:
             raise _NotFast("a track whose last state is not a timed Gaussian state")
         try:
             if single:
