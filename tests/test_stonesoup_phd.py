@@ -273,6 +273,40 @@ def test_the_drop_in_hypothesisers_groups_are_updated_from_its_arrays(seed):
     assert sorted(map(_key, again)) == sorted(map(_key, got))
 
 
+@pytest.mark.parametrize("joseph", [False, True])
+@pytest.mark.parametrize("drop_in_hypothesiser", [True, False])
+def test_an_updater_of_another_measurement_model_weighs_by_its_own(joseph,
+                                                                   drop_in_hypothesiser):
+    """Detections without a model of their own: the hypothesiser predicts them with its
+    updater's model, the PHD updater weighs them by its own and updates from the
+    hypotheses' measurement predictions (the Joseph form with its own H and R), as Stone
+    Soup's does."""
+    import fasttrack.stonesoup as fss
+    components, scan, t1 = _scan_of(1)
+    scan = {Detection(d.state_vector, timestamp=t1) for d in scan}
+    classes = [GaussianMixtureHypothesiser, DistanceHypothesiser, KalmanPredictor,
+               KalmanUpdater, Mahalanobis]
+    if drop_in_hypothesiser:
+        classes = [getattr(fss, cls.__name__) for cls in classes]
+    mixture, distance, predictor, updater, measure = classes
+    hypothesiser = mixture(distance(predictor(TRANSITION), updater(SENSOR), measure(),
+                                    missed_distance=3), order_by_detection=True)
+    hypotheses = hypothesiser.hypothesise(components, scan, t1)
+    other = LinearGaussian(4, (0, 2), np.diag([3.0, 2.0]))
+    settings = dict(clutter_spatial_density=1e-3, prob_detection=0.9, prob_survival=0.99)
+    fallbacks(clear=True)
+    got = PHDUpdater(KalmanUpdater(other, use_joseph_cov=joseph), **settings).update(
+        hypotheses)
+    assert not fallbacks() and _built(hypotheses) != drop_in_hypothesiser
+    want = Original(KalmanUpdater(other, use_joseph_cov=joseph), **settings).update(
+        hypotheses)
+    assert len(got) == len(want) > len(components)
+    for g, w in zip(sorted(got, key=_key), sorted(want, key=_key)):
+        assert float(g.weight) == pytest.approx(float(w.weight), rel=1e-12)
+        np.testing.assert_allclose(g.state_vector, w.state_vector, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(g.covar, w.covar, rtol=1e-12, atol=1e-12)
+
+
 def test_unbuilt_groups_hold_the_components_as_they_were():
     """Groups built after the components changed show the weights and tags the components
     had when hypothesised, as Stone Soup's (built at once) do; a copy or pickle of a group

@@ -369,6 +369,14 @@ class _Scan:
             else np.ascontiguousarray(log_weights[keep])
         self._log_likelihoods = pairs.log_likelihoods[keep]
 
+    def carried_predictions(self):
+        """The measurement predictions its hypotheses carry, as arrays: z_hats (K, m),
+        innovation covariances (K, m, m) and cross covariances (K, d, m) (those of
+        :meth:`measurement_prediction`); None unless the scan's model is linear."""
+        if not isinstance(self._fast, LinearGaussian):
+            return None
+        return self.z_hats, self.innovation_covars, self.covars[:, :, self._fast.spec.mapping]
+
     def log_likelihoods(self, model):
         """The candidates' Gaussian log-likelihoods (n,) under the Stone Soup measurement
         ``model``, or None unless the scan gated with its innovation covariances."""

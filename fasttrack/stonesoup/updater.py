@@ -354,7 +354,10 @@ class _PointProcess:
     and one linear Gaussian measurement model, by Stone Soup's rules: P_S applied at the
     update to every component not tagged 'birth' (a detected birth component is given a new
     tag), a missed birth component dropped, the likelihoods in linear terms, a weight of 0
-    set to eps; the missed components scaled by the filter's own update terms. The update
+    set to eps; the missed components scaled by the filter's own update terms. As in Stone
+    Soup, a pair's likelihood is of the updater's model, its Kalman update from the
+    measurement prediction its hypothesis carries (the hypothesiser's, whose model may be
+    another for detections without their own). The update
     of the drop-in hypothesiser's groups (P_D and P_S plain numbers) holds its components as
     arrays until they are read (a :class:`~._pending.PendingMixtureUpdate`, which the
     drop-in reducer reduces as arrays). Another updater or measurement model goes through
@@ -366,10 +369,16 @@ class _PointProcess:
                 and not self._reason(groups.scan.detections) \
                 and all(type(p) in (float, int, np.float64) for p in (self.prob_detection,
                                                                       self.prob_survival)):
-            return self._scan_update(groups, hypotheses)
+            update = self._scan_update(groups, hypotheses)
+            if update is not None:
+                return update
         pairs = [hypothesis for multiple in hypotheses[:-1] for hypothesis in multiple]
         measurements = [hypothesis.measurement for hypothesis in pairs]
         reason = self._reason(measurements)
+        predicted = None
+        if not reason:
+            predicted = _carried_predictions(pairs)
+            reason = predicted if isinstance(predicted, str) else None
         if reason:
             fall_back(self, "update", reason)
             return super().update(hypotheses)
@@ -384,7 +393,7 @@ class _PointProcess:
             np.array([tag == "birth" for tag in tags]), np.arange(len(pairs)),
             _rows(measurements),
             _measurement_model(self.updater, measurements[0]) if pairs else None, detection,
-            len(hypotheses) - 1)
+            len(hypotheses) - 1, predicted=predicted)
         updated = [_tagged_state(tag=tag if tag != "birth" else None, weight=weight,
                                  state_vector=mean[:, None].view(StateVector),
                                  covar=covar.view(CovarianceMatrix), timestamp=m.timestamp)
@@ -405,23 +414,30 @@ class _PointProcess:
         hypotheses not built), a :class:`~._pending.PendingMixtureUpdate`: the pair of
         component k and detection j has k's prediction, weight and tag (a new one for a
         detected birth component), in the groups' order (by detection, then component),
-        then the missed components in the components' order."""
+        then the missed components in the components' order. None if the hypotheses'
+        measurement predictions, of another model than this updater's, are not arrays of
+        the scan (Stone Soup's update uses them)."""
         scan = groups.scan
         owners = np.repeat(np.arange(len(scan.tracks)), np.diff(scan.starts))
         order = np.argsort(scan.candidates, kind="stable")
         k, detection = owners[order], scan.candidates[order]
+        model = _measurement_model(self.updater, scan.detections[0]) if k.size else None
+        log_likelihoods = scan.log_likelihoods(model)
+        predicted = None
+        if k.size and log_likelihoods is None:  # the scan predicted with another model
+            predicted = scan.carried_predictions()
+            if predicted is None:
+                return None
         tags = groups.tags
         pair_tags = [tags[i] for i in k.tolist()]
         born = [q for q, tag in enumerate(pair_tags) if tag == "birth"]
         for q, tag in zip(born, fresh_tags(len(born))):
             pair_tags[q] = tag
         prior = np.array(groups.weights, dtype=np.float64)
-        model = _measurement_model(self.updater, scan.detections[0]) if k.size else None
-        log_likelihoods = scan.log_likelihoods(model)
         means, covars, weights, sums = self._detected(
             scan.means, scan.covars, prior, np.zeros(prior.size, dtype=np.bool_), k,
             scan.measurements[detection], model, detection, len(scan.detections),
-            None if log_likelihoods is None else log_likelihoods[order])
+            None if log_likelihoods is None else log_likelihoods[order], predicted)
         kept = [i for i, tag in enumerate(tags) if tag != "birth"]
         weights = np.concatenate([weights, prior[kept] * self._missed_factor(sums, hypotheses)])
         weights[weights == 0] = _EPS
@@ -430,17 +446,18 @@ class _PointProcess:
                                pair_tags + [tags[i] for i in kept], scan.timestamp)
 
     def _detected(self, means, covars, weights, born, component, z, model, detection,
-                  n_detections, log_likelihoods=None):
+                  n_detections, log_likelihoods=None, predicted=None):
         """The posterior means (n, d), covariances (n, d, d) and weights (n,) of the
         (prediction, detection) pairs, and the sum of their likelihood terms for each of
         the ``n_detections``: predicted ``means`` (K, d), ``covars`` (K, d, d), ``weights``
         (K,), ``born`` (K,) whether tagged 'birth', each pair's ``component`` (n,) of them,
         measurement ``z`` (n, m) of ``model``, ``detection`` (n,) number and, if known,
-        Gaussian ``log_likelihoods`` (n,)."""
+        Gaussian ``log_likelihoods`` (n,) and the measurement predictions the hypotheses
+        carry (see :meth:`_pair_updates`)."""
         if not detection.size:
             return means[component], covars[component], np.zeros(0), np.zeros(n_detections)
         means, covars, weights = self._pair_updates(means, covars, weights, born, component,
-                                                    z, model, log_likelihoods)
+                                                    z, model, log_likelihoods, predicted)
         sums = np.bincount(detection, weights, minlength=n_detections)
         if self.normalisation:
             weights = weights / (sums[detection] + self.clutter_spatial_density)
@@ -454,33 +471,40 @@ class _PointProcess:
             * self.prob_survival
 
     def _pair_updates(self, means, covars, prior, born, component, z, model,
-                      log_likelihoods=None):
+                      log_likelihoods=None, predicted=None):
         """Posterior means (n, d), covariances (n, d, d) and unnormalised weights
         ``P_D w q (P_S)`` of the pairs of predicted ``means`` (K, d), ``covars`` (K, d, d)
         of weights ``prior`` (K,) (``born`` (K,): tagged 'birth', no P_S), each pair's
-        ``component`` (n,) of them and measurement ``z`` (n, m) of the linear Gaussian
-        ``model``, as Stone Soup's ``KalmanUpdater`` computes them (its gain and posterior
-        covariance once per component); ``q`` from ``log_likelihoods`` (n,) if given."""
+        ``component`` (n,) of them and measurement ``z`` (n, m), as Stone Soup's PHD
+        updater computes them: ``q`` from the linear Gaussian ``model`` (or the given
+        ``log_likelihoods`` (n,)), the Kalman update from the measurement predictions the
+        hypotheses carry, ``predicted`` = (z_hats (K, m), innovation covariances
+        (K, m, m), cross covariances (K, d, m)), by default ``model``'s (its gain and
+        posterior covariance once per component; the Joseph form with ``model``'s H and
+        R, as Stone Soup's)."""
         h, r = floats(model.matrix()), floats(model.covar())
+        k = component
         cross = covars @ h.T
         innovation = h @ cross + r
+        z_hats = means[k] @ h.T
+        if log_likelihoods is None:
+            v = z - z_hats
+            _, log_det = np.linalg.slogdet(2 * np.pi * innovation)
+            log_likelihoods = -0.5 * (np.einsum(
+                "ki,ki->k", v, np.linalg.solve(innovation[k], v[..., None])[..., 0])
+                + log_det[k])
+        if predicted is not None:
+            z_hats, innovation, cross = predicted[0][k], predicted[1], predicted[2]
         gains = cross @ np.linalg.inv(innovation)
         if self.updater.use_joseph_cov:
             i_kh = np.eye(means.shape[1]) - gains @ h
             post = i_kh @ covars @ i_kh.transpose(0, 2, 1) + gains @ r @ gains.transpose(0, 2, 1)
         else:
             post = covars - gains @ innovation @ gains.transpose(0, 2, 1)
-        means, k = means[component], component
-        v = z - means @ h.T
-        if log_likelihoods is None:
-            _, log_det = np.linalg.slogdet(2 * np.pi * innovation)
-            log_likelihoods = -0.5 * (np.einsum(
-                "ki,ki->k", v, np.linalg.solve(innovation[k], v[..., None])[..., 0])
-                + log_det[k])
         q = np.exp(log_likelihoods)
         weights = self.prob_detection * prior[k] * q
         weights = np.where(born[k], weights, weights * self.prob_survival)
-        return means + np.einsum("kij,kj->ki", gains[k], v), post[k], weights
+        return means[k] + np.einsum("kij,kj->ki", gains[k], z - z_hats), post[k], weights
 
     def _reason(self, measurements):
         """Why Stone Soup's code must update the pairs of these measurements, or None."""
@@ -494,6 +518,21 @@ class _PointProcess:
         if models and type(next(iter(models.values()))) is not SSLinearGaussian:
             return f"a measurement model of type {type(next(iter(models.values()))).__name__}"
         return None
+
+
+def _carried_predictions(pairs):
+    """The measurement predictions the hypotheses ``pairs`` carry, as arrays (z_hats
+    (n, m), innovation covariances (n, m, m), cross covariances (n, d, m)); None if none
+    carries one (the updater's model then makes them, as Stone Soup's would); the reason
+    Stone Soup's code must run if only some do, or one has no cross covariance."""
+    carried = [hypothesis.measurement_prediction for hypothesis in pairs]
+    if all(prediction is None for prediction in carried):
+        return None
+    if any(getattr(prediction, "cross_covar", None) is None for prediction in carried):
+        return "hypotheses without a measurement prediction with a cross covariance"
+    return (floats(np.array([p.state_vector for p in carried], dtype=np.float64))[:, :, 0],
+            floats(np.array([p.covar for p in carried], dtype=np.float64)),
+            floats(np.array([p.cross_covar for p in carried], dtype=np.float64)))
 
 
 def _rows(measurements):
