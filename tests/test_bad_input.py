@@ -189,6 +189,9 @@ PRIOR = ft.GaussianState([0.0, 1.0, 0.0, 1.0], np.eye(4), 0.0)
     (lambda: ft.BatchExtendedKalmanFilter(TRANSITION, SENSOR).update(
         np.zeros((2, 4)), np.tile(np.eye(4), (2, 1, 1)), None), TypeError,
      "measurements must be a"),
+    (lambda: ft.BatchExtendedKalmanFilter(TRANSITION, SENSOR).update(
+        np.zeros((2, 4)), np.stack([np.eye(4), -np.eye(4)]), np.zeros((2, 2))), ValueError,
+     r"1 of 2 filters failed; filter 1: covars\[1\] is not positive semi-definite"),
 ])
 def test_filters_name_a_bad_argument(call, error, match):
     with pytest.raises(error, match=match):

@@ -5,6 +5,7 @@ from .. import _errors
 from .. import _jit
 from . import kalman_numpy as _numpy
 from . import stack as _stack
+from .._jit.status import INNOVATION_NOT_PD, PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC
 from .kinds import ANALYTIC, CENTRAL, FORWARD, FUNCTION, SELECT
 
 _jacobian = _jit.lazy("jacobian")
@@ -248,6 +249,9 @@ def stack_update(model, means, covars, measurements, jacobian="analytic", joseph
                                   means_out[lo:hi], covars_out[lo:hi], status[lo:hi])
 
         _stack.in_chunks(k, run)
+        for i in np.flatnonzero(status == INNOVATION_NOT_PD):  # (the kernel checks S only)
+            status[i] = _numpy.covariance_status(covars[i], PREDICTION_NOT_SYMMETRIC,
+                                                 PREDICTION_NOT_PSD) or status[i]
     else:
         stack_step(_stack.identity(d), np.zeros(k), means, covars, measurements, means_out,
                    covars_out, status, model=model, jacobian=jacobian, joseph=joseph)
