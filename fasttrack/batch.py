@@ -5,6 +5,7 @@ import functools
 import numpy as np
 
 from . import _validate
+from .core import imm as _imm
 from .core import kalman as _kalman
 from .core import stack as _stack
 from .core import unscented as _unscented
@@ -28,6 +29,21 @@ def check_models(transition_model, measurement_model, nonlinear=False):
     if measurement_model.ndim_state != transition_model.ndim_state:
         raise ValueError(f"the models disagree on the state dimension: "
                          f"{transition_model.ndim_state} and {measurement_model.ndim_state}")
+
+
+def check_model_set(transition_models, measurement_model):
+    """``(models, has)``: the ``transition_models`` of a multiple-model filter as a list (at
+    least one, each a TransitionModel that fits ``measurement_model``) and the components
+    each carries (:func:`fasttrack.core.imm.components`), else an error naming the
+    argument."""
+    models = _validate.instances(transition_models, TransitionModel, "transition_models")
+    if not models:
+        raise ValueError("transition_models must hold at least one model")
+    check_measurement_model(measurement_model)
+    has = _imm.components(models, measurement_model.ndim_state)
+    for model in models:
+        check_models(model, measurement_model, nonlinear=True)
+    return models, has
 
 
 def check_measurement_model(measurement_model):

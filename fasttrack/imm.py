@@ -6,12 +6,11 @@ import numpy as np
 
 from . import _validate
 from ._states import step_intervals
-from .batch import check_measurement_model, check_models
+from .batch import check_model_set
 from .core import imm as _imm
 from .core import imm_smooth as _imm_smooth
 from .core.mixture import check_covariances
 from .models.measurement import LinearGaussian
-from .models.transition import TransitionModel
 from .predictor.base import Predictor
 from .predictor.kalman import KalmanPredictor
 from .types.gaussian import GaussianState
@@ -262,13 +261,7 @@ class BatchIMMFilter:
     algorithm = "imm"
 
     def __init__(self, transition_models, measurement_model, transition_matrix):
-        models = _validate.instances(transition_models, TransitionModel, "transition_models")
-        if not models:
-            raise ValueError("transition_models must hold at least one model")
-        check_measurement_model(measurement_model)
-        self._has = _imm.components(models, measurement_model.ndim_state)
-        for model in models:
-            check_models(model, measurement_model, nonlinear=True)
+        models, self._has = check_model_set(transition_models, measurement_model)
         self.transition_models = models
         self.measurement_model = measurement_model
         self.transition_matrix = _imm.transition_matrix(transition_matrix, len(models))

@@ -4,11 +4,10 @@ import numpy as np
 
 from . import _validate
 from .association import gate, global_nearest_neighbour, nearest_neighbour
-from .batch import check_measurement_model, check_models
+from .batch import check_model_set, check_models
 from .core import imm as _imm
 from .core import kalman as _kalman
 from .models.measurement import LinearGaussian
-from .models.transition import TransitionModel
 from .types.mixture import IMMTrackSet, TrackSet
 
 _ASSOCIATORS = {"gnn": global_nearest_neighbour, "nn": nearest_neighbour}
@@ -274,13 +273,7 @@ class IMMTracker(MultiTargetTracker):
     def __init__(self, transition_models, measurement_model, transition_matrix, prior_mean,
                  prior_covar, mode_probs=None, association="gnn", prob_detect=0.9,
                  clutter_density=None, **options):
-        models = _validate.instances(transition_models, TransitionModel, "transition_models")
-        if not models:
-            raise ValueError("transition_models must hold at least one model")
-        check_measurement_model(measurement_model)
-        self._has = _imm.components(models, measurement_model.ndim_state)
-        for model in models:
-            check_models(model, measurement_model, self._nonlinear_transitions)
+        models, self._has = check_model_set(transition_models, measurement_model)
         self.jpda = association == "jpda"
         super().__init__(models[0], measurement_model, prior_mean, prior_covar,
                          association="gnn" if self.jpda else association, **options)
