@@ -7,6 +7,7 @@ truncated, parsed or cast; counts and indices must be integers (not floats or bo
 """
 import math
 import numbers
+import os
 
 import numpy as np
 from ._jit.tunables import PSD_TOLERANCE
@@ -197,6 +198,19 @@ def linear_weights(value, name, size=None):
         raise ValueError(f"{name}: all weights are zero")
     with np.errstate(divide="ignore"):
         return np.log(w)
+
+
+def storable(count, bytes_each, name):
+    """ValueError naming ``name`` when ``count`` items of ``bytes_each`` bytes would need
+    more than the machine's physical memory (rather than NumPy's MemoryError, which names
+    only a shape)."""
+    try:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):  # (no sysconf: NumPy's error stands)
+        return
+    if count * bytes_each > memory:
+        raise ValueError(f"{name}={count} needs {count * bytes_each / 2**30:.3g} GiB of "
+                         f"arrays, more than this machine's {memory / 2**30:.3g} GiB of memory")
 
 
 def count(value, name, default=None, minimum=1, maximum=MAX_COUNT):

@@ -111,6 +111,9 @@ def test_bad_input(cls):
         resampler.resample(np.zeros((1, 3)))
     with pytest.raises(ValueError, match="nparts must be >= 1"):
         resampler.resample(ParticleState(np.zeros((1, 3))), nparts=0)
+    with pytest.raises(ValueError, match=r"nparts=1099511627776 needs .* GiB of arrays, more "
+                                         r"than this machine's"):
+        resampler.resample(ParticleState(np.zeros((1, 3))), nparts=2**40)
     state = ParticleState(np.zeros((1, 3)))
     state._log_weight = np.array([0.0, np.nan, 0.0])  # corrupted after construction
     with pytest.raises(ValueError, match="particles.log_weight contains NaN"):

@@ -145,6 +145,7 @@ def draw(log_weights, nparts=None, method=ResidualMethod.SYSTEMATIC, residual=Fa
     """
     log_w, log_w_max = _validate.log_weights(log_weights, name)
     n = _validate.count(nparts, "nparts", default=log_w.size)
+    _validate.storable(n, 8 * (1 if columns is None else 1 + columns.shape[0]), "nparts")
     key = _random.stream_key(rng)
     starts_dtype = _index_dtype(n, log_w.size)
     dtype = starts_dtype if compact else np.int64
