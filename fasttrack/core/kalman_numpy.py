@@ -68,14 +68,15 @@ def _all_positive_definite(covars):
     """Whether each of the (K, n, n) ``covars`` is one :func:`covariance_status` passes at
     once (symmetric, every Cholesky pivot well clear of its tolerance); False if any needs
     a closer look."""
+    k, n = covars.shape[:2]
     if _asymmetric(covars).any():
         return False
     try:
-        pivots = np.linalg.cholesky(covars).diagonal(axis1=1, axis2=2).min(axis=1)
+        pivots = np.linalg.cholesky(covars).reshape(k, n * n)[:, ::n + 1]
     except np.linalg.LinAlgError:
         return False
-    top = np.maximum(covars.diagonal(axis1=1, axis2=2).max(axis=1), 0.0)
-    return bool(np.all(pivots**2 > 2.0 * PSD_TOLERANCE * top))
+    top = covars.reshape(k, n * n)[:, ::n + 1].max(axis=1)  # > 0 (a factor exists)
+    return bool((pivots * pivots > (2.0 * PSD_TOLERANCE) * top[:, None]).all())
 
 
 def _symmetric(a):

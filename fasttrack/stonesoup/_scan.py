@@ -211,18 +211,18 @@ class _Scan:
 
     def _measurement_model(self):
         """The one model of every detection (its own, else the updater's) and its fasttrack
-        model; the updater's for no detections."""
+        model; the updater's for no detections. Sets ``own_models``, the detections'
+        distinct own models (None for those without)."""
         updater = self.recipe.updater
-        model = None
-        for detection in self.detections:
-            own = detection.measurement_model
-            own = updater.measurement_model if own is None else own
-            if model is None:
-                model = own
-            elif own is not model:
-                raise _NotFast("detections of several measurement models")
-        if not self.detections:
-            model = updater.measurement_model
+        self.own_models = tuple({id(model): model for model in
+                                 [detection.measurement_model
+                                  for detection in self.detections]}.values())
+        models = {id(model): model for model in
+                  (updater.measurement_model if own is None else own
+                   for own in self.own_models)}
+        if len(models) > 1:
+            raise _NotFast("detections of several measurement models")
+        model = models.popitem()[1] if models else updater.measurement_model
         fast = "no measurement model" if model is None else updater._fast(model)
         if isinstance(fast, str):
             raise _NotFast(fast)

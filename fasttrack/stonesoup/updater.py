@@ -366,7 +366,7 @@ class _PointProcess:
     def update(self, hypotheses):
         groups = pending(hypotheses)
         if groups is not None and all(tag is not None for tag in groups.tags) \
-                and not self._reason(groups.scan.detections) \
+                and not self._reason(groups.scan.own_models) \
                 and all(type(p) in (float, int, np.float64) for p in (self.prob_detection,
                                                                       self.prob_survival)):
             update = self._scan_update(groups, hypotheses)
@@ -374,7 +374,8 @@ class _PointProcess:
                 return update
         pairs = [hypothesis for multiple in hypotheses[:-1] for hypothesis in multiple]
         measurements = [hypothesis.measurement for hypothesis in pairs]
-        reason = self._reason(measurements)
+        reason = self._reason({id(model): model for model in
+                               [m.measurement_model for m in measurements]}.values())
         predicted = None
         if not reason:
             predicted = _carried_predictions(pairs)
@@ -506,13 +507,13 @@ class _PointProcess:
         weights = np.where(born[k], weights, weights * self.prob_survival)
         return means[k] + np.einsum("kij,kj->ki", gains[k], z - z_hats), post[k], weights
 
-    def _reason(self, measurements):
-        """Why Stone Soup's code must update the pairs of these measurements, or None."""
+    def _reason(self, own_models):
+        """Why Stone Soup's code must update the pairs of detections whose own measurement
+        models are ``own_models`` (distinct; None for the updater's), or None."""
         if type(self.updater) not in (ss_kalman.KalmanUpdater, KalmanUpdater):
             return f"an updater of type {type(self.updater).__name__}"
-        detections = {id(m): m for m in measurements}.values()
-        models = {id(model): model for model in (_measurement_model(self.updater, m)
-                                                 for m in detections)}
+        models = {id(model): model for model in (own or self.updater.measurement_model
+                                                 for own in own_models)}
         if len(models) > 1:
             return "detections of several measurement models"
         if models and type(next(iter(models.values()))) is not SSLinearGaussian:
