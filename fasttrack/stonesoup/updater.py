@@ -423,12 +423,10 @@ class _PointProcess:
         order = np.argsort(scan.candidates, kind="stable")
         k, detection = owners[order], scan.candidates[order]
         model = _measurement_model(self.updater, scan.detections[0]) if k.size else None
-        log_likelihoods = scan.log_likelihoods(model)
-        predicted = None
-        if k.size and log_likelihoods is None:  # the scan predicted with another model
-            predicted = scan.carried_predictions()
-            if predicted is None:
-                return None
+        log_likelihoods = scan.log_likelihoods(model)  # (None: the scan's is another model)
+        predicted = scan.carried_predictions()
+        if k.size and log_likelihoods is None and predicted is None:
+            return None
         tags = groups.tags
         pair_tags = [tags[i] for i in k.tolist()]
         born = [q for q, tag in enumerate(pair_tags) if tag == "birth"]
@@ -483,21 +481,22 @@ class _PointProcess:
         (K, m, m), cross covariances (K, d, m)), by default ``model``'s (its gain and
         posterior covariance once per component; the Joseph form with ``model``'s H and
         R, as Stone Soup's)."""
-        h, r = floats(model.matrix()), floats(model.covar())
-        k = component
-        cross = covars @ h.T
-        innovation = h @ cross + r
-        z_hats = means[k] @ h.T
+        k, joseph = component, self.updater.use_joseph_cov
+        if log_likelihoods is None or predicted is None or joseph:
+            h, r = floats(model.matrix()), floats(model.covar())
+        if log_likelihoods is None or predicted is None:
+            cross = covars @ h.T
+            own = means @ h.T, h @ cross + r, cross
         if log_likelihoods is None:
-            v = z - z_hats
-            _, log_det = np.linalg.slogdet(2 * np.pi * innovation)
+            v = z - own[0][k]
+            _, log_det = np.linalg.slogdet(2 * np.pi * own[1])
             log_likelihoods = -0.5 * (np.einsum(
-                "ki,ki->k", v, np.linalg.solve(innovation[k], v[..., None])[..., 0])
+                "ki,ki->k", v, np.linalg.solve(own[1][k], v[..., None])[..., 0])
                 + log_det[k])
-        if predicted is not None:
-            z_hats, innovation, cross = predicted[0][k], predicted[1], predicted[2]
+        z_hats, innovation, cross = own if predicted is None else predicted
+        z_hats = z_hats[k]
         gains = cross @ np.linalg.inv(innovation)
-        if self.updater.use_joseph_cov:
+        if joseph:
             i_kh = np.eye(means.shape[1]) - gains @ h
             post = i_kh @ covars @ i_kh.transpose(0, 2, 1) + gains @ r @ gains.transpose(0, 2, 1)
         else:
