@@ -265,13 +265,24 @@ def bool_array(value, name, shape):
     return np.ascontiguousarray(a)
 
 
-def real(value, name):
-    """A finite real number (not a bool), as a float."""
+def _float(value, name):
+    """A real number (not a bool) as a float: a TypeError for another type, a ValueError for
+    one beyond the float range (a huge int, a Fraction)."""
     if not is_real(value):
         raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-    if not np.isfinite(value):
+    try:
+        return float(value)
+    except OverflowError:
+        raise ValueError(f"{name} must lie within the float range (|x| < 1.8e308); the "
+                         f"{type(value).__name__} given does not") from None
+
+
+def real(value, name):
+    """A finite real number (not a bool), as a float."""
+    value = _float(value, name)
+    if not math.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value}")
-    return float(value)
+    return value
 
 
 def probability(value, name):
@@ -300,11 +311,10 @@ def non_negative(value, name):
 
 def threshold(value, name):
     """A real number >= 0 or +inf, as a float."""
-    if not is_real(value):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+    value = _float(value, name)
     if not value >= 0:
         raise ValueError(f"{name} must be >= 0, got {value}")
-    return float(value)
+    return value
 
 
 def asymmetric(stack):

@@ -209,3 +209,18 @@ def test_the_akkf_updater_names_a_bad_model_or_measurement_prediction():
     with pytest.raises(TypeError, match="hypothesis.measurement_prediction must be a "
                                         "measurement prediction"):
         updater.update(hypothesis)
+
+
+@pytest.mark.parametrize("value, error, match", [
+    (10**400, ValueError, "merge_threshold must lie within the float range"),
+    (-10**400, ValueError, "merge_threshold must lie within the float range"),
+    ("16", TypeError, "merge_threshold must be a real number, got str"),
+])
+def test_a_number_beyond_the_float_range_is_named(value, error, match):
+    with pytest.raises(error, match=match):
+        ft.GaussianMixtureReducer(merge_threshold=value)
+
+
+def test_a_fraction_is_a_real_number():
+    from fractions import Fraction
+    assert ft.GaussianMixtureReducer(prune_threshold=Fraction(1, 4)).prune_threshold == 0.25

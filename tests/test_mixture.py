@@ -30,6 +30,38 @@ def test_segment_logsumexp_matches_its_mirror(sizes, seed):
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
 
 
+_SEGMENTS_OUT_OF_RANGE = """
+import numpy as np
+import fasttrack._jit
+from fasttrack.core import mixture
+fasttrack._jit.kernels_from_now()
+values = np.zeros(20_000)
+for last, first in [(10**12, 0), (20_000, -7), (20_001, 0)]:
+    starts = np.arange(20_001)
+    starts[-1], starts[0] = last, first
+    try:
+        mixture.segment_logsumexp(values, starts)
+    except ValueError as error:
+        print("refused:", str(error).split(" within")[0])
+try:
+    mixture.segment_logsumexp(values, np.array([0, 5, 3, 9]))
+except ValueError as error:
+    print("refused:", str(error).split(" within")[0])
+"""
+
+
+def test_segments_out_of_range_are_refused_in_a_process_of_their_own():
+    """The kernel never reads past the values: the process lives, each call refused."""
+    import subprocess
+    import sys
+    done = subprocess.run([sys.executable, "-c", _SEGMENTS_OUT_OF_RANGE], capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["refused: starts must be non-decreasing"] * 4
+    with pytest.raises(ValueError, match="starts a non-empty 1-D integer array"):
+        mixture.segment_logsumexp(np.zeros(3), np.array([0.0, 3.0]))
+
+
 def test_segment_logsumexp_of_empty_zero_infinite_and_nan_segments():
     values = np.array([-np.inf, -np.inf, np.inf, 0.0, np.nan, 1e300, 1e300])
     got = mixture.segment_logsumexp(values, np.array([0, 0, 2, 4, 5, 7]))

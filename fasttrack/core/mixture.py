@@ -16,12 +16,20 @@ MODES = {"textbook": TEXTBOOK, "stonesoup": STONESOUP}
 
 def segment_logsumexp(values, starts):
     """(S,) ``log sum exp`` of each CSR segment ``values[starts[s]:starts[s + 1]]`` of a
-    (K,) float64 array (-inf for an empty segment or one of zero weights)."""
+    (K,) float64 array (-inf for an empty segment or one of zero weights); ``starts``
+    (S + 1,) integers, non-decreasing within ``[0, K]`` (ValueError otherwise)."""
+    values = np.ascontiguousarray(values, dtype=np.float64)
+    starts = np.ascontiguousarray(starts)
+    if values.ndim != 1 or starts.ndim != 1 or starts.size < 1 or starts.dtype.kind not in "iu":
+        raise ValueError(f"values must be 1-D and starts a non-empty 1-D integer array, got "
+                         f"shapes {values.shape} and {starts.shape} ({starts.dtype})")
+    if starts[0] < 0 or starts[-1] > values.size or (np.diff(starts) < 0).any():
+        raise ValueError(f"starts must be non-decreasing within [0, {values.size}] (the "
+                         f"values), got {starts}")
     if _jit.numpy_first(starts.size - 1):
-        return _segment_logsumexp(np.asarray(values, dtype=np.float64), starts)
+        return _segment_logsumexp(values, starts)
     out = np.empty(starts.size - 1)
-    _mixture.segment_logsumexp(np.ascontiguousarray(values, dtype=np.float64),
-                               np.ascontiguousarray(starts, dtype=np.int64), out)
+    _mixture.segment_logsumexp(values, starts.astype(np.int64, copy=False), out)
     return out
 
 
