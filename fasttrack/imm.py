@@ -173,9 +173,11 @@ class IMMUpdater(_Models):
                 model, detection.state_vector.T, z_hat.state_vector.T, z_hat.covar[None])[0]
         with np.errstate(divide="ignore"):
             log_posterior = np.log(predicted) + log_likelihoods
-        log_posterior -= log_posterior.max()
-        posterior = np.exp(log_posterior) / np.exp(log_posterior).sum()
-        return _stacked(states, posterior, detection.timestamp)
+        with np.errstate(invalid="ignore"):
+            log_posterior -= log_posterior.max()
+            posterior = np.exp(log_posterior) / np.exp(log_posterior).sum()
+        return _stacked(states, _imm.weighed(posterior, "hypothesis.measurement"),
+                        detection.timestamp)
 
 
     def _kernel_update(self, prediction, predicted, detection):
@@ -194,7 +196,7 @@ class IMMUpdater(_Models):
             return None
         z = model.measurement_column(detection, "hypothesis.measurement")
         out = _imm.update(model, prediction.means[None], prediction.covars[None],
-                          predicted[None], z.T)
+                          predicted[None], z.T, "hypothesis.measurement")
         return None if out is None else _stacked_arrays(out[0][0], out[1][0], out[2][0],
                                                         detection.timestamp)
 

@@ -81,6 +81,35 @@ def test_the_model_that_fits_wins_and_a_far_measurement_leaves_finite_probabilit
     assert np.isfinite(means).all() and np.isfinite(covars).all()
 
 
+@pytest.mark.parametrize("order", [None, 1, 2])
+def test_a_measurement_beyond_every_likelihood_is_named(order):
+    """At 1e160 every model's squared Mahalanobis distance is beyond the float range: no
+    model can be weighed (NaN probabilities before); at 1e12 the weights stay finite."""
+    models, matrix = [_cv(0.01), _cv(10.0)], [[0.95, 0.05], [0.05, 0.95]]
+    filt = ft.BatchIMMFilter(models, SENSOR, matrix) if order is None \
+        else ft.BatchGPBFilter(models, SENSOR, matrix, order=order)
+    means, covars = np.zeros((2, 2, 4)), np.tile(np.eye(4), (2, 2, 1, 1))
+    probs = np.full((2, 2), 0.5)
+    assert np.isfinite(filt.step(means, covars, probs, [[0.0, 0.0], [1e12, 0.0]], 1.0)[2]).all()
+    with pytest.raises(ValueError, match=r"measurements\[1\] lies so far from every model's "
+                                         r"prediction that its likelihood rounds to 0"):
+        filt.step(means, covars, probs, [[0.0, 0.0], [1e160, 0.0]], 1.0)
+
+
+@pytest.mark.parametrize("updater", [ft.KalmanUpdater, ft.ExtendedKalmanUpdater,
+                                     ft.UnscentedKalmanUpdater])
+def test_the_pair_names_a_measurement_beyond_every_likelihood(updater):
+    matrix = [[0.95, 0.05], [0.05, 0.95]]
+    prior = ft.GaussianMixture([ft.WeightedGaussianState(np.zeros(4), np.eye(4), weight=0.5,
+                                                         timestamp=0.0)] * 2)
+    prediction = ft.IMMPredictor([ft.KalmanPredictor(_cv(0.01)), ft.KalmanPredictor(_cv(10.0))],
+                                 matrix).predict(prior, 1.0)
+    pair = ft.IMMUpdater([updater(SENSOR)] * 2, matrix)
+    with pytest.raises(ValueError, match="hypothesis.measurement lies so far from every model"):
+        pair.update(ft.SingleHypothesis(prediction, ft.Detection(
+            [[1e160], [0.0]], timestamp=1.0, measurement_model=SENSOR)))
+
+
 def _formulas(transition_models, matrix, means, covars, probs, z, dt):
     """One IMM step of one filter, formula by formula (Bar-Shalom, Li and Kirubarajan)."""
     m = len(transition_models)

@@ -195,12 +195,26 @@ def step(transition_models, measurement_model, matrix, means, covars, mode_probs
     ValueError
         If a model's prediction or update is undefined, naming the filter and the model.
     """
-    fused = _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
-                   measurements, intervals, algorithm, has)
-    if fused is not None:
-        return fused
-    return general_step(transition_models, measurement_model, matrix, means, covars,
-                        mode_probs, measurements, intervals, algorithm, has)
+    out = _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
+                 measurements, intervals, algorithm, has)
+    if out is None:
+        out = general_step(transition_models, measurement_model, matrix, means, covars,
+                           mode_probs, measurements, intervals, algorithm, has)
+    weighed(out[2])
+    return out
+
+
+def weighed(mode_probs, name="measurements"):
+    """``mode_probs`` (K, M) or (M,), each filter's posterior mode probabilities; a
+    ValueError naming ``name[k]`` for a filter whose measurement every model's likelihood
+    rounds to 0 (its squared Mahalanobis distances beyond the float range: NaN weights)."""
+    bad = np.flatnonzero(~np.isfinite(mode_probs).all(axis=-1).reshape(-1))
+    if bad.size:
+        where = f"{name}[{bad[0]}]" if mode_probs.ndim == 2 and len(mode_probs) > 1 else name
+        raise ValueError(f"{where} lies so far from every model's prediction that its "
+                         f"likelihood rounds to 0 under each (a squared Mahalanobis distance "
+                         f"beyond 1.8e308): the models cannot be weighed")
+    return mode_probs
 
 
 def general_step(transition_models, measurement_model, matrix, means, covars, mode_probs,
@@ -258,7 +272,8 @@ def updates(transition_models, measurement_model, means, covars, predicted, z_ha
             innovations[:, j], measurements)
         with np.errstate(divide="ignore"):
             log_posterior[:, j] = np.log(predicted[:, j]) + log_likelihood
-    return out_means, out_covars, _normalised(log_posterior)
+    with np.errstate(invalid="ignore"):
+        return out_means, out_covars, weighed(_normalised(log_posterior))
 
 
 def jpda_updates(measurement_model, means, covars, predicted, z_hats, innovations,
@@ -447,12 +462,12 @@ def predict(transition_models, matrix, means, covars, mode_probs, dt, has=None):
     return out if not np.count_nonzero(status) else None
 
 
-def update(measurement_model, means, covars, predicted, measurements):
+def update(measurement_model, means, covars, predicted, measurements, name="measurements"):
     """The IMM's update of K filters' model predictions with their measurements (K, m) in
     one kernel call (:func:`fasttrack._jit.imm.imm_update`): ``(means, covars, probs)``;
     None where the sensor does not select state components, the process runs NumPy first,
     or an innovation covariance is not positive definite (the caller's general path then
-    reports it)."""
+    reports it); ``name``: the measurements' name in errors (see :func:`weighed`)."""
     sensor = measurement_model.spec
     k, models = predicted.shape
     if sensor.kind != SELECT or np.count_nonzero(sensor.angles) \
@@ -462,7 +477,10 @@ def update(measurement_model, means, covars, predicted, measurements):
     status = np.empty(k, dtype=np.int64)
     _imm.imm_update(sensor.mapping, sensor.noise_covar, means, covars, predicted,
                     measurements, *out, status)
-    return out if not np.count_nonzero(status) else None
+    if np.count_nonzero(status):
+        return None
+    weighed(out[2], name)
+    return out
 
 
 def components(transition_models, d):
@@ -536,4 +554,6 @@ def log_gaussian(measurement_model, measurements, z_hats, innovation):
                          f"definite") from None
     whitened = np.linalg.solve(lower, v[..., None])[..., 0]
     log_det = np.log(np.diagonal(lower, axis1=1, axis2=2)).sum(axis=1)
-    return -0.5 * (whitened ** 2).sum(axis=1) - log_det - 0.5 * v.shape[1] * np.log(2 * np.pi)
+    with np.errstate(over="ignore"):  # (-inf: a likelihood that rounds to 0)
+        return (-0.5 * (whitened ** 2).sum(axis=1) - log_det
+                - 0.5 * v.shape[1] * np.log(2 * np.pi))
