@@ -195,3 +195,20 @@ def test_a_prediction_that_is_not_positive_definite_is_named():
     status = imm_smooth.smooth([static, static], np.full((2, 2), 0.5), means[None],
                                covars[None], np.full((1, 3, 2), 0.5), np.ones(2))[3]
     assert status.tolist() == [2]  # the array layer's status: 1 + the step
+
+
+def test_filtered_probabilities_the_switching_matrix_cannot_reach_are_named():
+    """Model 1 appears although nothing switches into it (the identity matrix): the smoother's
+    ratio by its zero predicted probability is undefined (NaN probabilities before)."""
+    sensor = ft.LinearGaussian(4, (0, 2), np.eye(2))
+    filt = ft.BatchIMMFilter([_cv(0.01), _cv(10.0)], sensor, np.eye(2))
+    means, covars = np.zeros((3, 2, 4)), np.tile(np.eye(4), (3, 2, 1, 1))
+    probs = np.array([[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    with pytest.raises(ValueError, match=r"mode_probs\[2\] gives model 1 a probability, but no "
+                                         r"model with a probability at mode_probs\[1\]"):
+        filt.smooth(means, covars, probs, 1.0)
+    with pytest.raises(ValueError, match=r"mode_probs\[1, 2\] gives model 1"):
+        filt.smooth(np.stack([means] * 2), np.stack([covars] * 2),
+                    np.stack([np.array([[1.0, 0.0]] * 3), probs]), 1.0)
+    probs[:2] = [0.5, 0.5]  # model 1 there from the start: reachable, smoothed finitely
+    assert np.isfinite(filt.smooth(means, covars, probs, 1.0)[2]).all()

@@ -43,8 +43,10 @@ def smooth(transition_models, matrix, means, covars, mode_probs, intervals, has=
     Raises
     ------
     ValueError
-        Naming the user's function and the filtered state where it returns a bad output.
+        Naming the user's function and the filtered state where it returns a bad output,
+        or the first filtered step whose mode probabilities ``matrix`` cannot reach.
     """
+    _reachable(matrix, mode_probs, single)
     values, step = np.unique(intervals, return_inverse=True)
     values = values if values.size else np.zeros(1)
     step = np.ascontiguousarray(np.append(step, 0), dtype=np.int64)
@@ -74,6 +76,20 @@ def smooth(transition_models, matrix, means, covars, mode_probs, intervals, has=
             hi - lo, n, models), step, matrix, mask, *(a[lo:hi] for a in arrays),
             *(a[lo:hi] for a in out), status[lo:hi])
     return (*out, status)
+
+
+def _reachable(matrix, mode_probs, single):
+    """ValueError naming the first filtered step that gives a model a probability although
+    no model of the step before can switch into it (its predicted probability
+    ``sum_i p_ij mu_i`` is 0, and the smoother's ratio by it is undefined)."""
+    bad = (mode_probs[:, 1:] > 0.0) & (mode_probs[:, :-1] @ matrix == 0.0)
+    if bad.any():
+        k, t, j = np.argwhere(bad)[0]
+        track = "" if single else f"{k}, "
+        raise ValueError(f"mode_probs[{track}{t + 1}] gives model {j} a probability, but no "
+                         f"model with a probability at mode_probs[{track}{t}] can switch "
+                         f"into it through transition_matrix: these filtered probabilities "
+                         f"cannot come from this switching matrix")
 
 
 #: How many filtered states :func:`smooth` linearises the models at in one batch (the
