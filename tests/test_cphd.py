@@ -193,6 +193,30 @@ def test_an_empty_scan_and_an_empty_intensity():
     assert none[2].size == 0 and np.exp(none[5]).tolist() == [1.0, 0.0]
 
 
+@pytest.mark.parametrize("rate", [4.0, 1e7, 1e20, 1e200])
+def test_a_large_clutter_rate_keeps_the_update_consistent(rate):
+    """exp(-rate) is a factor of every term: left out, it cannot swamp them (at 1e7 the
+    cardinality summed to 1 + 8e-10 before, at 1e20 to 11). The updated intensity's mass
+    is the posterior cardinality's mean (a CPHD identity)."""
+    means, covars, log_weights = _mixture(1, 5)
+    detections = np.vstack([means[:3, ::2] + 0.2, [[500.0, 500.0]]])
+    out = cphd.update(SENSOR, means, covars, log_weights, np.full(11, -np.log(11)),
+                      detections, 0.9, rate, rate * 1e-6)
+    card = np.exp(out[5])
+    assert card.sum() == pytest.approx(1.0, rel=1e-12)
+    assert np.exp(out[2]).sum() == pytest.approx(np.arange(11) @ card, rel=1e-11)
+
+
+def test_an_update_without_a_defined_answer_is_refused():
+    means, covars, log_weights = _mixture(0, 3)
+    with pytest.raises(ValueError, match="log_weights are all -inf"):
+        cphd.update(SENSOR, means, covars, np.full(3, -np.inf), np.full(4, -np.log(4)),
+                    [[0.0, 1.0]], 0.9, 2.0, 1e-3)
+    with pytest.raises(ValueError, match="the detections have probability 0"):
+        cphd.update(SENSOR, means, covars, log_weights, [-np.inf, 0.0], np.empty((0, 2)),
+                    1.0, 2.0, 1e-3)  # a target certainly there and certainly detected
+
+
 def test_many_detections_do_not_overflow():
     means, covars, log_weights = _mixture(2, 40)
     clutter = np.random.default_rng(0).uniform(1000.0, 2000.0, size=(160, 2))  # far away

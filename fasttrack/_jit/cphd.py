@@ -105,12 +105,13 @@ def _log_factorials(size):
 def _term(u, count, n, j, log_p, log_missed, log_total, log_rate, log_factorial):
     """The log of Upsilon^u's term (n, j) for ``count`` detections, times p(n):
     (count - j)! p_K(count - j) P^n_{j+u} (1 - P_D)^(n - j - u) / <1, w>^(j + u) p(n), with
-    Poisson clutter of rate exp(log_rate); -inf where it is 0. ``log_factorial[k]`` = log k!
-    for k <= n."""
+    Poisson clutter of rate exp(log_rate), less its factor exp(-rate), which every term has
+    (it cancels in the update's ratios, and at a large rate it would swamp them); -inf
+    where it is 0. ``log_factorial[k]`` = log k! for k <= n."""
     k = n - j - u
     if k < 0 or log_p == -np.inf or (k > 0 and log_missed == -np.inf):
         return -np.inf
-    return (-math.exp(log_rate) + _power(log_rate, count - j) + log_factorial[n]
+    return (_power(log_rate, count - j) + log_factorial[n]
             - log_factorial[k] + _power(log_missed, k) - _power(log_total, j + u) + log_p)
 
 

@@ -94,14 +94,18 @@ def update(model, means, covars, log_weights, log_cardinality, detections, prob_
                                 gate_threshold, unscented)
     m, size = scan.shape[0], log_cardinality.size
     log_total = _numpy.logsumexp(pairs.predicted[2])
+    if log_total == -np.inf and (log_cardinality[1:] > -np.inf).any():
+        raise ValueError("log_weights are all -inf (no intensity to place targets by) while "
+                         "log_cardinality gives targets a probability")
     with np.errstate(divide="ignore"):
         log_missed = np.log1p(-float(prob_detect))
     log_values = pairs.totals + log_rate - log_clutter  # Lambda_z
     if _jit.numpy_first(_numpy.work(m, size)):
         log_e = _numpy.log_esf(log_values)
-        posterior, missed, without = _numpy.update_sums(
-            log_e, _numpy.log_esf_without(log_values, log_e), log_cardinality, log_missed,
-            log_total, log_rate)
+        with np.errstate(invalid="ignore"):  # (NaN: checked below)
+            posterior, missed, without = _numpy.update_sums(
+                log_e, _numpy.log_esf_without(log_values, log_e), log_cardinality,
+                log_missed, log_total, log_rate)
     else:
         log_e, esf_without = np.empty(m + 1), np.empty((m, m))
         _cphd.log_esf(log_values, log_e)
@@ -109,6 +113,10 @@ def update(model, means, covars, log_weights, log_cardinality, detections, prob_
         posterior, without = np.empty(size), np.empty(m)
         missed = _cphd.update_sums(log_e, esf_without, log_cardinality, log_missed, log_total,
                                    log_rate, posterior, without)
+    if np.isnan(posterior).any():  # every cardinality's term is 0
+        raise ValueError("the detections have probability 0 under log_cardinality and "
+                         "prob_detect (e.g. prob_detect = 1 and fewer detections than the "
+                         "fewest targets possible)")
     log_detected = pairs.log_detected + log_rate - log_clutter + without[pairs.detections]
     return (*pairs.components(log_missed + missed, log_detected), posterior)
 

@@ -81,10 +81,11 @@ def _log_power(log_base, exponent):
 def _upsilon_terms(u, m, log_cardinality, log_missed, log_total, log_rate):
     """The (N + 1, m + 1) logs of Upsilon^u's terms times the cardinality, at (n, j):
     (m - j)! p_K(m - j) P^n_{j+u} (1 - P_D)^(n - j - u) / <1, w>^(j + u) p(n), without
-    e_j; for Poisson clutter (m - j)! p_K(m - j) = exp(-rate) rate^(m - j)."""
+    e_j; for Poisson clutter (m - j)! p_K(m - j) = exp(-rate) rate^(m - j), taken without
+    exp(-rate), as the kernel."""
     n = np.arange(log_cardinality.size)[:, None]
     j = np.arange(m + 1)[None, :]
-    return _product(_power_or_zero(log_rate, m - j), _log_falling(n, j + u),
+    return _product(_log_power(log_rate, m - j), _log_falling(n, j + u),
                     _log_power(log_missed, n - j - u), -_log_power(log_total, j + u),
                     log_cardinality[:, None])
 
@@ -98,11 +99,6 @@ def _product(*logs):
     for factor in logs:
         zero |= np.asarray(factor) == -np.inf
     return np.where(zero, -np.inf, total)
-
-
-def _power_or_zero(log_rate, exponent):
-    """-rate + exponent log(rate), the log Poisson numerator; 0 ** 0 = 1."""
-    return -np.exp(log_rate) + _log_power(log_rate, exponent)
 
 
 def predict_cardinality(log_cardinality, log_survive, log_die, birth_mean):
