@@ -377,3 +377,35 @@ def test_the_drop_in_reducer_reduces_the_updates_arrays(seed):
     assert type(copied) is type(again) is GaussianMixtureUpdate
     assert copied.components == again.components and copied.components is not again.components
     assert len(pickle.loads(pickle.dumps(updater.update(hypotheses)))) == len(built)
+
+
+def test_an_indefinite_innovation_covariance_goes_to_stone_soups_code():
+    """An indefinite component makes an innovation covariance Stone Soup's likelihood
+    refuses: the drop-in runs Stone Soup's code (which raises) instead of weighing it."""
+    t1 = T0 + datetime.timedelta(seconds=1)
+    components = [TaggedWeightedGaussianState(np.array([[0.0], [1], [0], [1]]), -np.eye(4),
+                                              weight=0.8, timestamp=T0, tag="a"),
+                  TaggedWeightedGaussianState(np.zeros((4, 1)), np.diag([1e4, 2, 1e4, 2]),
+                                              weight=0.25, timestamp=T0, tag="birth")]
+    scan = {Detection(np.array([[1.0], [1.0]]), timestamp=t1, measurement_model=SENSOR)}
+    hypotheses = GaussianMixtureHypothesiser(DistanceHypothesiser(
+        KalmanPredictor(TRANSITION), KalmanUpdater(SENSOR), Mahalanobis(), missed_distance=3),
+        order_by_detection=True).hypothesise(components, scan, t1, order_by_detection=True)
+    fallbacks(clear=True)
+    for updater in (PHDUpdater, Original):
+        with pytest.raises(ValueError, match="must be symmetric positive semidefinite"):
+            updater(KalmanUpdater(SENSOR), clutter_spatial_density=1e-3,
+                    prob_detection=0.9).update(hypotheses)
+    assert [reason for (_, _, reason) in fallbacks()] == [
+        "an innovation covariance that is not positive definite"]
+    for updater in (PHDUpdater, Original):  # no hypotheses at all: Stone Soup's IndexError
+        with pytest.raises(IndexError):
+            updater(KalmanUpdater(SENSOR), clutter_spatial_density=1e-3).update([])
+
+
+def test_the_drop_in_reducer_names_stone_soups_cap():
+    from fasttrack.stonesoup import GaussianMixtureReducer
+    component = TaggedWeightedGaussianState(np.zeros((4, 1)), np.eye(4), weight=0.8,
+                                            timestamp=T0, tag="a")
+    with pytest.raises(ValueError, match="max_number_components must be >= 1, got 0"):
+        GaussianMixtureReducer(max_number_components=0).reduce([component] * 2)

@@ -23,6 +23,7 @@ from stonesoup.mixturereducer import gaussianmixture as ss
 from stonesoup.types.array import CovarianceMatrix, StateVector
 from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianState
 
+from .. import _validate
 from ..core import mixture as _mixture
 from ..core.mixture_numpy import ordered_sum
 from ._convert import mixture_components
@@ -63,10 +64,11 @@ class GaussianMixtureReducer(ss.GaussianMixtureReducer):
                     return []
                 weights = weights[kept] + ordered_sum(weights[low]) / kept.size
                 source.set_weights(kept, weights)
-        cap = self.max_number_components
+        cap = _validate.count(self.max_number_components, "max_number_components", maximum=None) \
+            if self.truncating else kept.size
         means, covars, weights, heaviest, member = _mixture.reduce(
             *source.arrays(kept), weights, "stonesoup", None, self.merge_threshold,
-            cap if self.truncating and cap < kept.size else None, self.merging)
+            cap if cap < kept.size else None, self.merging)
         alone = (np.bincount(member[member >= 0], minlength=weights.size) == 1).tolist()
         heaviest = kept[heaviest].tolist()
         weights = weights.tolist()

@@ -369,13 +369,16 @@ class _PointProcess:
                 and not self._reason(groups.scan.own_models) \
                 and all(type(p) in (float, int, np.float64) for p in (self.prob_detection,
                                                                       self.prob_survival)):
-            update = self._scan_update(groups, hypotheses)
+            try:
+                update = self._scan_update(groups, hypotheses)
+            except _Indefinite:
+                update = None  # (the hypotheses' own path finds it too)
             if update is not None:
                 return update
         pairs = [hypothesis for multiple in hypotheses[:-1] for hypothesis in multiple]
         measurements = [hypothesis.measurement for hypothesis in pairs]
-        reason = self._reason({id(model): model for model in
-                               [m.measurement_model for m in measurements]}.values())
+        reason = "no hypotheses" if not hypotheses else self._reason(
+            {id(model): model for model in [m.measurement_model for m in measurements]}.values())
         predicted = None
         if not reason:
             predicted = _carried_predictions(pairs)
@@ -387,14 +390,18 @@ class _PointProcess:
                               [len(multiple) for multiple in hypotheses[:-1]])
         predictions = [p.prediction for p in pairs]
         tags = [prediction.tag for prediction in predictions]
-        means, covars, weights, sums = self._detected(
-            np.array([p.state_vector[:, 0] for p in predictions], dtype=np.float64),
-            np.array([p.covar for p in predictions], dtype=np.float64),
-            np.array([float(p.weight) for p in predictions]),
-            np.array([tag == "birth" for tag in tags]), np.arange(len(pairs)),
-            _rows(measurements),
-            _measurement_model(self.updater, measurements[0]) if pairs else None, detection,
-            len(hypotheses) - 1, predicted=predicted)
+        try:
+            means, covars, weights, sums = self._detected(
+                np.array([p.state_vector[:, 0] for p in predictions], dtype=np.float64),
+                np.array([p.covar for p in predictions], dtype=np.float64),
+                np.array([float(p.weight) for p in predictions]),
+                np.array([tag == "birth" for tag in tags]), np.arange(len(pairs)),
+                _rows(measurements),
+                _measurement_model(self.updater, measurements[0]) if pairs else None,
+                detection, len(hypotheses) - 1, predicted=predicted)
+        except _Indefinite:
+            fall_back(self, "update", "an innovation covariance that is not positive definite")
+            return super().update(hypotheses)
         updated = [_tagged_state(tag=tag if tag != "birth" else None, weight=weight,
                                  state_vector=mean[:, None].view(StateVector),
                                  covar=covar.view(CovarianceMatrix), timestamp=m.timestamp)
@@ -488,11 +495,14 @@ class _PointProcess:
             cross = covars @ h.T
             own = means @ h.T, h @ cross + r, cross
         if log_likelihoods is None:
-            v = z - own[0][k]
-            _, log_det = np.linalg.slogdet(2 * np.pi * own[1])
-            log_likelihoods = -0.5 * (np.einsum(
-                "ki,ki->k", v, np.linalg.solve(own[1][k], v[..., None])[..., 0])
-                + log_det[k])
+            try:
+                lower = np.linalg.cholesky(own[1])
+            except np.linalg.LinAlgError:  # (Stone Soup's likelihood refuses it)
+                raise _Indefinite from None
+            whitened = np.linalg.solve(lower[k], (z - own[0][k])[..., None])[..., 0]
+            log_likelihoods = -0.5 * (np.einsum("ki,ki->k", whitened, whitened)
+                                      + z.shape[1] * np.log(2 * np.pi)) \
+                - np.log(np.diagonal(lower, axis1=1, axis2=2)).sum(axis=1)[k]
         z_hats, innovation, cross = own if predicted is None else predicted
         z_hats = z_hats[k]
         gains = cross @ np.linalg.inv(innovation)
@@ -518,6 +528,11 @@ class _PointProcess:
         if models and type(next(iter(models.values()))) is not SSLinearGaussian:
             return f"a measurement model of type {type(next(iter(models.values()))).__name__}"
         return None
+
+
+class _Indefinite(Exception):
+    """An innovation covariance of the updater's own model that is not positive definite
+    (Stone Soup's code then decides)."""
 
 
 def _carried_predictions(pairs):
