@@ -426,6 +426,7 @@ class BatchIMMFilter:
         if covars.shape != means.shape + means.shape[-1:]:
             raise ValueError(f"covars must have shape {means.shape + means.shape[-1:]}, got "
                              f"{covars.shape}")
+        _imm.covariances(covars)
         mode_probs = _imm.mode_probabilities(mode_probs, means.shape[:-1])
         return _imm.combine(means, covars, mode_probs)
 
@@ -456,7 +457,10 @@ class BatchGPBFilter(BatchIMMFilter):
     """
 
     def __init__(self, transition_models, measurement_model, transition_matrix, order=2):
-        if not _validate.is_integer(order) or order not in (1, 2):
+        if not _validate.is_integer(order):
+            raise TypeError(f"order must be an int, 1 or 2 (GPB1 or GPB2), got "
+                            f"{type(order).__name__}")
+        if order not in (1, 2):
             raise ValueError(f"order must be 1 or 2 (GPB1 or GPB2), got {order!r}")
         super().__init__(transition_models, measurement_model, transition_matrix)
         self.order = order

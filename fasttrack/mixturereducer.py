@@ -60,8 +60,13 @@ class GaussianMixtureReducer:
         """
         if not isinstance(mixture, GaussianMixture):
             raise TypeError(f"mixture must be a GaussianMixture, got {type(mixture).__name__}")
+        with np.errstate(over="ignore"):
+            linear = np.exp(mixture.log_weights)
+        if np.isinf(linear).any():
+            raise ValueError(f"mixture.log_weights must lie below log(1.8e308) = 709.78 (the "
+                             f"reducer works on weights), got {mixture.log_weights.max()}")
         means, covars, weights, source, _ = _mixture.reduce(
-            mixture.means, mixture.covars, np.exp(mixture.log_weights), self.mode,
+            mixture.means, mixture.covars, linear, self.mode,
             self.prune_threshold if self.pruning else None, self.merge_threshold,
             self.max_number_components if self.truncating else None, self.merging)
         above = int(mixture.labels.max()) + 1 if len(mixture) else 0
@@ -69,9 +74,10 @@ class GaussianMixtureReducer:
             first_label = above
         elif not _validate.is_integer(first_label):
             raise TypeError(f"first_label must be an int, got {type(first_label).__name__}")
-        elif first_label < above:
+        elif int(first_label) < above:
             raise ValueError(f"first_label must be above every label of the mixture (>= "
                              f"{above}), got {first_label}")
+        first_label = int(first_label)
         if first_label + len(weights) > np.iinfo(np.int64).max:
             raise ValueError(f"first_label leaves no room for new labels below 2**63, got "
                              f"{first_label}")

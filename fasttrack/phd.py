@@ -123,7 +123,8 @@ class _IntensityTracker:
         if k and dt > 0:
             means, covars, _, _ = _kalman.stack_predict(
                 self.transition_model, self.measurement_model, np.full(k, dt), means, covars)
-        log_survive = _phd.log_probability(self.prob_survival)
+        log_survive = _phd.log_probability(
+            _validate.probability(self.prob_survival, "prob_survival"))
         births = len(self.birth)
         labels = np.concatenate((mixture.labels,
                                  self._next_label + np.arange(births, dtype=np.int64)))

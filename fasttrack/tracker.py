@@ -81,9 +81,9 @@ class MultiTargetTracker:
         covar = _validate.psd_covariance(prior_covar, "prior_covar", d)
         self._start = self._initiation(measurement_model, mean, covar)
         self.missed_distance = _validate.positive(missed_distance, "missed_distance")
-        if self.missed_distance >= 1e154:
-            raise ValueError(f"missed_distance must be below 1e154 (its square is the gate "
-                             f"threshold), got {missed_distance}")
+        if not 1e-154 <= self.missed_distance < 1e154:
+            raise ValueError(f"missed_distance must lie in [1e-154, 1e154) (its square, the "
+                             f"gate threshold, a finite number > 0), got {missed_distance}")
         self.min_points = _validate.count(min_points, "min_points")
         self.delete_after_misses = _validate.count(delete_after_misses, "delete_after_misses")
         self.tentative_misses = _validate.count(tentative_misses, "tentative_misses")
@@ -274,6 +274,9 @@ class IMMTracker(MultiTargetTracker):
                  prior_covar, mode_probs=None, association="gnn", prob_detect=0.9,
                  clutter_density=None, **options):
         models, self._has = check_model_set(transition_models, measurement_model)
+        if not isinstance(association, str) or association not in ("gnn", "jpda", "nn"):
+            raise ValueError(f"association must be one of ['gnn', 'jpda', 'nn'], got "
+                             f"{association!r}")
         self.jpda = association == "jpda"
         super().__init__(models[0], measurement_model, prior_mean, prior_covar,
                          association="gnn" if self.jpda else association, **options)

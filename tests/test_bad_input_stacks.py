@@ -54,6 +54,7 @@ def test_mixtures_name_a_bad_argument(call, error, match):
     (0, r"first_label must be above every label of the mixture \(>= 2\), got 0"),
     (2**63 - 1, "first_label leaves no room for new labels below 2\\*\\*63"),
     (2**70, "first_label leaves no room"),
+    (np.uint64(2**64 - 1), "first_label leaves no room"),  # (wrapped to new labels below)
 ])
 def test_new_labels_cannot_collide_or_wrap(first_label, match):
     mixture = ft.GaussianMixture(MEANS, COVARS, ZEROS, [0, 0, 1])
@@ -61,6 +62,21 @@ def test_new_labels_cannot_collide_or_wrap(first_label, match):
         ft.GaussianMixtureReducer(merge_threshold=0.0).reduce(mixture, first_label=first_label)
     assert sorted(ft.GaussianMixtureReducer(merge_threshold=0.0).reduce(mixture).labels) == \
         [0, 1, 2]
+
+
+def test_weights_beyond_the_float_range_are_named():
+    mixture = ft.GaussianMixture(MEANS, COVARS, [800.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match=r"mixture.log_weights must lie below log\(1.8e308\)"):
+        ft.GaussianMixtureReducer().reduce(mixture)
+
+
+def test_combining_models_checks_their_covariances():
+    means, covars = np.zeros((1, 2, 4)), np.tile(np.eye(4), (1, 2, 1, 1))
+    with pytest.raises(ValueError, match=r"covars\[0, 1\] is not positive semi-definite"):
+        ft.BatchIMMFilter.combine(means, covars * [[[[1.0]], [[-1.0]]]], [[0.5, 0.5]])
+    covars[0, 0, 0, 1] = 1.0
+    with pytest.raises(ValueError, match=r"covars\[0, 0\] is not symmetric"):
+        ft.BatchIMMFilter.combine(means, covars, [[0.5, 0.5]])
 
 
 def test_zero_dimensional_components_are_refused_by_the_kernels_too():
@@ -138,8 +154,8 @@ def test_a_huge_birth_mean_puts_the_predicted_cardinality_at_the_top(numpy_first
     (lambda: imm.IMMPredictor(None, SWITCH), TypeError, "predictors must be an iterable"),
     (lambda: imm.IMMUpdater([ft.KalmanUpdater(SENSOR), 3], SWITCH), TypeError,
      r"updaters\[1\] must be of type Updater, got int"),
-    (lambda: imm.BatchGPBFilter([CV, CV], SENSOR, SWITCH, order=2.0), ValueError,
-     "order must be 1 or 2"),
+    (lambda: imm.BatchGPBFilter([CV, CV], SENSOR, SWITCH, order=2.0), TypeError,
+     "order must be an int, 1 or 2 .*, got float"),
     (lambda: tracker.IMMTracker(None, SENSOR, SWITCH, np.zeros(4), np.eye(4)), TypeError,
      "transition_models must be an iterable"),
     (lambda: tracker.IMMTracker([CV, None], SENSOR, SWITCH, np.zeros(4), np.eye(4)),

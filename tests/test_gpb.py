@@ -124,7 +124,10 @@ def test_the_batch_is_the_filters_one_by_one_and_a_far_measurement_stays_finite(
     np.testing.assert_allclose(batch[2].sum(axis=1), 1.0, rtol=1e-12)
 
 
-@pytest.mark.parametrize("order", [0, 3, True, "2"])
-def test_an_order_other_than_one_or_two_is_refused(order):
-    with pytest.raises(ValueError, match="order must be 1 or 2"):
+@pytest.mark.parametrize("order,error,match", [
+    (0, ValueError, "order must be 1 or 2"), (3, ValueError, "order must be 1 or 2"),
+    (True, TypeError, "order must be an int, 1 or 2 .*, got bool"),
+    ("2", TypeError, "order must be an int, 1 or 2 .*, got str")])
+def test_an_order_other_than_one_or_two_is_refused(order, error, match):
+    with pytest.raises(error, match=match):
         ft.BatchGPBFilter(_models(), SENSOR, MATRIX, order=order)

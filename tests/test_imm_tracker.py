@@ -74,7 +74,8 @@ def test_turning_targets_are_kept_by_turn_models():
     (dict(mode_probs=[0.2, 0.3, 0.5]), r"mode_probs must have shape \(2,\)"),
     (dict(association="jpda"), "association='jpda' needs clutter_density"),
     (dict(association="jpda", clutter_density=1e-3, prob_detect=0.0), "prob_detect must be > 0"),
-    (dict(association="pda"), "association must be one of"),
+    (dict(association="pda"), r"association must be one of \['gnn', 'jpda', 'nn'\]"),
+    (dict(association=np.array(["jpda"])), "association must be one of"),
 ])
 def test_bad_input_is_refused_naming_the_argument(change, message):
     arguments = dict(transition_models=[TRANSITION, TRANSITION], measurement_model=SENSOR,

@@ -253,6 +253,9 @@ def test_the_tracker_refuses_bad_settings():
         tracker.run(scenario.detections, 0.0)
     assert tracker.time == 5.0 and len(tracker.run(scenario.detections[1:])) == 1
     assert tracker.time == 6.0
+    tracker.prob_survival = 2.0  # changed after construction: checked where it is used
+    with pytest.raises(ValueError, match="prob_survival must lie in"):
+        tracker.step(scenario.detections[1], 7.0)
 
 
 def test_vo_linear_scenario_and_the_tracker_on_it():
