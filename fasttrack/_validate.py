@@ -113,9 +113,9 @@ def finite_array(value, name, ndim=None):
 def intervals(value, shape):
     """Finite ``time_intervals`` (seconds) as a new float64 array of ``shape``: one scalar
     for every entry, or values that broadcast to it."""
-    if is_real(value) and math.isfinite(value):
+    if is_real(value) and math.isfinite(_float(value, "time_intervals")):
         out = np.empty(shape)
-        out.fill(value)
+        out.fill(float(value))
         return out
     a = finite_array(value, "time_intervals")
     try:

@@ -224,3 +224,19 @@ def test_a_number_beyond_the_float_range_is_named(value, error, match):
 def test_a_fraction_is_a_real_number():
     from fractions import Fraction
     assert ft.GaussianMixtureReducer(prune_threshold=Fraction(1, 4)).prune_threshold == 0.25
+
+
+def test_an_interval_beyond_the_float_range_is_named():
+    cv = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.1)] * 2)
+    filt = ft.BatchIMMFilter([cv, cv], ft.LinearGaussian(4, (0, 2), np.eye(2)),
+                             [[0.9, 0.1], [0.1, 0.9]])
+    with pytest.raises(ValueError, match="time_intervals must lie within the float range"):
+        filt.step(np.zeros((1, 2, 4)), np.tile(np.eye(4), (1, 2, 1, 1)), [[0.5, 0.5]],
+                  [[0.0, 0.0]], 10**400)
+
+
+def test_component_gains_refuse_stacks_that_do_not_match():
+    from fasttrack.core import mixture
+    with pytest.raises(ValueError, match=r"must have shapes \(J, d, d\), \(J, d, m\) and"):
+        mixture.component_gains(np.tile(np.eye(4), (3, 1, 1)), np.zeros((2, 4, 2)),
+                                np.tile(np.eye(2), (2, 1, 1)))

@@ -52,6 +52,11 @@ def component_gains(covars, cross, innovation):
     (J, d, d), ``cross`` C = P H^T (J, d, m) and innovation covariance S (J, m, m)
     (:func:`fasttrack._jit.mixture.component_gains`). Raises ValueError naming the first
     component whose S is not positive definite."""
+    j, d, m = cross.shape
+    if covars.shape != (j, d, d) or innovation.shape != (j, m, m):
+        raise ValueError(f"covars, cross and innovation must have shapes (J, d, d), (J, d, m) "
+                         f"and (J, m, m), got {covars.shape}, {cross.shape} and "
+                         f"{innovation.shape}")
     gains, updated = np.empty(cross.shape), np.empty(covars.shape)
     run = _numpy.component_gains if _jit.numpy_first(covars.size) else _mixture.component_gains
     failed = run(covars, np.ascontiguousarray(cross), np.ascontiguousarray(innovation), gains,
