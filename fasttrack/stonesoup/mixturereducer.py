@@ -23,7 +23,6 @@ from stonesoup.mixturereducer import gaussianmixture as ss
 from stonesoup.types.array import CovarianceMatrix, StateVector
 from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianState
 
-from .. import _validate
 from ..core import mixture as _mixture
 from ..core.mixture_numpy import ordered_sum
 from ._convert import mixture_components
@@ -64,8 +63,9 @@ class GaussianMixtureReducer(ss.GaussianMixtureReducer):
                     return []
                 weights = weights[kept] + ordered_sum(weights[low]) / kept.size
                 source.set_weights(kept, weights)
-        cap = _validate.count(self.max_number_components, "max_number_components", maximum=None) \
-            if self.truncating else kept.size
+        cap = self.max_number_components if self.truncating else kept.size
+        if cap < 1:
+            raise ValueError(f"max_number_components must be >= 1, got {cap}")
         means, covars, weights, heaviest, member = _mixture.reduce(
             *source.arrays(kept), weights, "stonesoup", None, self.merge_threshold,
             cap if cap < kept.size else None, self.merging)
