@@ -36,6 +36,8 @@ class _IntensityTracker:
             raise ValueError(f"birth must have {measurement_model.ndim_state}-D components "
                              f"(the models' state), got {birth.means.shape[1]}-D")
         _mixture.check_covariances(birth.covars, "birth.covars")
+        if unscented is None:  # (each update linearises the sensor at the births' means)
+            _phd.jacobians_at(measurement_model.spec, birth.means, "birth.means")
         if len(birth) and birth.log_weights.max() > _LOG_LARGEST:
             raise ValueError(f"birth.log_weights must be at most {_LOG_LARGEST:.1f} (the "
                              f"expected births a scan, their exponentials, finite), got "

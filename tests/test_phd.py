@@ -187,6 +187,12 @@ def test_a_component_at_the_sensor_and_a_sensor_of_user_functions_are_refused():
     with pytest.raises(ValueError, match=r"means\[1\] lies at the sensor"):
         phd.update(RADAR, [[0.0, 1.0, 0.0, 1.0], [5.0, 0.0, -3.0, 0.0]], [np.eye(4)] * 2,
                    [0.0, 0.0], [[0.1, 1.0]], 0.9, 1e-4)
+    birth = ft.GaussianMixture([[5.0, 0.0, -3.0, 0.0], [0.0, 1.0, 0.0, 1.0]], [np.eye(4)] * 2,
+                               [0.0, 0.0])
+    cv = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.1)] * 2)
+    with pytest.raises(ValueError, match=r"birth.means\[0\] lies at the sensor"):
+        ft.PHDTracker(cv, RADAR, birth, 0.9, 0.99, 1e-4)  # (not first at its first update)
+    ft.PHDTracker(cv, RADAR, birth, 0.9, 0.99, 1e-4, unscented=(0.5, 2.0, None))
     from user_models import bearing_range_from_50_0
     sensor = ft.NonlinearGaussianMeasurement(bearing_range_from_50_0, 4, np.eye(2))
     with pytest.raises(ValueError, match="take a built-in measurement model"):

@@ -199,14 +199,21 @@ def _linearised(spec, means, covars, unscented=None):
         return (np.array([z[:, 0] for z, _, _, _ in moments]).reshape(j, m),
                 np.array([c for _, _, c, _ in moments]).reshape(j, d, m),
                 np.array([s for _, s, _, _ in moments]).reshape(j, m, m))
-    jacobians = _kalman_numpy.jacobians(spec, means.T)
-    undefined = np.flatnonzero(np.isnan(jacobians).any(axis=(1, 2)))
-    if undefined.size:
-        raise ValueError(f"means[{undefined[0]}] lies at the sensor, where its bearing and "
-                         f"the measurement Jacobian are undefined")
+    jacobians = jacobians_at(spec, means)
     cross = covars @ jacobians.transpose(0, 2, 1)
     return (_kalman_numpy.measure(spec, means.T).T, cross,
             jacobians @ cross + spec.noise_covar)
+
+
+def jacobians_at(spec, means, name="means"):
+    """The measurement Jacobians (J, m, d) of ``spec`` at ``means`` (J, d); a ValueError
+    naming ``name[j]`` for a mean at a polar sensor, where they are undefined."""
+    jacobians = _kalman_numpy.jacobians(spec, means.T)
+    undefined = np.flatnonzero(np.isnan(jacobians).any(axis=(1, 2)))
+    if undefined.size:
+        raise ValueError(f"{name}[{undefined[0]}] lies at the sensor, where its bearing and "
+                         f"the measurement Jacobian are undefined")
+    return jacobians
 
 
 def unscented_parameters(unscented):
