@@ -93,7 +93,11 @@ def _converted(value, name):
             raise TypeError(f"{name} must be a numeric array of real numbers, "
                             f"got {_describe(value)}") from None
         if a.dtype.kind == "O" and all(is_real(v) for v in a.flat):
-            a = a.astype(np.float64)
+            try:
+                a = a.astype(np.float64)
+            except OverflowError:  # (a huge int)
+                raise ValueError(f"{name} must lie within the float range (|x| < 1.8e308)"
+                                 ) from None
         if a.dtype.kind not in "fiu":
             raise TypeError(f"{name} must be a numeric array of real numbers, got "
                             f"{_describe(value) if a.dtype.kind == 'O' else _describe(a)}")

@@ -54,6 +54,11 @@ def position_rmse(track, truth, mapping=(0, 2), pair="order"):
     track = list(_validate.iterator(track, "track"))
     truth = list(_validate.iterator(truth, "truth"))
     if pair == "timestamp":
+        for name, states in (("track", track), ("truth", truth)):
+            untimed = [k for k, state in enumerate(states) if state.timestamp is None]
+            if untimed:
+                raise ValueError(f"pair='timestamp' needs timestamps: {name}[{untimed[0]}] "
+                                 f"has none")
         by_time = {state.timestamp: state for state in truth}
         missing = [s.timestamp for s in track if s.timestamp not in by_time]
         if missing:
@@ -264,6 +269,11 @@ def _parameters(c, p, alpha=None, infinite_p=False):
         alpha = real(alpha, "alpha")
         if not 0 < alpha <= 2:
             raise ValueError(f"alpha must lie in (0, 2], got {alpha}")
+        with np.errstate(over="ignore"):
+            missed = np.float64(c) ** p / alpha
+        if p != np.inf and not missed <= 1e300:
+            raise ValueError(f"c ** p / alpha, the cost of a target missed, must be at most "
+                             f"1e300, got c = {c:g}, p = {p:g}, alpha = {alpha:g}: raise alpha")
     return c, p, alpha
 
 

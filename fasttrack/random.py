@@ -17,7 +17,11 @@ def seed(n):
         Seed of the new default generator (``None`` seeds it from the operating system).
     """
     global _default
-    _default = np.random.default_rng(n)
+    if n is not None and (not isinstance(n, numbers.Integral) or isinstance(n, bool)):
+        raise TypeError(f"n must be an int seed or None, got {type(n).__name__}")
+    if n is not None and n < 0:
+        raise ValueError(f"n must be a non-negative seed, got {n}")
+    _default = np.random.default_rng(None if n is None else int(n))
 
 
 def check_rng(rng, name="rng"):

@@ -4,7 +4,7 @@ import numbers
 
 import numpy as np
 
-from . import _buffers
+from . import _buffers, _validate
 from . import random as _random
 from .core import particle as _particle
 from .core.resample import ResidualMethod, draw
@@ -163,7 +163,8 @@ class ESSResampler(Resampler):
             if not isinstance(threshold, numbers.Real) or isinstance(threshold, bool):
                 raise TypeError(f"threshold must be a number or None, "
                                 f"got {type(threshold).__name__}")
-            if not (np.isfinite(threshold) and threshold > 0):
+            threshold = _validate.real(threshold, "threshold")
+            if not threshold > 0:
                 raise ValueError(f"threshold must be finite and > 0 (an ESS is >= 1), "
                                  f"got {threshold}")
         if resampler is None:

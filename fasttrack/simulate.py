@@ -258,6 +258,10 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
     if region.shape != (2, m) or np.any(region[1] <= region[0]):
         raise ValueError(f"region must be (2, {m}): a lower and a larger upper corner, "
                          f"got {region.tolist()}")
+    for row in measurement_model.angle_components:
+        if region[0, row] < -np.pi or region[1, row] > np.pi:
+            raise ValueError(f"region's row {row} holds angles (radians): it must lie within "
+                             f"[-pi, pi], got {region[:, row].tolist()}")
     with np.errstate(over="ignore", under="ignore"):
         volume = float(np.prod(region[1] - region[0]))
     if not np.isfinite(volume):

@@ -192,7 +192,7 @@ class MultiTargetTracker:
         """``detections`` as a finite (M, m) array."""
         m = self.measurement_model.ndim_meas
         scan = _validate.finite_array(detections, "detections")
-        if scan.size == 0:
+        if scan.shape == (0,):  # (an empty list)
             return scan.reshape(0, m)
         if scan.ndim != 2 or scan.shape[1] != m:
             raise ValueError(f"detections must have shape (M, {m}) (the sensor measures {m} "

@@ -143,7 +143,7 @@ def test_an_akkf_measurement_whose_kernel_value_overflows_is_named(numpy_first, 
 
 @pytest.mark.parametrize("threshold", [-5.0, 0.0, np.nan])
 def test_ess_threshold_must_be_positive(threshold):
-    with pytest.raises(ValueError, match="threshold must be finite and > 0"):
+    with pytest.raises(ValueError, match="threshold must be finite(, got nan| and > 0)"):
         ft.ESSResampler(threshold=threshold)
 
 
@@ -240,3 +240,52 @@ def test_component_gains_refuse_stacks_that_do_not_match():
     with pytest.raises(ValueError, match=r"must have shapes \(J, d, d\), \(J, d, m\) and"):
         mixture.component_gains(np.tile(np.eye(4), (3, 1, 1)), np.zeros((2, 4, 2)),
                                 np.tile(np.eye(2), (2, 1, 1)))
+
+
+_CV = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+_LG = ft.LinearGaussian(4, (0, 2), np.eye(2))
+_RADAR = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.01, 1.0]), translation_offset=[50, 0])
+_UNTIMED = [ft.GaussianState([i, 0, i, 0], np.eye(4)) for i in range(3)]
+
+
+@pytest.mark.parametrize("call, error, match", [
+    (lambda: ft.KalmanSmoother(_CV).smooth_arrays(np.full((5, 4), 1e308),
+                                                  np.tile(np.eye(4), (5, 1, 1)), 1.0),
+     ValueError, "the smoothed states are not finite"),
+    (lambda: ft.KalmanSmoother(_CV).smooth_arrays(np.zeros((3, 4)), np.tile(np.eye(4), (3, 1, 1)),
+                                                  10**400),
+     ValueError, "time_intervals must lie within the float range"),
+    (lambda: ft.KalmanPredictor(_CV).predict(ft.GaussianState(np.zeros(4), np.eye(4),
+                                                               timestamp=0.0), 10**400),
+     ValueError, "timestamp must lie within the float range"),
+    (lambda: ft.metrics.position_rmse(_UNTIMED, _UNTIMED, pair="timestamp"), ValueError,
+     r"pair='timestamp' needs timestamps: track\[0\] has none"),
+    (lambda: ft.metrics.gospa([[0.0, 0.0]], [], 5.0, alpha=1e-320), ValueError,
+     "c \\*\\* p / alpha, the cost of a target missed, must be at most 1e300"),
+    (lambda: ft.association.gate(np.zeros((1, 2)), np.eye(2)[None], np.zeros((0, 5)), 9.0),
+     ValueError, r"detections must have shape \(M, 2\), got \(0, 5\)"),
+    (lambda: ft.MultiTargetTracker(_CV, _LG, np.zeros(4), np.eye(4)).step(np.zeros((0, 3)), 0.0),
+     ValueError, r"detections must have shape \(M, 2\)"),
+    (lambda: multi_target(_CV, _RADAR, [[0, 1, 0, 1.0]], 3, [[-100, 0], [100, 100]],
+                          clutter_rate=5, rng=1),
+     ValueError, r"region's row 0 holds angles \(radians\): it must lie within \[-pi, pi\]"),
+    (lambda: ft.ESSResampler(threshold=10**400), ValueError,
+     "threshold must lie within the float range"),
+    (lambda: ft.seed(-1), ValueError, "n must be a non-negative seed"),
+    (lambda: ft.seed(1.5), TypeError, "n must be an int seed or None, got float"),
+    (lambda: ft.seed(True), TypeError, "n must be an int seed or None, got bool"),
+])
+def test_more_bad_input_is_named(call, error, match):
+    with pytest.raises(error, match=match):
+        call()
+
+
+def test_edge_values_that_are_legal_still_work():
+    from fractions import Fraction
+    assert ft.ESSResampler(threshold=Fraction(5, 2)).threshold == 2.5
+    assert len(ft.MultiTargetTracker(_CV, _LG, np.zeros(4), np.eye(4)).step([], 0.0)) == 0
+    weights = ft.association.pda_weights(np.zeros((1, 400)), np.eye(400)[None],
+                                         np.zeros((2, 400)))  # (Gamma(201) alone overflows)
+    assert np.isfinite(weights).all()
+    ft.seed(np.uint8(4))
+    ft.seed(None)

@@ -106,8 +106,8 @@ def test_tune_allocator_names_a_bad_size(arguments, error, match, monkeypatch):
 @pytest.mark.parametrize("threshold, error, match", [
     (-5.0, ValueError, "threshold must be finite and > 0"),
     (0, ValueError, "threshold must be finite and > 0"),
-    (np.nan, ValueError, "threshold must be finite and > 0"),
-    (np.inf, ValueError, "threshold must be finite and > 0"),
+    (np.nan, ValueError, "threshold must be finite, got nan"),
+    (np.inf, ValueError, "threshold must be finite, got inf"),
     (True, TypeError, "threshold must be a number or None, got bool"),
     ("10", TypeError, "threshold must be a number or None, got str"),
 ])

@@ -279,7 +279,7 @@ def _hand_built(**changes):
     (dict(distances2=[1.0, np.nan, 3.0]), ValueError, "distances2 must be finite"),
     (dict(distances2=[1.0, np.inf, 3.0]), ValueError, "distances2 must be finite"),
     (dict(log_likelihoods=[1.0, np.inf, 3.0]), ValueError, "log_likelihoods must not be NaN"),
-    (dict(distances2=[1.0, -2.0, 3.0]), ValueError, "distances2 must be >= 0"),
+    (dict(distances2=[1.0, -2.0, 3.0]), ValueError, "distances2 must be finite and >= 0"),
     (dict(log_likelihoods=[1.0]), ValueError, "log_likelihoods must be starts"),
     (dict(n_detections=-1), ValueError, "n_detections must be >= 0"),
     (dict(n_detections=3.0), TypeError, "n_detections must be an int"),
@@ -494,3 +494,18 @@ def test_batch_predict_and_update_name_a_bad_filter():
             ft.BatchExtendedKalmanFilter(batch.transition_model, batch.measurement_model,
                                          use_joseph_cov=joseph).update(
                 np.zeros((3, 4)), covars, np.zeros((3, 2)))
+
+
+def test_a_gate_edited_after_it_was_built_is_checked_where_it_is_used():
+    from fasttrack.association import Gate, clusters, global_nearest_neighbour
+    for field, index, value, match in [("distances2", 1, -2.0, "finite and >= 0"),
+                                       ("detections", 1, 0, "ascending")]:
+        gate = Gate([0, 2, 3], [0, 2, 1], [1.0, 2.0, 3.0], [-1.0, -2.0, -3.0], 3)
+        getattr(gate, field)[index] = value
+        with pytest.raises(ValueError, match=match):
+            global_nearest_neighbour(gate, 3.0)
+    found = clusters(Gate([0, 2, 3], [0, 2, 1], [1.0, 2.0, 3.0], [-1.0, -2.0, -3.0], 3))
+    with pytest.raises(ValueError, match=r"c must lie in \[0, n_clusters = 2\), got 99"):
+        found.members(99)
+    with pytest.raises(TypeError, match="c must be an int cluster number, got str"):
+        found.members("a")

@@ -47,18 +47,10 @@ class Gate:
             object.__setattr__(self, name, _validate.float_array(getattr(self, name), name, 1))
         self.check()
         n = self.detections.size
-        rising = np.diff(self.detections) > 0
-        inner = self.starts[1:-1]
-        rising[inner[(inner > 0) & (inner < n)] - 1] = True
-        if not rising.all():
-            raise ValueError("detections must be ascending (no repeats) within each track")
         for name in ("distances2", "log_likelihoods"):
             if getattr(self, name).shape != (n,):
                 raise ValueError(f"{name} must be starts[-1] = {n} numbers, got shape "
                                  f"{getattr(self, name).shape}")
-        self._check_values()
-        if (self.distances2 < 0).any():
-            raise ValueError("distances2 must be >= 0")
 
     def check(self):
         """Raise a ValueError unless the indices the kernels follow are in range: ``starts``
@@ -71,13 +63,20 @@ class Gate:
         if detections.shape != (n,) or (n and (detections.min() < 0 or detections.max() >= m)):
             raise ValueError(f"gate.detections must be starts[-1] = {n} indices in "
                              f"[0, n_detections = {m}), got {detections}")
+        rising = np.diff(detections) > 0
+        inner = starts[1:-1]
+        rising[inner[(inner > 0) & (inner < n)] - 1] = True
+        if not rising.all():
+            raise ValueError("gate.detections must be ascending (no repeats) within each "
+                             "track")
         self._check_values()
 
     def _check_values(self):
-        """ValueError unless the candidates' distances are finite and their likelihoods
-        not NaN or +inf (a gate holds only what lies within a finite threshold)."""
-        if not np.isfinite(self.distances2).all():
-            raise ValueError("gate.distances2 must be finite")
+        """ValueError unless the candidates' distances are finite and >= 0 and their
+        likelihoods not NaN or +inf (a gate holds only what lies within a finite
+        threshold)."""
+        if not (np.isfinite(self.distances2).all() and (self.distances2 >= 0).all()):
+            raise ValueError("gate.distances2 must be finite and >= 0")
         if np.isnan(self.log_likelihoods).any() or (self.log_likelihoods == np.inf).any():
             raise ValueError("gate.log_likelihoods must not be NaN or +inf")
 
@@ -212,7 +211,7 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
                          f"got {covars.shape}")
     _validate.symmetric_stack(covars, "innovation_covars")
     detections = _validate.finite_array(detections, "detections")
-    if detections.size == 0:
+    if detections.shape == (0,):  # (an empty list)
         detections = detections.reshape(0, m)
     if detections.ndim != 2 or detections.shape[1] != m:
         raise ValueError(f"detections must have shape (M, {m}), got {detections.shape}")
@@ -324,6 +323,10 @@ class Clusters:
 
     def members(self, c):
         """The tracks and detections of cluster ``c``, two ascending int64 arrays."""
+        if not _validate.is_integer(c):
+            raise TypeError(f"c must be an int cluster number, got {type(c).__name__}")
+        if not 0 <= c < self.n_clusters:
+            raise ValueError(f"c must lie in [0, n_clusters = {self.n_clusters}), got {c}")
         return (np.flatnonzero(self.track_labels == c),
                 np.flatnonzero(self.detection_labels == c))
 

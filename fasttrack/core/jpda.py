@@ -51,7 +51,12 @@ def _gate(prob_gate, m):
     (identical values), without importing scipy.stats (half a second)."""
     from scipy.special import gammaincinv
     threshold = float(2.0 * gammaincinv(m / 2, prob_gate))
-    return threshold, math.pi ** (m / 2) / math.gamma(m / 2 + 1) * threshold ** (m / 2)
+    try:  # (in logs: Gamma(m/2 + 1) alone overflows from m = 343)
+        return threshold, math.exp(m / 2 * math.log(math.pi * threshold)
+                                   - math.lgamma(m / 2 + 1))
+    except OverflowError:
+        raise ValueError(f"detections of {m} dimensions: their gate volume is beyond the float "
+                         f"range") from None
 
 
 def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
@@ -153,9 +158,11 @@ def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
         raise ValueError(f"covars[{t}] is not positive definite")
     if not np.isfinite(out).all():
         t = int(np.flatnonzero(~np.isfinite(out).all(axis=1))[0])
+        density = f"clutter_spatial_density={clutter_spatial_density!r} is" \
+            if clutter_spatial_density is not None else \
+            f"the clutter density estimated from covars[{t}]'s gate volume is"
         raise ValueError(f"track {t}'s detection weights prob_detect N(z; z_hat, S) / "
-                         f"clutter density overflow: clutter_spatial_density="
-                         f"{clutter_spatial_density!r} is too small for its likelihoods")
+                         f"clutter density overflow: {density} too small for its likelihoods")
     if normalise and n_tracks:
         sums = out.sum(axis=1)
         if not (sums > 0).all():

@@ -100,7 +100,7 @@ def detections_of(model, detections):
                          "(LinearGaussian, CartesianToBearingRange, Cartesian2DToBearing), "
                          f"got {type(model).__name__}")
     scan = _validate.finite_array(detections, "detections")
-    scan = scan.reshape(0, spec.ndim_meas) if scan.size == 0 else scan
+    scan = scan.reshape(0, spec.ndim_meas) if scan.shape == (0,) else scan  # (an empty list)
     if scan.ndim != 2 or scan.shape[1] != spec.ndim_meas:
         raise ValueError(f"detections must have shape (M, {spec.ndim_meas}), got {scan.shape}")
     return scan

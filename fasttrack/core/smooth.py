@@ -16,11 +16,15 @@ def rts(x, covar, x_pred, covar_pred, recompute, matrices, noises, step):
     index of each step's (F, Q). ``status`` is 0, ``1 + k n + t`` for the first track k
     and time t whose predicted covariance is not positive definite, or ``-(1 + k n + t)``
     for the first whose filtered covariance is not symmetric positive semi-definite (see
-    :func:`failure`).
+    :func:`failure`). A ValueError if the smoothed states are not finite (inputs of
+    magnitudes whose products overflow).
     """
     x_out, covar_out = np.empty_like(x), np.empty_like(covar)
     status = _smooth.rts_kernel(x.shape[-1])(x, covar, x_pred, covar_pred, recompute, matrices,
                                              noises, step, x_out, covar_out)
+    if not status and not (np.isfinite(x_out).all() and np.isfinite(covar_out).all()):
+        raise ValueError("the smoothed states are not finite: the filtered states' magnitudes "
+                         "overflow the smoother's arithmetic (beyond about 1e150)")
     return x_out, covar_out, status
 
 

@@ -1,9 +1,8 @@
 """Timestamps, time intervals and the links between states (see :mod:`fasttrack.types`)."""
 import datetime
-import math
 import weakref
 
-from .._validate import is_real
+from .._validate import is_real, real
 
 
 def check_timestamp(value, name="timestamp"):
@@ -11,8 +10,7 @@ def check_timestamp(value, name="timestamp"):
     if value is None or isinstance(value, datetime.datetime):
         return value
     if is_real(value):
-        if not math.isfinite(value):
-            raise ValueError(f"{name} must be finite, got {value}")
+        real(value, name)  # (finite, within the float range)
         return value
     raise TypeError(f"{name} must be None, a datetime or a number of seconds, "
                     f"got {type(value).__name__}")
@@ -55,8 +53,6 @@ def seconds(interval, name="time_interval"):
     if isinstance(interval, datetime.timedelta):
         return interval.total_seconds()
     if is_real(interval):
-        if not math.isfinite(interval):
-            raise ValueError(f"{name} must be finite, got {interval}")
-        return float(interval)
+        return real(interval, name)
     raise TypeError(f"{name} must be a datetime.timedelta or a number of seconds, "
                     f"got {type(interval).__name__}")
