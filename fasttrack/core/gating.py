@@ -75,9 +75,10 @@ class Gate:
         """ValueError unless the candidates' distances are finite and >= 0 and their
         likelihoods not NaN or +inf (a gate holds only what lies within a finite
         threshold)."""
-        if not (np.isfinite(self.distances2).all() and (self.distances2 >= 0).all()):
+        d2, log_l = self.distances2, self.log_likelihoods  # (NaN fails each test below)
+        if d2.size and not (d2.min() >= 0 and d2.max() < np.inf):
             raise ValueError("gate.distances2 must be finite and >= 0")
-        if np.isnan(self.log_likelihoods).any() or (self.log_likelihoods == np.inf).any():
+        if log_l.size and not log_l.max() < np.inf:
             raise ValueError("gate.log_likelihoods must not be NaN or +inf")
 
     @property
