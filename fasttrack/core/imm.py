@@ -195,13 +195,13 @@ def step(transition_models, measurement_model, matrix, means, covars, mode_probs
     ValueError
         If a model's prediction or update is undefined, naming the filter and the model.
     """
-    out = _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
-                 measurements, intervals, algorithm, has)
-    if out is None:
-        out = general_step(transition_models, measurement_model, matrix, means, covars,
-                           mode_probs, measurements, intervals, algorithm, has)
-    weighed(out[2])
-    return out
+    fused = _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
+                   measurements, intervals, algorithm, has)
+    if fused is None:  # (whose weighing is checked where it normalises)
+        return general_step(transition_models, measurement_model, matrix, means, covars,
+                            mode_probs, measurements, intervals, algorithm, has)
+    weighed(fused[2])
+    return fused
 
 
 def weighed(mode_probs, name="measurements"):
@@ -272,8 +272,7 @@ def updates(transition_models, measurement_model, means, covars, predicted, z_ha
             innovations[:, j], measurements)
         with np.errstate(divide="ignore"):
             log_posterior[:, j] = np.log(predicted[:, j]) + log_likelihood
-    with np.errstate(invalid="ignore"):
-        return out_means, out_covars, weighed(_normalised(log_posterior))
+    return out_means, out_covars, _normalised(log_posterior)
 
 
 def jpda_updates(measurement_model, means, covars, predicted, z_hats, innovations,
@@ -410,10 +409,12 @@ def _model_update(j, model, measurement_model, means, covars, z_hats, innovation
 
 
 def _normalised(log_weights):
-    """(K, M) probabilities from log weights, each row's largest finite."""
+    """(K, M) probabilities from log weights, each row's largest finite (checked by
+    :func:`weighed`: a row of -inf has none)."""
     top = log_weights.max(axis=1, keepdims=True)
-    weights = np.exp(log_weights - top)
-    return weights / weights.sum(axis=1, keepdims=True)
+    with np.errstate(invalid="ignore"):
+        weights = np.exp(log_weights - top)
+        return weighed(weights / weights.sum(axis=1, keepdims=True))
 
 
 def _fused(transition_models, measurement_model, matrix, means, covars, mode_probs,
