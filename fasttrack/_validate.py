@@ -48,6 +48,13 @@ def instances(value, kind, name):
     return items
 
 
+def instance(value, name, kind):
+    """``value``, if it is a ``kind``; else a TypeError naming ``name``."""
+    if not isinstance(value, kind):
+        raise TypeError(f"{name} must be of type {kind.__name__}, got {_describe(value)}")
+    return value
+
+
 def is_real(value):
     """Whether ``value`` is a real number (Python or NumPy), not a bool."""
     return type(value) in _PLAIN_REALS or (isinstance(value, numbers.Real)
@@ -335,3 +342,35 @@ def symmetric_stack(value, name):
     bad = asymmetric(value)
     if bad.any():
         raise ValueError(f"{name}[{np.argmax(bad)}] is not symmetric")
+
+
+def optional(check):
+    """``check`` that lets None through (a setting that may be absent)."""
+    def checked(value, name, **options):
+        return None if value is None else check(value, name, **options)
+    return checked
+
+
+class Setting:
+    """An attribute checked on every assignment, the constructor's and any later one, so
+    that a bad value is refused where it is set: ``check(value, name, **options)`` returns
+    the value stored or raises naming ``name``. A string ``check`` names a method of the
+    owner (a check that reads the owner's other attributes)."""
+
+    def __init__(self, check, **options):
+        self.check, self.options = check, options
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:
+            return self
+        try:
+            return obj.__dict__[self.name]
+        except KeyError:
+            raise AttributeError(self.name) from None
+
+    def __set__(self, obj, value):
+        check = getattr(obj, self.check) if isinstance(self.check, str) else self.check
+        obj.__dict__[self.name] = check(value, self.name, **self.options)

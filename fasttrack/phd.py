@@ -30,36 +30,46 @@ class _IntensityTracker:
     def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
                  clutter_intensity, gate_threshold, reducer, unscented):
         check_models(transition_model, measurement_model)
-        if not isinstance(birth, GaussianMixture):
-            raise TypeError(f"birth must be a GaussianMixture, got {type(birth).__name__}")
-        if birth.means.shape[1] != measurement_model.ndim_state:
-            raise ValueError(f"birth must have {measurement_model.ndim_state}-D components "
-                             f"(the models' state), got {birth.means.shape[1]}-D")
-        _mixture.check_covariances(birth.covars, "birth.covars")
-        if unscented is None:  # (each update linearises the sensor at the births' means)
-            _phd.jacobians_at(measurement_model.spec, birth.means, "birth.means")
-        if len(birth) and birth.log_weights.max() > _LOG_LARGEST:
-            raise ValueError(f"birth.log_weights must be at most {_LOG_LARGEST:.1f} (the "
-                             f"expected births a scan, their exponentials, finite), got "
-                             f"{birth.log_weights.max()}")
         self.transition_model, self.measurement_model = transition_model, measurement_model
-        self.birth = birth
-        self.prob_detect = _validate.probability(prob_detect, "prob_detect")
-        self.prob_survival = _validate.probability(prob_survival, "prob_survival")
-        self.clutter_intensity = _validate.positive(clutter_intensity, "clutter_intensity")
-        self.gate_threshold = (None if gate_threshold is None
-                               else _validate.positive(gate_threshold, "gate_threshold"))
         self.unscented = None if unscented is None else _phd.unscented_parameters(unscented)
-        self.reducer = (GaussianMixtureReducer(1e-5, 4.0, 100) if reducer is None
-                        else reducer)
-        if not isinstance(self.reducer, GaussianMixtureReducer):
-            raise TypeError(f"reducer must be a GaussianMixtureReducer, got "
-                            f"{type(self.reducer).__name__}")
+        self.birth = birth
+        self.prob_detect = prob_detect
+        self.prob_survival = prob_survival
+        self.clutter_intensity = clutter_intensity
+        self.gate_threshold = gate_threshold
+        self.reducer = GaussianMixtureReducer(1e-5, 4.0, 100) if reducer is None else reducer
         d = birth.means.shape[1]
         self.mixture = GaussianMixture(np.empty((0, d)), np.empty((0, d, d)), np.empty(0),
                                        np.empty(0, dtype=np.int64))
         self.time = None
         self._next_label = 0
+
+    # Settings, checked when assigned (here or later).
+    birth = _validate.Setting("_birth")
+    prob_detect = _validate.Setting(_validate.probability)
+    prob_survival = _validate.Setting(_validate.probability)
+    clutter_intensity = _validate.Setting(_validate.positive)
+    gate_threshold = _validate.Setting(_validate.optional(_validate.positive))
+    reducer = _validate.Setting(_validate.instance, kind=GaussianMixtureReducer)
+
+    def _birth(self, birth, name):
+        """``birth``, checked: a mixture of the models' state, its covariances positive
+        semi-definite, its expected births finite, and (unless unscented) the sensor
+        differentiable at its means."""
+        if not isinstance(birth, GaussianMixture):
+            raise TypeError(f"{name} must be a GaussianMixture, got {type(birth).__name__}")
+        d = self.measurement_model.ndim_state
+        if birth.means.shape[1] != d:
+            raise ValueError(f"{name} must have {d}-D components (the models' state), got "
+                             f"{birth.means.shape[1]}-D")
+        _mixture.check_covariances(birth.covars, f"{name}.covars")
+        if self.unscented is None:  # (each update linearises the sensor at the births' means)
+            _phd.jacobians_at(self.measurement_model.spec, birth.means, f"{name}.means")
+        if len(birth) and birth.log_weights.max() > _LOG_LARGEST:
+            raise ValueError(f"{name}.log_weights must be at most {_LOG_LARGEST:.1f} (the "
+                             f"expected births a scan, their exponentials, finite), got "
+                             f"{birth.log_weights.max()}")
+        return birth
 
     def step(self, detections, time):
         """Process one scan.
@@ -125,8 +135,7 @@ class _IntensityTracker:
         if k and dt > 0:
             means, covars, _, _ = _kalman.stack_predict(
                 self.transition_model, self.measurement_model, np.full(k, dt), means, covars)
-        log_survive = _phd.log_probability(
-            _validate.probability(self.prob_survival, "prob_survival"))
+        log_survive = _phd.log_probability(self.prob_survival)
         births = len(self.birth)
         labels = np.concatenate((mixture.labels,
                                  self._next_label + np.arange(births, dtype=np.int64)))
@@ -164,6 +173,10 @@ class PHDTracker(_IntensityTracker):
         For a polar sensor, update by the unscented transform with these parameters instead
         of the Jacobian (see :func:`fasttrack.core.phd.update`).
 
+    The settings (``birth`` to ``extraction_threshold``, but not the models or
+    ``unscented``) may be changed between scans; each assignment is checked as the
+    constructor checks it.
+
     Attributes
     ----------
     mixture : GaussianMixture
@@ -177,9 +190,9 @@ class PHDTracker(_IntensityTracker):
                  extraction_threshold=0.5, unscented=None):
         super().__init__(transition_model, measurement_model, birth, prob_detect,
                          prob_survival, clutter_intensity, gate_threshold, reducer, unscented)
-        self.extraction_threshold = _validate.non_negative(extraction_threshold,
-                                                           "extraction_threshold")
+        self.extraction_threshold = extraction_threshold
 
+    extraction_threshold = _validate.Setting(_validate.non_negative)
 
     @property
     def expected_number(self):
@@ -190,16 +203,15 @@ class PHDTracker(_IntensityTracker):
         """:func:`fasttrack.core.phd.update` of the tracker's own intensity (made from
         checked births by the kernels: its arrays are not checked again)."""
         model = self.measurement_model
-        prob_detect = _validate.probability(self.prob_detect, "prob_detect")
-        threshold = np.inf if self.gate_threshold is None else \
-            _validate.positive(self.gate_threshold, "gate_threshold")
+        prob_detect = self.prob_detect
+        threshold = np.inf if self.gate_threshold is None else self.gate_threshold
         pairs = _phd.gated_pairs(model.spec, predicted.means, predicted.covars,
                                  predicted.log_weights, _phd.detections_of(model, detections),
                                  _phd.log_probability(prob_detect),
                                  threshold, self.unscented)
         means, covars, log_weights, components, _ = _phd.posterior(
             pairs, prob_detect,
-            math.log(_validate.positive(self.clutter_intensity, "clutter_intensity")))
+            math.log(self.clutter_intensity))
         return means, covars, log_weights, components
 
     def _extract(self):
@@ -238,6 +250,9 @@ class CPHDTracker(_IntensityTracker):
     unscented : (alpha, beta, kappa), optional
         As :class:`PHDTracker`'s.
 
+    The settings (``birth`` to ``clutter_rate`` and ``gate_threshold``, ``reducer``) may be
+    changed between scans, as :class:`PHDTracker`'s.
+
     Attributes
     ----------
     mixture : GaussianMixture
@@ -253,11 +268,13 @@ class CPHDTracker(_IntensityTracker):
                  reducer=None, unscented=None):
         super().__init__(transition_model, measurement_model, birth, prob_detect,
                          prob_survival, clutter_intensity, gate_threshold, reducer, unscented)
-        self.clutter_rate = _validate.positive(clutter_rate, "clutter_rate")
+        self.clutter_rate = clutter_rate
         self.log_cardinality = np.full(_validate.count(max_targets, "max_targets",
                                                        maximum=MAX_TARGETS) + 1,
                                        -np.inf)
         self.log_cardinality[0] = 0.0
+
+    clutter_rate = _validate.Setting(_validate.positive)
 
     @property
     def expected_number(self):

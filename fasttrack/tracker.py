@@ -3,14 +3,20 @@ covariances, advanced a scan at a time by batched predict, gate, assignment and 
 import numpy as np
 
 from . import _validate
+from ._validate import Setting
 from .association import gate, global_nearest_neighbour, nearest_neighbour
 from .batch import check_model_set, check_models
 from .core import imm as _imm
+from .core import jpda as _jpda
 from .core import kalman as _kalman
 from .models.measurement import LinearGaussian
 from .types.mixture import IMMTrackSet, TrackSet
 
 _ASSOCIATORS = {"gnn": global_nearest_neighbour, "nn": nearest_neighbour}
+
+#: The largest measurement value an IMMTracker takes: mixing its models squares the
+#: differences of their states, which must stay finite.
+LARGEST_IMM_MEASUREMENT = 1e150
 
 
 class MultiTargetTracker:
@@ -56,6 +62,9 @@ class MultiTargetTracker:
         for no limit.
     association : {'gnn', 'nn'}
         Global or greedy nearest neighbour.
+
+    The settings may be changed between scans; each assignment is checked as the
+    constructor checks it.
     """
 
     #: Whether the transition model may be one built from a function (the IMM's models).
@@ -80,28 +89,78 @@ class MultiTargetTracker:
             raise ValueError(f"prior_mean must have {d} components, got {mean.size}")
         covar = _validate.psd_covariance(prior_covar, "prior_covar", d)
         self._start = self._initiation(measurement_model, mean, covar)
-        self.missed_distance = _validate.positive(missed_distance, "missed_distance")
-        if not 1e-154 <= self.missed_distance < 1e154:
-            raise ValueError(f"missed_distance must lie in [1e-154, 1e154) (its square, the "
-                             f"gate threshold, a finite number > 0), got {missed_distance}")
-        self.min_points = _validate.count(min_points, "min_points")
-        self.delete_after_misses = _validate.count(delete_after_misses, "delete_after_misses")
-        self.tentative_misses = _validate.count(tentative_misses, "tentative_misses")
-        self.confirm_within = (None if confirm_within is None else _validate.count(
-            confirm_within, "confirm_within", minimum=self.min_points))
-        if max_covar_trace is not None:
-            max_covar_trace = _validate.float_array(max_covar_trace, "max_covar_trace", 0)
-            if not max_covar_trace > 0:
-                raise ValueError(f"max_covar_trace must be > 0, got {max_covar_trace}")
-        self.max_covar_trace = None if max_covar_trace is None else float(max_covar_trace)
+        self.missed_distance = missed_distance
+        self.min_points = min_points
+        self.delete_after_misses = delete_after_misses
+        self.tentative_misses = tentative_misses
+        self.confirm_within = confirm_within
+        self.max_covar_trace = max_covar_trace
         if not isinstance(association, str) or association not in _ASSOCIATORS:
             raise ValueError(f"association must be one of {sorted(_ASSOCIATORS)}, "
                              f"got {association!r}")
         self._associate = _ASSOCIATORS[association]
-        self.confirmed = TrackSet.empty(d)
-        self.tentative = TrackSet.empty(d)
+        self.confirmed = self._no_tracks()
+        self.tentative = self._no_tracks()
         self.time = None
         self._next_id = 0
+
+    # Settings, checked when assigned (here or later).
+    missed_distance = Setting("_gate_distance")
+    min_points = Setting("_confirming_points")
+    confirm_within = Setting("_confirmation_scans")
+    delete_after_misses = Setting(_validate.count)
+    tentative_misses = Setting(_validate.count)
+    max_covar_trace = Setting("_trace_limit")
+    confirmed = Setting("_track_set")
+    tentative = Setting("_track_set")
+    time = Setting(_validate.optional(_validate.real))
+
+    @staticmethod
+    def _gate_distance(value, name):
+        value = _validate.positive(value, name)
+        if not 1e-154 <= value < 1e154:
+            raise ValueError(f"{name} must lie in [1e-154, 1e154) (its square, the gate "
+                             f"threshold, a finite number > 0), got {value}")
+        return value
+
+    def _confirming_points(self, value, name):
+        value = _validate.count(value, name)
+        window = self.__dict__.get("confirm_within")
+        if window is not None and value > window:
+            raise ValueError(f"{name} must be <= confirm_within ({window}), got {value}")
+        return value
+
+    def _confirmation_scans(self, value, name):
+        return None if value is None else _validate.count(value, name,
+                                                          minimum=self.min_points)
+
+    @staticmethod
+    def _trace_limit(value, name):
+        if value is None:
+            return None
+        value = float(_validate.float_array(value, name, 0))
+        if not value > 0:
+            raise ValueError(f"{name} must be > 0, got {value}")
+        return value
+
+    #: The kind of its track sets.
+    _tracks = TrackSet
+
+    def _no_tracks(self):
+        """An empty track set of the tracker's kind."""
+        return TrackSet.empty(self.transition_model.ndim_state)
+
+    def _track_set(self, value, name):
+        """``value``, checked to be a track set of the tracker's kind and dimension."""
+        kind = self._tracks
+        if not isinstance(value, kind):
+            raise TypeError(f"{name} must be of type {kind.__name__}, got "
+                            f"{type(value).__name__}")
+        d = self.transition_model.ndim_state
+        if value.means.ndim != 2 or value.means.shape[1] != d:
+            raise ValueError(f"{name} must hold {d}-D tracks, got means of shape "
+                             f"{value.means.shape}")
+        return value
 
     @staticmethod
     def _initiation(model, mean, covar):
@@ -167,25 +226,24 @@ class MultiTargetTracker:
         if self.time is not None and not dt > 0:
             raise ValueError(f"time must be after the previous scan's ({self.time} s), "
                              f"got {time}")
-        self.time = time
         free = np.ones(detections.shape[0], dtype=np.bool_)
-        self.confirmed, taken = self._advance(self.confirmed, detections, dt, free)
+        confirmed, taken = self._advance(self.confirmed, detections, dt, free)
         free &= ~taken
-        doomed = self.confirmed.misses >= self.delete_after_misses
+        doomed = confirmed.misses >= self.delete_after_misses
         if self.max_covar_trace is not None:
-            doomed |= np.trace(self.confirmed.covars, axis1=1, axis2=2) > self.max_covar_trace
-        self.confirmed = self.confirmed.take(~doomed)
-        self.tentative, taken = self._advance(self.tentative, detections, dt, free)
+            doomed |= np.trace(confirmed.covars, axis1=1, axis2=2) > self.max_covar_trace
+        confirmed = confirmed.take(~doomed)
+        tentative, taken = self._advance(self.tentative, detections, dt, free)
         free &= ~taken
-        sure = self.tentative.updates >= self.min_points
-        self.confirmed = TrackSet.concatenate(self.confirmed, self.tentative.take(sure))
-        self.tentative = self.tentative.take(~sure)
-        keep = self.tentative.misses < self.tentative_misses
+        sure = tentative.updates >= self.min_points
+        confirmed = TrackSet.concatenate(confirmed, tentative.take(sure))
+        tentative = tentative.take(~sure)
+        keep = tentative.misses < self.tentative_misses
         if self.confirm_within is not None:  # M of N: out of time to be confirmed
-            keep &= self.tentative.ages < self.confirm_within - 1
-        self.tentative = self.tentative.take(keep)
-        self.tentative = TrackSet.concatenate(self.tentative,
-                                              self._start_tracks(detections[free]))
+            keep &= tentative.ages < self.confirm_within - 1
+        tentative = TrackSet.concatenate(tentative.take(keep),
+                                         self._start_tracks(detections[free]))
+        self.confirmed, self.tentative, self.time = confirmed, tentative, time
         return self.confirmed.copy()
 
     def _scan(self, detections):
@@ -230,7 +288,8 @@ class IMMTracker(MultiTargetTracker):
     Mahalanobis cost are those of the mode-combined Gaussian; a track given a detection
     updates each model with it and reweighs the models by their own likelihoods, a track
     given none keeps its predictions and predicted mode probabilities. Confirmation and
-    deletion are :class:`MultiTargetTracker`'s. With one model it is that tracker.
+    deletion are :class:`MultiTargetTracker`'s. With one model it is that tracker, except
+    that detections must lie within +-:data:`LARGEST_IMM_MEASUREMENT` (1e150).
 
     Parameters
     ----------
@@ -259,6 +318,9 @@ class IMMTracker(MultiTargetTracker):
     clutter_density : float, optional
         With 'jpda' (required): the clutter's expected number per unit measurement volume
         per scan, > 0.
+    max_nodes : int
+        With 'jpda': the most nodes of a cluster's EHM net (see
+        :func:`fasttrack.core.jpda.jpda_marginals`); a larger cluster is an error.
     **options : keyword arguments
         :class:`MultiTargetTracker`'s other parameters (``missed_distance``: the gate,
         ``min_points``, ``delete_after_misses``, ...).
@@ -272,33 +334,66 @@ class IMMTracker(MultiTargetTracker):
 
     def __init__(self, transition_models, measurement_model, transition_matrix, prior_mean,
                  prior_covar, mode_probs=None, association="gnn", prob_detect=0.9,
-                 clutter_density=None, **options):
+                 clutter_density=None, max_nodes=_jpda.MAX_NODES, **options):
         models, self._has = check_model_set(transition_models, measurement_model)
         if not isinstance(association, str) or association not in ("gnn", "jpda", "nn"):
             raise ValueError(f"association must be one of ['gnn', 'jpda', 'nn'], got "
                              f"{association!r}")
         self.jpda = association == "jpda"
+        self.transition_models = models
         super().__init__(models[0], measurement_model, prior_mean, prior_covar,
                          association="gnn" if self.jpda else association, **options)
         prob_detect = _validate.probability(prob_detect, "prob_detect")  # (read by JPDA)
         if clutter_density is not None:
             clutter_density = _validate.positive(clutter_density, "clutter_density")
         if self.jpda:
-            self.prob_detect, self.clutter_density = prob_detect, clutter_density
-            if not self.prob_detect > 0:
-                raise ValueError("prob_detect must be > 0 for JPDA")
             if clutter_density is None:
                 raise ValueError("association='jpda' needs clutter_density (> 0)")
-            from scipy.special import gammainc  # chi2.cdf, without scipy.stats' import
-            self.prob_gate = float(gammainc(measurement_model.ndim_meas / 2,
-                                            self.missed_distance ** 2 / 2))
-        self.transition_models = models
-        self.transition_matrix = _imm.transition_matrix(transition_matrix, len(models))
+            self.prob_detect, self.clutter_density = prob_detect, clutter_density
+            self.max_nodes = max_nodes
+        self.transition_matrix = transition_matrix
         self.mode_probs = (np.full(len(models), 1.0 / len(models)) if mode_probs is None
-                           else _imm.mode_probabilities(mode_probs, (len(models),)))
-        d = measurement_model.ndim_state
-        self.confirmed = IMMTrackSet.empty(d, len(models))
-        self.tentative = IMMTrackSet.empty(d, len(models))
+                           else mode_probs)
+
+    prob_detect = Setting("_detection_probability")
+    clutter_density = Setting(_validate.positive)
+    max_nodes = Setting(_validate.count)
+    transition_matrix = Setting("_switching")
+    mode_probs = Setting("_initial_modes")
+    _tracks = IMMTrackSet
+
+    @staticmethod
+    def _detection_probability(value, name):
+        value = _validate.probability(value, name)
+        if not value > 0:
+            raise ValueError(f"{name} must be > 0 for JPDA, got {value}")
+        return value
+
+    def _switching(self, value, name):
+        return _imm.transition_matrix(value, len(self.transition_models))
+
+    def _initial_modes(self, value, name):
+        return _imm.mode_probabilities(value, (len(self.transition_models),), name)
+
+    @property
+    def prob_gate(self):
+        """With 'jpda': the probability that a detection of a track lies in its gate (of
+        ``missed_distance``)."""
+        from scipy.special import gammainc  # chi2.cdf, without scipy.stats' import
+        return float(gammainc(self.measurement_model.ndim_meas / 2,
+                              self.missed_distance ** 2 / 2))
+
+    def _scan(self, detections):
+        scan = super()._scan(detections)
+        if scan.size and not np.abs(scan).max() < LARGEST_IMM_MEASUREMENT:
+            raise ValueError(f"detections must lie within +-{LARGEST_IMM_MEASUREMENT:.0e} (the "
+                             f"models' mixing squares differences of states), got "
+                             f"{np.abs(scan).max():.3g}")
+        return scan
+
+    def _no_tracks(self):
+        return IMMTrackSet.empty(self.transition_model.ndim_state,
+                                 len(self.transition_models))
 
     def _advance(self, tracks, detections, dt, available):
         taken = np.zeros(detections.shape[0], dtype=np.bool_)
@@ -331,7 +426,7 @@ class IMMTracker(MultiTargetTracker):
         """:meth:`_advance`'s IMM-JPDA update of every track with its gate's detections."""
         means, covars, probs, _ = _imm.jpda_updates(
             self.measurement_model, means, covars, predicted, z_hats, innovations, detections,
-            result, self.prob_detect, self.prob_gate, self.clutter_density)
+            result, self.prob_detect, self.prob_gate, self.clutter_density, self.max_nodes)
         hit = np.diff(result.starts) > 0
         taken[pool[result.detections]] = True
         return IMMTrackSet(tracks.ids, *_imm.combine(means, covars, probs),

@@ -6,6 +6,7 @@ import pytest
 import fasttrack as ft
 from fasttrack.simulate import multi_target
 from fasttrack.tracker import IMMTracker, MultiTargetTracker
+from fasttrack.types.mixture import TrackSet
 
 TRANSITION = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
 SENSOR = ft.LinearGaussian(4, (0, 2), np.eye(2))
@@ -83,6 +84,50 @@ def test_bad_input_is_refused_naming_the_argument(change, message):
     arguments.update(change)
     with pytest.raises(ValueError, match=message):
         IMMTracker(**arguments)
+
+
+def test_settings_changed_after_construction_are_checked():
+    tracker = IMMTracker([TRANSITION, TRANSITION], SENSOR, [[0.9, 0.1], [0.1, 0.9]],
+                         association="jpda", clutter_density=1e-3, **SETTINGS)
+    for name, value, error, match in [
+            ("transition_matrix", np.eye(3), ValueError, r"must have shape \(2, 2\)"),
+            ("mode_probs", [1.0], ValueError, r"mode_probs must have shape \(2,\)"),
+            ("prob_detect", 0.0, ValueError, "prob_detect must be > 0 for JPDA"),
+            ("clutter_density", -1.0, ValueError, "clutter_density must be finite and > 0"),
+            ("confirmed", TrackSet.empty(4), TypeError,
+             "confirmed must be of type IMMTrackSet, got TrackSet")]:
+        with pytest.raises(error, match=match):
+            setattr(tracker, name, value)
+    gate = tracker.prob_gate
+    tracker.missed_distance = 4.0  # the JPDA gate probability follows the gate
+    assert tracker.prob_gate > gate
+    tracker.step(np.zeros((1, 2)), 0.0)
+    assert len(tracker.tentative) == 1
+    with pytest.raises(ValueError, match="max_nodes must be >= 1, got 0"):
+        tracker.max_nodes = 0
+
+
+def test_detections_whose_squares_overflow_are_refused():
+    tracker = IMMTracker([TRANSITION, TRANSITION], SENSOR, [[0.9, 0.1], [0.1, 0.9]],
+                         **SETTINGS)
+    tracker.step([[1e149, -1e149]], 0.0)
+    with pytest.raises(ValueError, match=r"detections must lie within \+-1e\+150 \(the "
+                                         r"models' mixing squares differences of states\), "
+                                         r"got 1e\+160"):
+        tracker.step([[1.0, -1e160]], 1.0)
+
+
+def test_a_jpda_cluster_beyond_max_nodes_is_refused_naming_it():
+    tracker = IMMTracker([TRANSITION, TRANSITION], SENSOR, [[0.9, 0.1], [0.1, 0.9]],
+                         association="jpda", clutter_density=1e-3, max_nodes=2, **SETTINGS)
+    tracker.step([[0.0, 0.0], [1.0, 0.0]], 0.0)
+    with pytest.raises(ValueError, match=r"\(2 tracks x 3 detections\) is too big for exact "
+                                         r"JPDA: its EHM net needs more than max_nodes=2"):
+        tracker.step([[0.5, 0.0], [0.6, 0.0], [0.4, 0.1]], 1.0)
+    assert tracker.time == 0.0  # the failed scan left the tracker as it was
+    tracker.max_nodes = 100  # the same scan with room: both tracks take it
+    tracker.step([[0.5, 0.0], [0.6, 0.0], [0.4, 0.1]], 1.0)
+    assert len(tracker.tentative) == 2
 
 
 def test_the_jpda_update_is_each_hypothesis_and_model_merged():

@@ -259,9 +259,24 @@ def test_the_tracker_refuses_bad_settings():
         tracker.run(scenario.detections, 0.0)
     assert tracker.time == 5.0 and len(tracker.run(scenario.detections[1:])) == 1
     assert tracker.time == 6.0
-    tracker.prob_survival = 2.0  # changed after construction: checked where it is used
-    with pytest.raises(ValueError, match="prob_survival must lie in"):
-        tracker.step(scenario.detections[1], 7.0)
+    # settings changed after construction: refused where they are set, the tracker unchanged
+    for name, value, error, message in [
+            ("prob_survival", 2.0, ValueError, "prob_survival must lie in"),
+            ("prob_detect", "0.9", TypeError, "prob_detect must be a real number"),
+            ("clutter_intensity", 0.0, ValueError, "clutter_intensity must be finite and > 0"),
+            ("gate_threshold", np.nan, ValueError, "gate_threshold must be finite"),
+            ("extraction_threshold", -1.0, ValueError, "extraction_threshold must be finite"),
+            ("reducer", None, TypeError, "reducer must be of type GaussianMixtureReducer, got "
+                                         "NoneType"),
+            ("birth", [], TypeError, "birth must be a GaussianMixture, got list"),
+            ("birth", ft.GaussianMixture(np.zeros((1, 2)), np.eye(2)[None], [0.1]),
+             ValueError, "birth must have 4-D components")]:
+        before = getattr(tracker, name)
+        with pytest.raises(error, match=message):
+            setattr(tracker, name, value)
+        assert getattr(tracker, name) is before
+    tracker.gate_threshold = None  # (every pair)
+    assert len(tracker.step(scenario.detections[1], 7.0)) >= 0
 
 
 def test_vo_linear_scenario_and_the_tracker_on_it():

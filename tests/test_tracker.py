@@ -8,6 +8,7 @@ import pytest
 import fasttrack as ft
 from fasttrack.simulate import multi_target
 from fasttrack.tracker import MultiTargetTracker
+from fasttrack.types.mixture import IMMTrackSet, TrackSet
 
 TRANSITION = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
 SENSOR = ft.LinearGaussian(4, (0, 2), np.eye(2))
@@ -170,6 +171,32 @@ def test_tracker_names_a_bad_setting(arguments, error, match):
         _tracker(**arguments)
 
 
+@pytest.mark.parametrize("name, value, error, match", [
+    ("min_points", "a", TypeError, "min_points must be an int, got str"),
+    ("min_points", 0, ValueError, "min_points must be >= 1, got 0"),
+    ("delete_after_misses", 1.5, TypeError, "delete_after_misses must be an int"),
+    ("tentative_misses", -1, ValueError, "tentative_misses must be >= 1"),
+    ("confirm_within", 2, ValueError, "confirm_within must be >= 3, got 2"),
+    ("missed_distance", np.inf, ValueError, "missed_distance must be finite"),
+    ("max_covar_trace", np.nan, ValueError, "max_covar_trace must be > 0, got nan"),
+    ("time", "x", TypeError, "time must be a real number, got str"),
+    ("confirmed", None, TypeError, "confirmed must be of type TrackSet, got NoneType"),
+    ("tentative", TrackSet.empty(6), ValueError, r"tentative must hold 4-D tracks, got means "
+                                                 r"of shape \(0, 6\)"),
+])
+def test_tracker_settings_are_checked_when_changed(name, value, error, match):
+    tracker = _tracker(confirm_within=5)
+    tracker.step([[0.0, 0.0]], 0.0)
+    before = getattr(tracker, name)
+    with pytest.raises(error, match=match):
+        setattr(tracker, name, value)
+    assert getattr(tracker, name) is before  # the tracker unchanged
+    with pytest.raises(ValueError, match="min_points must be <= confirm_within \\(5\\), got 6"):
+        tracker.min_points = 6
+    tracker.confirm_within, tracker.min_points = None, 6  # (no window: any M)
+    assert len(tracker.step([[0.0, 0.0]], 1.0)) == 0
+
+
 @pytest.mark.parametrize("detections, time, error, match", [
     (np.zeros((2, 3)), 1.0, ValueError, r"detections must have shape \(M, 2\).*\(2, 3\)"),
     (np.zeros(2), 1.0, ValueError, r"detections must have shape \(M, 2\).*\(2,\)"),
@@ -236,3 +263,17 @@ def test_m_of_n_confirmation(window, confirmed):
 def test_m_of_n_window_must_allow_m_detections():
     with pytest.raises(ValueError, match="confirm_within must be >= 3"):
         _tracker(confirm_within=2)
+
+
+def test_track_sets_of_different_kinds_do_not_join():
+    with pytest.raises(ValueError, match=r"the track sets' means differ in shape: \(0, 4\) and "
+                                         r"\(0, 6\)"):
+        TrackSet.concatenate(TrackSet.empty(4), TrackSet.empty(6))
+    with pytest.raises(TypeError, match="second must be a TrackSet, as first is, got "
+                                        "IMMTrackSet"):
+        TrackSet.concatenate(TrackSet.empty(4), IMMTrackSet.empty(4, 2))
+    with pytest.raises(ValueError, match="d must be >= 1, got -1"):
+        TrackSet.empty(-1)
+    with pytest.raises(ValueError, match="models must be >= 1, got 0"):
+        IMMTrackSet.empty(4, 0)
+    assert len(TrackSet.concatenate(TrackSet.empty(4), TrackSet.empty(4))) == 0

@@ -276,7 +276,8 @@ def updates(transition_models, measurement_model, means, covars, predicted, z_ha
 
 
 def jpda_updates(measurement_model, means, covars, predicted, z_hats, innovations,
-                 detections, gate, prob_detect, prob_gate, clutter_density):
+                 detections, gate, prob_detect, prob_gate, clutter_density,
+                 max_nodes=_jpda.MAX_NODES):
     """IMM-JPDA: every track's models updated with the detections of its gate.
 
     The association uses the tracks' exact mode-mixture likelihoods: pair (t, j) weighs
@@ -301,6 +302,8 @@ def jpda_updates(measurement_model, means, covars, predicted, z_hats, innovation
         The candidate (track, detection) pairs (e.g. on the mode-combined predicted
         measurements).
     prob_detect, prob_gate, clutter_density : float
+    max_nodes : int
+        The most nodes of a cluster's EHM net (see :func:`fasttrack.core.jpda.jpda_marginals`).
 
     Returns
     -------
@@ -322,7 +325,7 @@ def jpda_updates(measurement_model, means, covars, predicted, z_hats, innovation
     log_mixture = top[:, 0] + np.log(np.exp(log_joint - top).sum(axis=1))  # log L_tj
     marginal_missed, marginal = _jpda.gate_marginals(
         gate, np.log1p(-prob_detect * prob_gate),
-        np.log(prob_detect) + log_mixture - np.log(clutter_density))
+        np.log(prob_detect) + log_mixture - np.log(clutter_density), max_nodes)
     pair_joint = marginal[:, None] * np.exp(log_joint - log_mixture[:, None])  # (n, M)
     missed_joint = marginal_missed[:, None] * predicted  # (K, M)
     probs = missed_joint.copy()

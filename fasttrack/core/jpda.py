@@ -337,7 +337,7 @@ def jpda_marginals(weights, max_nodes=MAX_NODES):
     return [out[offsets[k]:offsets[k + 1]].reshape(w.shape) for k, w in enumerate(clusters)]
 
 
-def gate_marginals(gate, log_missed, log_weights):
+def gate_marginals(gate, log_missed, log_weights, max_nodes=MAX_NODES):
     """Exact JPDA marginals of the candidate pairs of a :class:`~fasttrack.core.gating.Gate`
     (:func:`jpda_marginals` on each cluster of tracks that share detections; a track alone
     gets its normalised weights).
@@ -350,6 +350,8 @@ def gate_marginals(gate, log_missed, log_weights):
         The log weight of each track's missed detection.
     log_weights : (n,) ndarray
         The log weight of each candidate pair, in the gate's order.
+    max_nodes : int
+        As :func:`jpda_marginals`'.
 
     Returns
     -------
@@ -387,7 +389,7 @@ def gate_marginals(gate, log_missed, log_weights):
             matrix[i, column[candidates[q]]] = weights[q]
         matrices.append(matrix)
         rows.append((tracks, qs))
-    for result, (tracks, qs) in zip(jpda_marginals(matrices), rows):
+    for result, (tracks, qs) in zip(jpda_marginals(matrices, max_nodes), rows):
         marginal_missed[tracks] = result[:, 0]
         for i, q in enumerate(qs):  # (a detection is in one cluster: its column stays)
             marginal[q] = result[i, column[candidates[q]]]

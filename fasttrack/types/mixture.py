@@ -4,6 +4,7 @@ import dataclasses
 
 import numpy as np
 
+from .. import _validate
 from ..core import imm as _imm
 from ..core import mixture as _mixture
 
@@ -158,6 +159,7 @@ class TrackSet:
     @classmethod
     def empty(cls, d):
         """No tracks of dimension ``d``."""
+        d = _validate.count(d, "d")
         none = np.empty(0, dtype=np.int64)
         return cls(none, np.empty((0, d)), np.empty((0, d, d)), none.copy(), none.copy(),
                    none.copy())
@@ -175,7 +177,14 @@ class TrackSet:
 
     @staticmethod
     def concatenate(first, second):
-        """The tracks of both sets (of one type)."""
+        """The tracks of both sets (of one type and dimension)."""
+        if type(second) is not type(first):
+            raise TypeError(f"second must be a {type(first).__name__}, as first is, got "
+                            f"{type(second).__name__}")
+        for a, b, field in zip(first._fields(), second._fields(), dataclasses.fields(first)):
+            if a.shape[1:] != b.shape[1:]:
+                raise ValueError(f"the track sets' {field.name} differ in shape: {a.shape} "
+                                 f"and {b.shape}")
         return type(first)(*[np.concatenate((a, b)) for a, b in
                              zip(first._fields(), second._fields())])
 
@@ -205,5 +214,6 @@ class IMMTrackSet(TrackSet):
     def empty(cls, d, models=1):
         """No tracks of dimension ``d`` and ``models`` models."""
         none = TrackSet.empty(d)
+        models = _validate.count(models, "models")
         return cls(*none._fields(), np.empty((0, models, d)), np.empty((0, models, d, d)),
                    np.empty((0, models)))
