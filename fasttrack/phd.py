@@ -151,6 +151,9 @@ class PHDTracker(_IntensityTracker):
     birth components, update with the scan (:func:`fasttrack.core.phd.update`), reduce, and
     extract the components heavier than ``extraction_threshold``.
 
+    The settings (the parameters but the models and ``unscented``) may be changed between
+    scans; each assignment is checked as the constructor checks it.
+
     Parameters
     ----------
     transition_model : TransitionModel
@@ -172,11 +175,6 @@ class PHDTracker(_IntensityTracker):
     unscented : (alpha, beta, kappa), optional
         For a polar sensor, update by the unscented transform with these parameters instead
         of the Jacobian (see :func:`fasttrack.core.phd.update`).
-
-    The settings (``birth`` to ``extraction_threshold``, but not the models or
-    ``unscented``) may be changed between scans; each assignment is checked as the
-    constructor checks it.
-
     Attributes
     ----------
     mixture : GaussianMixture
@@ -226,6 +224,8 @@ class CPHDTracker(_IntensityTracker):
     number of targets besides the intensity (:mod:`fasttrack.core.cphd`), Poisson clutter,
     and as estimates the most probable number of targets' heaviest components.
 
+    The settings may be changed between scans, as :class:`PHDTracker`'s.
+
     Parameters
     ----------
     transition_model : TransitionModel
@@ -249,10 +249,6 @@ class CPHDTracker(_IntensityTracker):
         As :class:`PHDTracker`'s.
     unscented : (alpha, beta, kappa), optional
         As :class:`PHDTracker`'s.
-
-    The settings (``birth`` to ``clutter_rate`` and ``gate_threshold``, ``reducer``) may be
-    changed between scans, as :class:`PHDTracker`'s.
-
     Attributes
     ----------
     mixture : GaussianMixture

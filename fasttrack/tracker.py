@@ -34,6 +34,9 @@ class MultiTargetTracker:
     after ``tentative_misses`` scans without one; every detection still left starts a
     tentative track.
 
+    The settings (the parameters but the models and the prior) may be changed between
+    scans; each assignment is checked as the constructor checks it.
+
     Parameters
     ----------
     transition_model : linear-Gaussian TransitionModel
@@ -61,11 +64,7 @@ class MultiTargetTracker:
         Delete a confirmed track whose covariance trace exceeds it (> 0); None (or inf)
         for no limit.
     association : {'gnn', 'nn'}
-        Global or greedy nearest neighbour.
-
-    The settings may be changed between scans; each assignment is checked as the
-    constructor checks it.
-    """
+        Global or greedy nearest neighbour.    """
 
     #: Whether the transition model may be one built from a function (the IMM's models).
     _nonlinear_transitions = False
