@@ -29,6 +29,8 @@ def test_hypothesisers_equal_stone_soup_and_share_the_memoised_predictions():
     for kind, options in [("distance", {"missed_distance": 3}),
                           ("distance", {"missed_distance": 3, "include_all": True}),
                           ("distance", {"missed_distance": 10, "gate": 2.0}),
+                          ("distance", {"missed_distance": 1e300}),  # (squares overflow)
+                          ("distance", {"missed_distance": 1e300, "gate": 1e200}),
                           ("pda", {"clutter_spatial_density": 1e-2}),
                           ("pda", {"normalise": False}),
                           ("pda", {"clutter_spatial_density": 1e-2, "gate": 2.0})]:

@@ -29,6 +29,8 @@ def test_mahalanobis_measure_equals_stone_soup():
     assert ours(bearing, z) == pytest.approx(theirs(bearing, z), rel=1e-10)
     singular = GaussianState(np.zeros((2, 1)), np.diag([1.0, 0.0]))  # Stone Soup's pinv
     assert ours(singular, z) == theirs(singular, z)
+    lopsided = GaussianState(np.zeros((2, 1)), np.array([[2.0, 0.5], [0.0, 1.0]]))  # (inverted)
+    assert ours(lopsided, z) == theirs(lopsided, z)
     several = types.SimpleNamespace(state_vector=StateVectors(rng.normal(size=(2, 3))))
     np.testing.assert_array_equal(ours(singular, several), theirs(singular, several))
     mapped = fss.Mahalanobis(mapping=[0])

@@ -296,8 +296,9 @@ class _Scan:
             identity = np.broadcast_to(np.eye(self.z_hats.shape[1]),
                                        self.innovation_covars.shape)
             missed = float(base.missed_distance)
-            pairs = self._gate(np.inf if base.include_all else np.nextafter(missed**2, np.inf),
-                               np.ascontiguousarray(identity), None)
+            threshold = np.inf if base.include_all else missed * missed  # (inf if it overflows)
+            pairs = self._gate(np.nextafter(threshold, np.inf), np.ascontiguousarray(identity),
+                               None)
             distances = np.sqrt(pairs.distances2)
             keep = np.ones(distances.size, dtype=np.bool_) if base.include_all \
                 else distances < missed
@@ -307,8 +308,8 @@ class _Scan:
         gates = np.array(recipe.gates)
         if recipe.kind == "distance":
             missed = float(base.missed_distance)
-            threshold = np.inf if base.include_all else missed**2
-            threshold = min([threshold, *(gates**2)])
+            threshold = np.inf if base.include_all else missed * missed  # (inf if it overflows)
+            threshold = min([threshold, *(g * g for g in recipe.gates)])
             pairs = self._gate(np.nextafter(threshold, np.inf), self.innovation_covars,
                                angles)
             distances = np.sqrt(pairs.distances2)
@@ -326,8 +327,8 @@ class _Scan:
         gate_threshold = float(base._gate_threshold(base.prob_gate, m))
         density = base.clutter_spatial_density
         threshold = np.inf if base.include_all else gate_threshold
-        if density is not None and not base.normalise and gates.size:
-            threshold = min(threshold, *(gates**2))  # no count, no normaliser needs more
+        if density is not None and not base.normalise and gates.size:  # (no count, no
+            threshold = min(threshold, *(g * g for g in gates.tolist()))  # normaliser: no more)
         pairs = self._gate(np.nextafter(threshold, np.inf), self.innovation_covars, angles)
         distances2 = pairs.distances2
         inside = distances2 <= gate_threshold

@@ -87,7 +87,8 @@ def _particle_moments(state):
 def _squared_mahalanobis(measure, state1, state2):
     """Stone Soup's squared Mahalanobis distance of a Gaussian or particle ``state1`` and
     one vector ``state2`` by a Cholesky factor, or the reason Stone Soup's own code is
-    needed (a mapping, several columns, a singular or ill-conditioned covariance)."""
+    needed (a mapping, several columns, an asymmetric, singular or ill-conditioned
+    covariance)."""
     if measure.mapping is not None:
         return "a mapping"
     if isinstance(state1, ParticleState):
@@ -116,6 +117,8 @@ def _squared_mahalanobis(measure, state1, state2):
         return "values that are not numbers"
     if not np.isfinite(covar).all():
         return "a covariance that is not finite"
+    if (np.abs(covar - covar.T) > 1e-9 * np.abs(covar).max()).any():
+        return "an asymmetric covariance (a Cholesky factor reads one triangle)"
     difference = v - u
     difference[angles] = mod_bearing(difference[angles])
     d2 = squared_distance(difference, covar)
@@ -132,7 +135,7 @@ class Mahalanobis(ss_measures.Mahalanobis):
     ``Bearing`` arithmetic wraps them) instead of a pseudo-inverse; a particle state's mean
     and covariance as Stone Soup computes them (circular means of bearings), on floats
     instead of ``Bearing`` objects. Equal to rounding. Other cases (a mapping, several
-    columns, a singular or ill-conditioned covariance) run Stone Soup's code. The
+    columns, an asymmetric, singular or ill-conditioned covariance) run Stone Soup's code. The
     drop-in associators recognise this measure and Stone Soup's.
     """
 
