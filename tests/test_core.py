@@ -49,6 +49,12 @@ def test_weigh_normalises_and_reports_the_ess():
     assert ess == pytest.approx(ft.ess(log_w), rel=1e-12)
     with pytest.raises(ValueError, match="zero likelihood"):
         particle.weigh(sensor, z, x, np.full(5000, -np.inf))
+    for n in (5000, 40):  # an infinite weight: no normalised weights, not NaN ones
+        infinite = log_weight[:n].copy()
+        infinite[[3, 7]] = np.inf
+        with pytest.raises(ValueError, match=r"log weights include \+inf \(2 particles, the "
+                                             r"first at index 3\)"):
+            particle.weigh(sensor, z, x[:, :n], infinite)
 
 
 def test_resampling_decision_uses_half_the_particles_by_default():

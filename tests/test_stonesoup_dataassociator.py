@@ -363,6 +363,14 @@ def test_empty_scans_return_what_stone_soup_returns():
     assert type(joint) is DistanceJointHypothesis
 
 
+def test_a_track_given_twice_gets_stone_soups_association():
+    tracks, detections = scenario(4, spacing=4.0, seed=7, clutter=0.5)
+    twice = [tracks[0], *tracks]
+    for associator, kind, options in [("NearestNeighbour", "distance", {"missed_distance": 4}),
+                                      ("JPDA", "pda", {"clutter_spatial_density": 0.02})]:
+        associate_both(associator, kind, twice, detections, fast=False, **options)
+
+
 def test_other_configurations_run_stone_soup_code():
     """A Stone Soup predictor, an unrecognised model, detections at another time or
     keywords: Stone Soup's code, with its results."""

@@ -61,6 +61,26 @@ def test_a_model_fasttrack_does_not_compute_is_named(counting):
     assert fss.fallbacks(clear=True) and fss.fallbacks() == {}
 
 
+def test_particles_of_another_dimension_or_none_get_stone_soups_update(counting):
+    from stonesoup.types.array import StateVectors
+    from stonesoup.types.prediction import ParticleStatePrediction
+    sensor = LinearGaussian(4, [0, 2], np.eye(2))
+    prediction = ParticleStatePrediction(StateVectors(np.ones((6, 20))),
+                                         log_weight=np.full(20, -np.log(20)), timestamp=LATER)
+    hypothesis = SingleHypothesis(prediction, Detection([[1.0], [1.0]], timestamp=LATER))
+    for call in (lambda u: u.update(hypothesis), lambda u: u.predict_measurement(prediction)):
+        with pytest.raises(ValueError, match="matmul: Input operand 1 has a mismatch"):
+            call(fss.ParticleUpdater(sensor))
+    reason = "particles of other than the model's 4 dimensions"
+    assert fss.fallbacks() == {("ParticleUpdater", "update", reason): 1,
+                               ("ParticleUpdater", "predict_measurement", reason): 1}
+    none = ParticleStatePrediction(StateVectors(np.ones((4, 0))), log_weight=np.zeros(0),
+                                   timestamp=LATER)  # (Stone Soup returns an empty update)
+    empty = fss.ParticleUpdater(sensor).update(SingleHypothesis(none, hypothesis.measurement))
+    assert empty.state_vector.shape == (4, 0)
+    assert fss.fallbacks()[("ParticleUpdater", "update", "no particles")] == 1
+
+
 def test_keywords_a_mapping_and_a_hypothesiser_setting_are_reasons(counting):
     updater = fss.KalmanUpdater(LinearGaussian(4, [0, 2], np.eye(2)))
     prediction = fss.KalmanPredictor(CombinedLinearGaussianTransitionModel(

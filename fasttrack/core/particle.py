@@ -85,7 +85,8 @@ def weigh(model, z, particles, log_weight):
     Raises
     ------
     ValueError
-        If the likelihoods are NaN, or every particle has zero likelihood.
+        If the likelihoods are NaN, every particle has zero likelihood, or a log weight is
+        +inf.
     """
     log_w = _buffers.empty(particles.shape[1])
     top = model.log_likelihood(z, particles, log_weight, log_w)
@@ -100,6 +101,11 @@ def weigh(model, z, particles, log_weight):
     if top == -np.inf:
         raise ValueError("every particle has zero likelihood for this measurement: "
                          "no weight survives")
+    if top == np.inf:
+        bad = np.isposinf(log_weight)
+        raise ValueError(f"the prediction's log weights include +inf ({np.count_nonzero(bad)} "
+                         f"particles, the first at index {np.argmax(bad)}): an infinite "
+                         f"weight cannot be normalised")
     if _jit.numpy_first(_numpy.work(log_w)):
         log_w[:], ess = _numpy.normalise(log_w, top)
         return log_w, float(ess)

@@ -178,6 +178,8 @@ class _Scan:
     def __init__(self, recipe, tracks, detections, timestamp, single):
         self.recipe = recipe
         self.tracks = list(tracks)
+        if len(set(map(id, self.tracks))) < len(self.tracks):
+            raise _NotFast("a track given twice")
         self.detections = list(detections)
         self.timestamp = timestamp
         if timestamp is None or any(d.timestamp != timestamp for d in self.detections):

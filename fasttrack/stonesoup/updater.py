@@ -50,8 +50,13 @@ class ParticleUpdater(ss_particle.ParticleUpdater):
 
     def _refusal(self, model, prediction, kwargs):
         """Why Stone Soup's code must run this update, or None."""
-        if fast_model(model) is None:
+        fast = fast_model(model)
+        if fast is None:
             return unknown_model(model)
+        if np.shape(prediction.state_vector)[0] != fast.ndim_state:
+            return f"particles of other than the model's {fast.ndim_state} dimensions"
+        if not np.size(prediction.state_vector):
+            return "no particles"
         if reason := keywords(kwargs, self):
             return reason
         if self.constraint_func is not None:
@@ -90,6 +95,8 @@ class ParticleUpdater(ss_particle.ParticleUpdater):
         fast = fast_model(model)
         reason = unknown_model(model) if fast is None else (
             keywords(kwargs, self)
+            or (np.shape(predicted_state.state_vector)[0] != fast.ndim_state
+                and f"particles of other than the model's {fast.ndim_state} dimensions")
             or (not isinstance(measurement_noise, bool) and "measurement noise given as values")
             or (not plain_particles(predicted_state)
                 and f"prediction {type(predicted_state).__name__} indexes its particles its "
