@@ -1,6 +1,7 @@
 """What the kernels' status codes (``fasttrack._jit.status``) mean: one message per code, and
 the error raised for it."""
 from ._jit import status as _status
+from ._jit.tunables import SIGMA_RESOLUTION
 
 #: The message of each status code that does not concern a user's function.
 MESSAGES = {
@@ -15,6 +16,14 @@ MESSAGES = {
     _status.MEASUREMENT_NOT_FINITE: "hypothesis.measurement contains NaN or infinite values",
     _status.MEAN_AT_SENSOR: "the prediction's mean lies at the polar sensor, where its "
                             "bearing is undefined",
+    _status.PRIOR_UNRESOLVED: "prior.state_vector has a component more than "
+                              f"{SIGMA_RESOLUTION:.0e} times its standard deviation (the "
+                              "square root of its variance): its sigma points would round to "
+                              "it (float64 keeps 16 digits)",
+    _status.PREDICTION_UNRESOLVED: "the prediction's mean has a component more than "
+                                   f"{SIGMA_RESOLUTION:.0e} times its standard deviation "
+                                   "(the square root of its variance): its sigma points would "
+                                   "round to it (float64 keeps 16 digits)",
     _status.UPDATE_NOT_PSD: "the update by hypothesis.measurement left a covariance that is "
                             "not positive semi-definite (the standard form P - K S K^T; "
                             "use_joseph_cov=True keeps it)",

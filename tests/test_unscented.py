@@ -365,7 +365,7 @@ def test_an_update_whose_mean_lies_at_the_sensor_is_refused_as_stone_soup_comput
     prediction = ft.GaussianStatePrediction(x, covar, timestamp=START)
     with pytest.raises(ValueError, match=message):
         native.update(ft.SingleHypothesis(prediction, ft.Detection(z, timestamp=START)))
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(ValueError, match=r"filter 1: means\[1\] lies at the polar sensor"):
         _batch().update(np.array([[0.0, 1.0, 2.0, 0.0], x[:, 0]]),
                         np.array([np.eye(4), covar]), np.array([[0.1, 50.0], z[:, 0]]))
     spec = _sensor().spec
@@ -487,6 +487,47 @@ def test_bad_states_models_and_measurements_are_refused():
             ft.SingleHypothesis(prediction, ft.Detection([[0.1], [40.0]], timestamp=1.0)))
     with pytest.raises(ValueError, match="state dimensions"):
         updater.predict_measurement(ft.GaussianState([0, 1], np.eye(2), timestamp=1.0))
+
+
+def test_a_mean_its_sigma_points_cannot_resolve_is_refused():
+    """At 1e100 with unit variances the sigma points round to the mean and the moments are
+    rounding errors (a covariance of 5e169 or -inf came back): refused by the kernels, the
+    NumPy twins, the classes and the batch filter; 1e11 still resolves."""
+    from fasttrack.core import kalman_numpy
+    from fasttrack._jit.status import PREDICTION_UNRESOLVED, PRIOR_UNRESOLVED
+    model, sensor = _transition(), _sensor()
+    kind, rates, matrix, noise = model.spec(1.0).kalman()
+    far = np.array([[1e100], [1.0], [0.0], [1.0]])
+    outs = (np.empty((4, 1)), np.empty((4, 4)))
+    for predict in (kernels.unscented_predict, reference.unscented.unscented_predict):
+        assert predict(kind, rates, matrix, noise, 1.0, 0.5, 2.0, -1.0, far, np.eye(4),
+                       *outs) == PRIOR_UNRESOLVED
+    assert kalman_numpy.unscented_predict(model.spec(1.0), 0.5, 2.0, -1.0, far,
+                                          np.eye(4))[0] == PRIOR_UNRESOLVED
+    z = np.array([[0.1], [40.0]])
+    outs = (np.empty((4, 1)), np.empty((4, 4)), np.empty((2, 1)), np.empty((2, 2)),
+            np.empty((4, 2)))
+    for update in (kernels.unscented_update, reference.unscented.unscented_update):
+        assert update(*sensor.spec.sensor, 0.5, 2.0, -1.0, False, far, np.eye(4), z,
+                      *outs) == PREDICTION_UNRESOLVED
+    assert kalman_numpy.unscented_update(sensor.spec, 0.5, 2.0, -1.0, False, far,
+                                         np.eye(4), z)[0] == PREDICTION_UNRESOLVED
+    prior = ft.GaussianState(far, np.eye(4), timestamp=0.0)
+    with pytest.raises(ValueError, match=r"prior.state_vector has a component more than "
+                                         r"1e\+12 times its standard deviation"):
+        ft.UnscentedKalmanPredictor(model).predict(prior, 1.0)
+    with pytest.raises(ValueError, match="the prediction's mean has a component more than"):
+        ft.UnscentedKalmanUpdater(sensor).update(ft.SingleHypothesis(
+            prior, ft.Detection([0.1, 40.0], timestamp=0.0)))
+    means, covars, z = _batch_inputs(300, np.random.default_rng(13))
+    means[201, 0] = 1e100
+    with pytest.raises(ValueError, match=r"filter 201: means\[201\] has a component more"):
+        _batch().step(means, covars, z, 1.0)
+    known = ft.GaussianState([1e11, 1.0, 5.0, 1.0], np.diag([1.0, 1.0, 0.0, 1.0]),
+                             timestamp=0.0)  # (a component without variance has no spread)
+    predicted = ft.UnscentedKalmanPredictor(model).predict(known, 1.0)
+    np.testing.assert_allclose(predicted.covar, ft.KalmanPredictor(model).predict(
+        known, 1.0).covar, rtol=1e-4, atol=1e-4)
 
 
 def test_exported():

@@ -26,3 +26,8 @@ PREDICTION_NOT_SYMMETRIC = np.int64(9)
 UPDATE_NOT_PSD = np.int64(10)
 #: An unscented transform whose mean lies at a polar sensor, where its bearing is undefined.
 MEAN_AT_SENSOR = np.int64(11)
+#: A prior mean with a component beyond ``SIGMA_RESOLUTION`` standard deviations from 0:
+#: its sigma points round to it.
+PRIOR_UNRESOLVED = np.int64(12)
+#: The same of a prediction's mean.
+PREDICTION_UNRESOLVED = np.int64(13)

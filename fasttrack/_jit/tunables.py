@@ -45,6 +45,10 @@ UNROLLED_DIMENSIONS = (2, 4, 6)
 #: Relative tolerance of the positive semi-definiteness checks: an eigenvalue (or a
 #: Cholesky pivot) below ``-PSD_TOLERANCE`` times the largest is negative, not rounding.
 PSD_TOLERANCE = 1e-10
+#: The most a mean's component may exceed its standard deviation in an unscented transform:
+#: its sigma points ``x +- sqrt(c) L`` keep about ``16 - log10(ratio)`` digits of their
+#: spread (float64), so beyond 1e12 the transform's moments would be rounding errors.
+SIGMA_RESOLUTION = 1e12
 #: Up to this bound on the condition number of ``F F^T + lam I`` the AKKF's ridge map is
 #: computed through its Cholesky factorisation (relative error about cond * eps <= 2e-8);
 #: above it, by LQ, whose error grows with the square root of the condition number only.

@@ -27,7 +27,8 @@ from .numeric import copy_into, fill, sin_cos_turns, wrap_angle
 from .kinds import SELECT
 from .sensor import _predict_block, _sensor_frame
 from .status import (MEAN_AT_SENSOR, OK, PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC,
-                     PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC)
+                     PREDICTION_UNRESOLVED, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC, PRIOR_UNRESOLVED)
+from .tunables import SIGMA_RESOLUTION
 from .user import output_status
 
 #: Stages of :func:`batch_unscented` (a bit mask).
@@ -281,12 +282,27 @@ def unscented_moments(points, transformed, mean_weights, covar_weights, angles, 
 
 
 @jit()
-def _checked(covariance, asymmetric, indefinite):
-    """The status (1,) of a (d, d) covariance: OK if symmetric positive semi-definite, else
-    ``asymmetric`` or ``indefinite``."""
+def _check_resolved(nb, x, covariance, status, unresolved):
+    """``status[b]`` (if still OK) becomes ``unresolved`` where a component of the mean
+    ``x[:, b]`` exceeds :data:`SIGMA_RESOLUTION` times its standard deviation (of a
+    positive variance): its sigma points would round to it."""
+    d = x.shape[0]
+    for b in range(nb):
+        for r in range(d):
+            v = covariance[r, r, b]
+            if status[b] == OK and v > 0.0 and abs(x[r, b]) > SIGMA_RESOLUTION * np.sqrt(v):
+                status[b] = unresolved
+
+
+@jit()
+def _checked(x, covariance, asymmetric, indefinite, unresolved):
+    """The status (1,) of a mean (d, 1) and (d, d) covariance: OK if the covariance is
+    symmetric positive semi-definite and the sigma points resolve the mean (see
+    :func:`_check_resolved`), else ``asymmetric``, ``indefinite`` or ``unresolved``."""
     d = covariance.shape[0]
     status = np.zeros(1, dtype=np.int64)
     _check_covariance(1, covariance.reshape((d, d, 1)), status, asymmetric, indefinite)
+    _check_resolved(1, x, covariance.reshape((d, d, 1)), status, unresolved)
     return status
 
 
@@ -297,7 +313,7 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
     :mod:`kalman`): the prior's sigma points moved by F, their moments plus Q. Returns the
     status (PRIOR_NOT_SYMMETRIC / PRIOR_NOT_PSD for a bad prior covariance)."""
     d = x.shape[0]
-    status = _checked(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    status = _checked(x, covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_UNRESOLVED)
     if status[0] == OK:
         matrix, covar = np.empty((d, d, 1)), np.empty((d, d, 1))
         _transition(1, kind, rates, fixed_matrix, fixed_covar, np.full(1, dt), matrix, covar)
@@ -314,7 +330,7 @@ def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covar
     moments plus ``covar`` (Q), and their cross covariance with the prior's sigma points
     into ``cross`` (d, d; not computed if it has no rows). Returns the status."""
     d = x.shape[0]
-    status = _checked(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    status = _checked(x, covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_UNRESOLVED)
     if status[0] != OK:
         return status[0]
     points, _, mean_weights, covar_weights = _sigma(1, x, covariance.reshape((d, d, 1)), alpha,
@@ -342,7 +358,8 @@ def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta
     ``H = C^T P^-1`` (exact for a linear sensor). Returns the status (MEAN_AT_SENSOR where
     the prediction's mean lies at a polar sensor)."""
     d, m = x.shape[0], z.shape[0]
-    status = _checked(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    status = _checked(x, covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD,
+                      PREDICTION_UNRESOLVED)
     if status[0] == OK:
         covariance = covariance.reshape((d, d, 1))
         measured = _measure(1, kind, mapping, offset, rotation, alpha, beta, kappa, x,
@@ -361,7 +378,8 @@ def unscented_update_function(function, noise, angles, alpha, beta, kappa, josep
     """One filter's unscented update with a user measurement ``h((d, n)) -> (m, n)`` (its
     output checked first); otherwise as :func:`unscented_update`. Returns the status."""
     d, m = x.shape[0], z.shape[0]
-    status = _checked(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    status = _checked(x, covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD,
+                      PREDICTION_UNRESOLVED)
     if status[0] != OK:
         return status[0]
     covariance = covariance.reshape((d, d, 1))
@@ -408,6 +426,7 @@ def batch_unscented(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mappi
         block_status = np.zeros(nb, dtype=np.int64)
         if stages & PREDICT:
             _check_covariance(nb, covariance, block_status, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+            _check_resolved(nb, x, covariance, block_status, PRIOR_UNRESOLVED)
             matrix, covar = np.empty((d, d, nb)), np.empty((d, d, nb))
             _transition(nb, t_kind, rates, fixed_matrix, fixed_covar, dts[lo:hi], matrix, covar)
             x_pred, covariance_pred = np.empty((d, nb)), np.empty((d, d, nb))
@@ -417,6 +436,7 @@ def batch_unscented(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mappi
         if stages & (MEASURE | UPDATE):
             _check_covariance(nb, covariance, block_status, PREDICTION_NOT_SYMMETRIC,
                               PREDICTION_NOT_PSD)
+            _check_resolved(nb, x, covariance, block_status, PREDICTION_UNRESOLVED)
             measured = _measure(nb, m_kind, mapping, offset, rotation, alpha, beta, kappa, x,
                                 covariance, m)
             z_hat, innovation_covar = np.empty((m, nb)), np.empty((m, m, nb))

@@ -16,9 +16,9 @@ import numpy as np
 
 from .._jit.status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEAN_AT_SENSOR,
                            MEASUREMENT_NOT_FINITE, OK, PREDICTION_NOT_PSD,
-                           PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC,
-                           UPDATE_NOT_PSD)
-from .._jit.tunables import PSD_TOLERANCE
+                           PREDICTION_NOT_SYMMETRIC, PREDICTION_UNRESOLVED, PRIOR_NOT_PSD,
+                           PRIOR_NOT_SYMMETRIC, PRIOR_UNRESOLVED, UPDATE_NOT_PSD)
+from .._jit.tunables import PSD_TOLERANCE, SIGMA_RESOLUTION
 from .._validate import asymmetric as _asymmetric
 from .kinds import ANALYTIC, BEARING_RANGE, CENTRAL, FORWARD, SELECT
 
@@ -333,10 +333,21 @@ def _moments(sigma, transformed, angles, noise):
     return mean[:, None], covar, cross
 
 
+def _resolved(status, x, covar, unresolved):
+    """``status``, or ``unresolved`` if it is OK and a component of the mean ``x`` (d, 1)
+    exceeds ``SIGMA_RESOLUTION`` times its standard deviation (the kernels' rule: its sigma
+    points would round to it)."""
+    variances = np.diagonal(covar)
+    far = (variances > 0.0) & (np.abs(x[:, 0])
+                               > SIGMA_RESOLUTION * np.sqrt(np.maximum(variances, 0.0)))
+    return unresolved if status == OK and far.any() else status
+
+
 def unscented_predict(spec, alpha, beta, kappa, x, covar):
     """``(status, x, P)``: the sigma points of ``(x, covar)`` moved by F of the linear
     transition ``spec``, their moments plus Q."""
-    status = covariance_status(covar, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    status = _resolved(covariance_status(covar, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD), x, covar,
+                       PRIOR_UNRESOLVED)
     if status != OK:
         return status, x, covar
     sigma = _sigma(x, covar, alpha, beta, kappa)
@@ -349,7 +360,8 @@ def unscented_update(sensor, alpha, beta, kappa, joseph, x, covar, z):
     """``(status, x, P, z_hat, S, cross)`` of an unscented update with ``z`` by a built-in
     ``sensor``: the moments of the prediction's sigma points measured, then the gain step of
     :func:`update` (the Joseph form with the statistical linearisation ``C^T P^-1``)."""
-    status = covariance_status(covar, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    status = _resolved(covariance_status(covar, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD),
+                       x, covar, PREDICTION_UNRESOLVED)
     if status != OK:
         return status, x, covar, None, None, None
     z_hat, s, cross, lower = measurement_moments(sensor, alpha, beta, kappa, x, covar)

@@ -61,11 +61,12 @@ def check(status):
 
 
 def _message(code, k):
-    """The message of filter ``k``'s status ``code``, naming its input covariance
-    ``covars[k]`` where the code is about it."""
+    """The message of filter ``k``'s status ``code``, naming its input mean ``means[k]`` or
+    covariance ``covars[k]`` where the code is about it."""
     message = _errors.MESSAGES[code]
-    for name in ("prior.covar", "the prediction's covariance"):
-        message = message.replace(name, f"covars[{k}]")
+    for name, own in (("prior.covar", "covars"), ("the prediction's covariance", "covars"),
+                      ("prior.state_vector", "means"), ("the prediction's mean", "means")):
+        message = message.replace(name, f"{own}[{k}]")
     return message
 
 

@@ -24,6 +24,9 @@ class UnscentedKalmanPredictor(Predictor):
     kappa : float, optional
         Secondary spread; None means ``3 - ndim_state``. ``alpha**2 * (ndim_state + kappa)``
         must be > 0.
+
+    A prior whose mean has a component more than 1e12 times its standard deviation is
+    refused (ValueError): its sigma points would round to the mean in float64.
     """
 
     def __init__(self, transition_model, alpha=0.5, beta=2.0, kappa=None):

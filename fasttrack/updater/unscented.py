@@ -39,6 +39,9 @@ class UnscentedKalmanUpdater(KalmanUpdater):
         does raises a ValueError.
     force_symmetric_covariance : bool
         Accepted for compatibility: covariances are always computed exactly symmetric.
+
+    A prediction whose mean has a component more than 1e12 times its standard deviation is
+    refused (ValueError): its sigma points would round to the mean in float64.
     """
 
     def __init__(self, measurement_model=None, alpha=0.5, beta=2.0, kappa=None,

@@ -7,9 +7,23 @@ from .likelihood import measure
 from .numeric import wrap_angle
 from .sensor import SELECT
 from .status import (INNOVATION_NOT_PD, MEAN_AT_SENSOR, MEASUREMENT_NOT_FINITE, OK,
-                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
-                     PRIOR_NOT_SYMMETRIC)
+                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PREDICTION_UNRESOLVED,
+                     PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC, PRIOR_UNRESOLVED)
 from .user import output_status
+
+#: ``fasttrack._jit.tunables.SIGMA_RESOLUTION``.
+SIGMA_RESOLUTION = 1e12
+
+
+def _status(x, covariance, asymmetric, indefinite, unresolved):
+    """The covariance's status, or ``unresolved`` where a component of x is beyond
+    SIGMA_RESOLUTION standard deviations (of a positive variance)."""
+    status = _covariance_status(covariance, asymmetric, indefinite)
+    for r in range(x.shape[0]):
+        v = covariance[r, r]
+        if status == OK and v > 0 and abs(x[r, 0]) > SIGMA_RESOLUTION * np.sqrt(v):
+            status = unresolved
+    return status
 
 
 def _cholesky_eps(a):
@@ -65,7 +79,7 @@ def _sigma(x, covariance, alpha, beta, kappa):
 
 def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, kappa, x,
                       covariance, x_out, covariance_out):
-    status = _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    status = _status(x, covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_UNRESOLVED)
     if status != OK:
         return status
     d = x.shape[0]
@@ -78,7 +92,7 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
 
 def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covariance,
                                x_out, covariance_out, cross):
-    status = _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    status = _status(x, covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_UNRESOLVED)
     if status != OK:
         return status
     d = x.shape[0]
@@ -96,7 +110,8 @@ def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covar
 def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta, kappa,
                      joseph, x, covariance, z, x_out, covariance_out, z_hat,
                      innovation_covar, cross):
-    status = _covariance_status(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    status = _status(x, covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD,
+                     PREDICTION_UNRESOLVED)
     if status != OK:
         return status
     _, points, wm, wc = _sigma(x, covariance, alpha, beta, kappa)
@@ -133,7 +148,8 @@ def _unscented_correct(points, transformed, wm, wc, noise, angles, joseph, x, co
 def unscented_update_function(function, noise, angles, alpha, beta, kappa, joseph, x,
                               covariance, z, x_out, covariance_out, z_hat, innovation_covar,
                               cross):
-    status = _covariance_status(covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD)
+    status = _status(x, covariance, PREDICTION_NOT_SYMMETRIC, PREDICTION_NOT_PSD,
+                     PREDICTION_UNRESOLVED)
     if status != OK:
         return status
     _, points, wm, wc = _sigma(x, covariance, alpha, beta, kappa)
