@@ -5,10 +5,12 @@ from ._jit.tunables import SIGMA_RESOLUTION
 
 #: The message of each status code that does not concern a user's function.
 MESSAGES = {
-    _status.PRIOR_NOT_PSD: "prior.covar is not positive semi-definite",
-    _status.PREDICTION_NOT_PSD: "the prediction's covariance is not positive semi-definite",
-    _status.PRIOR_NOT_SYMMETRIC: "prior.covar is not symmetric",
-    _status.PREDICTION_NOT_SYMMETRIC: "the prediction's covariance is not symmetric",
+    _status.PRIOR_NOT_PSD: "prior.covar is not positive semi-definite (or not finite)",
+    _status.PREDICTION_NOT_PSD: "the prediction's covariance is not positive semi-definite "
+                                "(or not finite)",
+    _status.PRIOR_NOT_SYMMETRIC: "prior.covar is not symmetric (or not finite)",
+    _status.PREDICTION_NOT_SYMMETRIC: "the prediction's covariance is not symmetric (or not "
+                                      "finite)",
     _status.INNOVATION_NOT_PD: "the innovation covariance S (of the predicted measurement, "
                                "plus R) is not positive definite (singular)",
     _status.JACOBIAN_UNDEFINED: "the measurement Jacobian is undefined at the predicted "

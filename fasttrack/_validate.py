@@ -161,7 +161,7 @@ def psd_covariance(value, name, size):
     top = max(values.max(), np.finfo(float).tiny)
     if values.min() < -PSD_TOLERANCE * top:
         raise ValueError(f"{name} is not positive semi-definite "
-                         f"(smallest eigenvalue {values.min():.3g}, largest {top:.3g})")
+                         f"(eigenvalues from {values.min():.3g} to {values.max():.3g})")
     return a
 
 

@@ -5,6 +5,7 @@ import functools
 import numpy as np
 
 from . import _validate
+from ._validate import Setting
 from .core import imm as _imm
 from .core import kalman as _kalman
 from .core import stack as _stack
@@ -20,15 +21,21 @@ def check_models(transition_model, measurement_model, nonlinear=False):
     ``nonlinear`` any TransitionModel, e.g. one built from a function) and a built-in
     measurement model (what the stack kernels know), a ValueError if their state
     dimensions differ."""
+    check_transition_model(transition_model, nonlinear)
+    check_measurement_model(measurement_model)
+    if measurement_model.ndim_state != transition_model.ndim_state:
+        raise ValueError(f"the models disagree on the state dimension: "
+                         f"{transition_model.ndim_state} and {measurement_model.ndim_state}")
+
+
+def check_transition_model(transition_model, nonlinear=False):
+    """A TypeError unless ``transition_model`` is a linear-Gaussian TransitionModel (with
+    ``nonlinear``, any TransitionModel)."""
     if not isinstance(transition_model, TransitionModel) \
             or not (nonlinear or hasattr(transition_model, "matrix")):
         kind = "TransitionModel" if nonlinear else "linear-Gaussian TransitionModel"
         raise TypeError(f"transition_model must be a {kind}, "
                         f"got {type(transition_model).__name__}")
-    check_measurement_model(measurement_model)
-    if measurement_model.ndim_state != transition_model.ndim_state:
-        raise ValueError(f"the models disagree on the state dimension: "
-                         f"{transition_model.ndim_state} and {measurement_model.ndim_state}")
 
 
 def check_model_set(transition_models, measurement_model):
@@ -54,14 +61,71 @@ def check_measurement_model(measurement_model):
                         f"got {type(measurement_model).__name__}")
 
 
-class _BatchFilter:
+class ModelSettings:
+    """``transition_model`` and ``measurement_model`` as settings of their owner: each
+    assignment, the constructor's and any later one, is checked as :func:`check_models`
+    checks the pair (against the other model once it is set), so that the kernels never
+    meet models of another kind or dimension than they were checked for. Assign the
+    transition model first."""
+
+    #: Whether the transition model may be one built from a function.
+    _nonlinear_transitions = False
+
+    transition_model = Setting("_checked_transition")
+    measurement_model = Setting("_checked_measurement")
+
+    def _checked_transition(self, model, name):
+        check_transition_model(model, self._nonlinear_transitions)
+        measurement = self.__dict__.get("measurement_model")
+        if measurement is not None:
+            check_models(model, measurement, self._nonlinear_transitions)
+        return model
+
+    def _checked_measurement(self, model, name):
+        check_measurement_model(model)
+        transition = self.__dict__.get("transition_model")
+        if transition is not None:
+            check_models(transition, model, self._nonlinear_transitions)
+        return model
+
+
+class ModelSetSettings:
+    """``transition_models`` (a multiple-model filter's), ``measurement_model`` and the
+    switching ``transition_matrix`` as settings, checked as :func:`check_model_set` and
+    :func:`fasttrack.core.imm.transition_matrix` check them on every assignment; the number
+    of models is kept (the switching matrix's). Assign the measurement model first."""
+
+    transition_models = Setting("_checked_model_set")
+    measurement_model = Setting("_checked_measurement")
+    transition_matrix = Setting("_checked_switching")
+
+    def _checked_model_set(self, value, name):
+        models, self._has = check_model_set(value, self.measurement_model)
+        before = self.__dict__.get("transition_models")
+        if before is not None and len(models) != len(before):
+            raise ValueError(f"transition_models must keep {len(before)} models (the "
+                             f"switching matrix's), got {len(models)}")
+        return models
+
+    def _checked_switching(self, value, name):
+        return _imm.transition_matrix(value, len(self.transition_models))
+
+    def _checked_measurement(self, model, name):
+        models = self.__dict__.get("transition_models")
+        if models is not None:
+            check_model_set(models, model)
+        else:
+            check_measurement_model(model)
+        return model
+
+
+class _BatchFilter(ModelSettings):
     """K independent Gaussian filters sharing a transition and a measurement model, each
     with its own state, covariance, measurements and time intervals: the validation of
     :class:`BatchExtendedKalmanFilter` and :class:`BatchUnscentedKalmanFilter`, which
     call their array-layer stack functions in ``_predict``, ``_update`` and ``_step``."""
 
     def __init__(self, transition_model, measurement_model):
-        check_models(transition_model, measurement_model)
         self.transition_model = transition_model
         self.measurement_model = measurement_model
 

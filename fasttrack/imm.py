@@ -6,7 +6,7 @@ import numpy as np
 
 from . import _validate
 from ._states import step_intervals
-from .batch import check_model_set
+from .batch import ModelSetSettings
 from .core import imm as _imm
 from .core import imm_smooth as _imm_smooth
 from .core.mixture import check_covariances
@@ -219,7 +219,7 @@ def _stacked_arrays(means, covars, weights, timestamp):
                                  np.zeros(len(weights), dtype=np.int64), timestamp)
 
 
-class BatchIMMFilter:
+class BatchIMMFilter(ModelSetSettings):
     """K independent IMM filters, each a bank of M Kalman filters (one a transition model)
     sharing a measurement model: mix, predict and update each model, weigh the models by
     their measurement likelihoods (in logs), and combine.
@@ -263,10 +263,9 @@ class BatchIMMFilter:
     algorithm = "imm"
 
     def __init__(self, transition_models, measurement_model, transition_matrix):
-        models, self._has = check_model_set(transition_models, measurement_model)
-        self.transition_models = models
         self.measurement_model = measurement_model
-        self.transition_matrix = _imm.transition_matrix(transition_matrix, len(models))
+        self.transition_models = transition_models
+        self.transition_matrix = transition_matrix
 
     def step(self, means, covars, mode_probs, measurements, time_intervals):
         """One IMM step of every filter.

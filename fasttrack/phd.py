@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from . import _validate
-from .batch import check_models
+from .batch import ModelSettings
 from .core import cphd as _cphd
 from .core import kalman as _kalman
 from .core import mixture as _mixture
@@ -21,7 +21,7 @@ _LOG_LARGEST = math.log(np.finfo(np.float64).max)
 MAX_TARGETS = 10_000
 
 
-class _IntensityTracker:
+class _IntensityTracker(ModelSettings):
     """What the PHD and CPHD trackers share: the models, the birth intensity, P_D, P_S,
     the clutter intensity, the gate and the reducer (see :class:`PHDTracker`), and the
     step: predict, add the births, update (:meth:`_update`), reduce, extract
@@ -29,7 +29,6 @@ class _IntensityTracker:
 
     def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
                  clutter_intensity, gate_threshold, reducer, unscented):
-        check_models(transition_model, measurement_model)
         self.transition_model, self.measurement_model = transition_model, measurement_model
         self.unscented = None if unscented is None else _phd.unscented_parameters(unscented)
         self.birth = birth

@@ -5,7 +5,7 @@ import numpy as np
 from . import _validate
 from ._validate import Setting
 from .association import gate, global_nearest_neighbour, nearest_neighbour
-from .batch import check_model_set, check_models
+from .batch import ModelSetSettings, ModelSettings
 from .core import imm as _imm
 from .core import jpda as _jpda
 from .core import kalman as _kalman
@@ -19,7 +19,7 @@ _ASSOCIATORS = {"gnn": global_nearest_neighbour, "nn": nearest_neighbour}
 LARGEST_IMM_MEASUREMENT = 1e150
 
 
-class MultiTargetTracker:
+class MultiTargetTracker(ModelSettings):
     """Track an unknown number of targets through scans of detections with clutter and
     missed detections (Stone Soup's ``MultiTargetTracker`` with a
     ``MultiMeasurementInitiator``, ``UpdateTimeStepsDeleter``, optionally
@@ -66,16 +66,9 @@ class MultiTargetTracker:
     association : {'gnn', 'nn'}
         Global or greedy nearest neighbour.    """
 
-    #: Whether the transition model may be one built from a function (the IMM's models).
-    _nonlinear_transitions = False
-
     def __init__(self, transition_model, measurement_model, prior_mean, prior_covar,
                  missed_distance=3.0, min_points=2, delete_after_misses=3, tentative_misses=1,
                  max_covar_trace=None, association="gnn", confirm_within=None):
-        if not isinstance(measurement_model, LinearGaussian):
-            raise TypeError(f"measurement_model must be a LinearGaussian (tracks start from "
-                            f"its inverse), got {type(measurement_model).__name__}")
-        check_models(transition_model, measurement_model, self._nonlinear_transitions)
         self.transition_model = transition_model
         self.measurement_model = measurement_model
         d = transition_model.ndim_state
@@ -87,7 +80,7 @@ class MultiTargetTracker:
         if mean.shape != (d,):
             raise ValueError(f"prior_mean must have {d} components, got {mean.size}")
         covar = _validate.psd_covariance(prior_covar, "prior_covar", d)
-        self._start = self._initiation(measurement_model, mean, covar)
+        self._prior = mean, covar
         self.missed_distance = missed_distance
         self.min_points = min_points
         self.delete_after_misses = delete_after_misses
@@ -113,6 +106,12 @@ class MultiTargetTracker:
     confirmed = Setting("_track_set")
     tentative = Setting("_track_set")
     time = Setting(_validate.optional(_validate.real))
+
+    def _checked_measurement(self, model, name):
+        if not isinstance(model, LinearGaussian):
+            raise TypeError(f"{name} must be a LinearGaussian (tracks start from its inverse), "
+                            f"got {type(model).__name__}")
+        return super()._checked_measurement(model, name)
 
     @staticmethod
     def _gate_distance(value, name):
@@ -195,7 +194,7 @@ class MultiTargetTracker:
                         np.where(hit, 0, tracks.misses + 1), tracks.ages + 1), taken
 
     def _start_tracks(self, detections):
-        x0, gain, p0 = self._start
+        x0, gain, p0 = self._initiation(self.measurement_model, *self._prior)
         n = detections.shape[0]
         ids = np.arange(self._next_id, self._next_id + n)
         self._next_id += n
@@ -276,7 +275,7 @@ class MultiTargetTracker:
                 for t, scan in enumerate(_validate.iterator(scans, "scans"))]
 
 
-class IMMTracker(MultiTargetTracker):
+class IMMTracker(MultiTargetTracker, ModelSetSettings):
     """:class:`MultiTargetTracker` whose tracks are interacting multiple model filters: each
     track a bank of M Kalman filters (one a transition model) with its mode probabilities.
 
@@ -329,17 +328,16 @@ class IMMTracker(MultiTargetTracker):
     confirmed, tentative : IMMTrackSet
     """
 
-    _nonlinear_transitions = True
-
     def __init__(self, transition_models, measurement_model, transition_matrix, prior_mean,
                  prior_covar, mode_probs=None, association="gnn", prob_detect=0.9,
                  clutter_density=None, max_nodes=_jpda.MAX_NODES, **options):
-        models, self._has = check_model_set(transition_models, measurement_model)
+        self.measurement_model = measurement_model
+        self.transition_models = transition_models
+        models = self.transition_models
         if not isinstance(association, str) or association not in ("gnn", "jpda", "nn"):
             raise ValueError(f"association must be one of ['gnn', 'jpda', 'nn'], got "
                              f"{association!r}")
         self.jpda = association == "jpda"
-        self.transition_models = models
         super().__init__(models[0], measurement_model, prior_mean, prior_covar,
                          association="gnn" if self.jpda else association, **options)
         prob_detect = _validate.probability(prob_detect, "prob_detect")  # (read by JPDA)
@@ -354,10 +352,10 @@ class IMMTracker(MultiTargetTracker):
         self.mode_probs = (np.full(len(models), 1.0 / len(models)) if mode_probs is None
                            else mode_probs)
 
+    _nonlinear_transitions = True
     prob_detect = Setting("_detection_probability")
     clutter_density = Setting(_validate.positive)
     max_nodes = Setting(_validate.count)
-    transition_matrix = Setting("_switching")
     mode_probs = Setting("_initial_modes")
     _tracks = IMMTrackSet
 
@@ -367,9 +365,6 @@ class IMMTracker(MultiTargetTracker):
         if not value > 0:
             raise ValueError(f"{name} must be > 0 for JPDA, got {value}")
         return value
-
-    def _switching(self, value, name):
-        return _imm.transition_matrix(value, len(self.transition_models))
 
     def _initial_modes(self, value, name):
         return _imm.mode_probabilities(value, (len(self.transition_models),), name)

@@ -216,3 +216,49 @@ def test_run_trials_names_a_bad_argument(arguments, error, match):
     settings = dict(scenario=lambda seed: None, make_filter=lambda world, rng: None, n_runs=2)
     with pytest.raises(error, match=match):
         montecarlo.run_trials(**{**settings, **arguments})
+
+
+def _user_sensor():
+    from user_models import bearing_range_from_50_0
+    return ft.NonlinearGaussianMeasurement(bearing_range_from_50_0, 4, np.eye(2))
+
+
+@pytest.mark.parametrize("make", [
+    lambda: ft.BatchExtendedKalmanFilter(CV, SENSOR),
+    lambda: ft.BatchUnscentedKalmanFilter(CV, SENSOR),
+    lambda: tracker.MultiTargetTracker(CV, SENSOR, np.zeros(4), np.eye(4)),
+    lambda: PHDTracker(CV, SENSOR, vo_linear_birth(), 0.9, 0.99, 1e-4),
+])
+def test_models_swapped_after_construction_are_checked_as_the_constructor_checks_them(make):
+    """A model of another kind or dimension assigned later reached the kernels unchecked
+    (a segfault, or out-of-bounds reads): refused where it is assigned."""
+    owner = make()
+    for name, model, error, match in [
+            ("measurement_model", ft.LinearGaussian(600, (0, 599), np.eye(2)), ValueError,
+             "the models disagree on the state dimension: 4 and 600"),
+            ("measurement_model", _user_sensor(), TypeError,
+             "measurement_model must be a"),
+            ("transition_model", ft.ConstantVelocity(1.0), ValueError,
+             "the models disagree on the state dimension: 2 and 4"),
+            ("transition_model", "CV", TypeError, "transition_model must be a")]:
+        before = getattr(owner, name)
+        with pytest.raises(error, match=match):
+            setattr(owner, name, model)
+        assert getattr(owner, name) is before
+    owner.measurement_model = ft.LinearGaussian(4, (0, 2), 2 * np.eye(2))  # (one that fits)
+
+
+def test_multiple_model_filters_check_swapped_models_and_switching():
+    for owner in (imm.BatchIMMFilter([CV, CV], SENSOR, [[0.9, 0.1], [0.1, 0.9]]),
+                  tracker.IMMTracker([CV, CV], SENSOR, [[0.9, 0.1], [0.1, 0.9]], np.zeros(4),
+                                     np.eye(4))):
+        with pytest.raises(ValueError, match="transition_models must keep 2 models"):
+            owner.transition_models = [CV]
+        with pytest.raises(ValueError, match="transition model 0 .* has 6 state dimensions"):
+            owner.transition_models = [CV6, CV6]
+        with pytest.raises(ValueError, match="4 and 6|has 4 state dimensions, the state 6"):
+            owner.measurement_model = ft.LinearGaussian(6, (0, 2), np.eye(2))
+        with pytest.raises(ValueError, match=r"transition_matrix must have shape \(2, 2\)"):
+            owner.transition_matrix = np.eye(3)
+        owner.transition_models = [CV, CV]  # (models that fit: accepted)
+        assert len(owner.transition_models) == 2
