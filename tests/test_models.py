@@ -110,6 +110,27 @@ def test_constant_turn_matches_stone_soup(dt):
     np.testing.assert_allclose(ours.covar(dt), theirs.covar(time_interval=_td(dt)), rtol=RTOL)
 
 
+def test_constant_turn_draws_and_weighs_its_noise():
+    """Its noise: draws with covariance Q(dt), densities of N(f(x), Q(dt)), and a particle
+    filter's prediction (the noise once went missing: every use raised)."""
+    from scipy.stats import multivariate_normal
+    model = ft.ConstantTurn([0.1, 0.3], 0.02)
+    x = np.array([0.0, 1.0, 0.0, 1.0, 0.1])
+    draws = model.rvs(40000, time_interval=2.0, rng=5)
+    np.testing.assert_allclose(np.cov(draws), model.covar(2.0), rtol=0.05, atol=0.02)
+    moved = model.function(x, noise=True, time_interval=2.0, rng=5)
+    assert moved.shape == (5, 1) and not np.allclose(moved[:, 0], model.function(
+        x, time_interval=2.0)[:, 0])
+    y = model.function(x, time_interval=2.0)[:, 0] + 0.1
+    assert model.logpdf(y, x, time_interval=2.0) == pytest.approx(multivariate_normal(
+        model.function(x, time_interval=2.0)[:, 0], model.covar(2.0)).logpdf(y), rel=1e-10)
+    prior = ft.ParticleState(np.random.default_rng(0).normal(size=(5, 2000)) * 0.1
+                             + x[:, None], timestamp=0.0)
+    predicted = ft.ParticlePredictor(model, rng=0).predict(prior, 1.0)
+    assert predicted.state_vector.shape == (5, 2000)
+    assert np.isfinite(predicted.state_vector).all()
+
+
 def test_constant_turn_is_its_mirror_turns_and_flies_straight_at_a_rate_of_zero():
     from reference import turn as mirror
     model = ft.ConstantTurn([0.0, 0.0], 0.0)

@@ -134,6 +134,12 @@ def test_tracks_keep_time_order_and_proxy_the_last_state():
         ft.Track([states[0], ft.GaussianState([0, 0], np.eye(2), timestamp=datetime.datetime(2026, 1, 1))])
     path = ft.GroundTruthPath([ft.GroundTruthState([1, 2], timestamp=5.0, metadata={"id": 1})])
     assert path.state.metadata == {"id": 1} and path.id
+    numpy_times = ft.Track([ft.State([1.0], timestamp=t) for t in np.array([2.0, 1.0, 3.0])]
+                           + [ft.State([1.0], timestamp=np.float32(1.5))])
+    assert numpy_times.timestamps == [1.0, 1.5, 2.0, 3.0]  # (NumPy floats order too)
+    with pytest.raises(TypeError, match="cannot order timestamps None and 0.5: a state "
+                                        "without a timestamp"):
+        ft.Track([ft.State([1.0], timestamp=t) for t in (None, 1.0, 0.5)])
 
 
 def test_gaussian_state_detection_and_hypothesis():

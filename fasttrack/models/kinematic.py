@@ -235,7 +235,7 @@ class ConstantTurn(NonlinearGaussianTransitionModel):
     def __init__(self, linear_noise_coeffs, turn_noise_coeff):
         self.linear_noise_coeffs = linear_noise_coeffs
         self.turn_noise_coeff = turn_noise_coeff
-        super().__init__(constant_turn(), self._noise, 5)
+        super().__init__(constant_turn(), self._process_noise, 5)
 
     @property
     def linear_noise_coeffs(self):
@@ -255,7 +255,8 @@ class ConstantTurn(NonlinearGaussianTransitionModel):
     def turn_noise_coeff(self, value):
         self._turn_q = _validate.non_negative(value, "turn_noise_coeff")
 
-    def _noise(self, dt):
+    def _process_noise(self, dt):
+        """Q(dt) (5, 5): the velocity blocks and the turn rate's random walk."""
         noise = np.zeros((5, 5))
         noise[:4, :4] = _block_diag([_velocity_noise(q, dt) for q in self._linear_qs])
         noise[4, 4] = self._turn_q * abs(dt)

@@ -70,10 +70,13 @@ class StateSequence:
 
 def _time_order(a, b):
     """-1, 0 or 1 as timestamp a is before, at or after b (same kind required)."""
+    if a is None or b is None:
+        raise TypeError(f"cannot order timestamps {a!r} and {b!r}: a state without a "
+                        f"timestamp")
     both_real = isinstance(a, numbers.Real) and isinstance(b, numbers.Real)
     if type(a) is not type(b) and not both_real:
         raise TypeError(f"cannot order timestamps {a!r} and {b!r}: mix of datetimes and numbers")
-    return (a > b) - (a < b)
+    return int(a > b) - int(a < b)  # (NumPy scalars' bools do not subtract)
 
 
 class Track(StateSequence):
