@@ -289,3 +289,22 @@ def test_edge_values_that_are_legal_still_work():
     assert np.isfinite(weights).all()
     ft.seed(np.uint8(4))
     ft.seed(None)
+
+
+def test_angles_beyond_what_float64_can_wrap_are_refused():
+    """A bearing of 1e17 rad wrapped to [-pi, pi) keeps no digit (and 1e300 none of the
+    wrap): it moved an EKF's state by 1e282 on the kernels and was ignored in NumPy."""
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    sensor = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.01, 1.0]))
+    prediction = ft.KalmanPredictor(transition).predict(
+        ft.GaussianState([10.0, 1.0, 10.0, 1.0], np.eye(4), timestamp=0.0), 1.0)
+    message = r"hypothesis.measurement\[0\] is an angle of 1e\+17 rad: angles must lie within"
+    for updater in (ft.ExtendedKalmanUpdater(sensor), ft.UnscentedKalmanUpdater(sensor)):
+        with pytest.raises(ValueError, match=message):
+            updater.update(ft.SingleHypothesis(prediction, ft.Detection([1e17, 14.0],
+                                                                        timestamp=1.0)))
+        assert updater.update(ft.SingleHypothesis(prediction, ft.Detection(
+            [2 * np.pi * 1e6 + 0.8, 14.0], timestamp=1.0))).state_vector.shape == (4, 1)
+    batch = ft.BatchUnscentedKalmanFilter(transition, sensor)
+    with pytest.raises(ValueError, match=r"measurements must hold angles within \+-1e\+09 rad"):
+        batch.update(np.ones((2, 4)), np.tile(np.eye(4), (2, 1, 1)), [[0.5, 10.0], [-1e300, 9.0]])

@@ -15,6 +15,10 @@ from .base import (UserFunction, check_rows, gaussian_noise, read_only, scalar_o
                    state_columns, wrap_angle)
 from .spec import BEARING, BEARING_RANGE, FUNCTION, SELECT, MeasurementSpec
 
+#: The largest angle a measurement may hold, radians: wrapping it to [-pi, pi) keeps about
+#: 7 digits (float64's spacing at 1e9 is 1.2e-7).
+LARGEST_ANGLE = 1e9
+
 __all__ = [
     "MeasurementModel", "LinearGaussian", "CartesianToBearingRange", "Cartesian2DToBearing",
     "NonlinearGaussianMeasurement",
@@ -142,15 +146,18 @@ class MeasurementModel:
         (m, 1) float64 ndarray
         """
         z = getattr(measurement, "state_vector", measurement)
-        if type(z) is np.ndarray and z.shape == (self._ndim_meas, 1) \
-                and z.dtype == np.float64 and z.flags.c_contiguous:
-            return z
-        z = _validate.float_array(z, name)
-        if z.ndim not in (1, 2) or z.size != self.ndim_meas or (z.ndim == 2 and z.shape[1] != 1):
-            raise ValueError(f"{name} must have {self.ndim_meas} components, as a "
-                             f"({self.ndim_meas},) or ({self.ndim_meas}, 1) array, for "
-                             f"{type(self).__name__}, got shape {z.shape}")
-        return np.ascontiguousarray(z.reshape(-1, 1))
+        if not (type(z) is np.ndarray and z.shape == (self._ndim_meas, 1)
+                and z.dtype == np.float64 and z.flags.c_contiguous):
+            z = _validate.float_array(z, name)
+            if z.ndim not in (1, 2) or z.size != self.ndim_meas \
+                    or (z.ndim == 2 and z.shape[1] != 1):
+                raise ValueError(f"{name} must have {self.ndim_meas} components, as a "
+                                 f"({self.ndim_meas},) or ({self.ndim_meas}, 1) array, for "
+                                 f"{type(self).__name__}, got shape {z.shape}")
+            z = np.ascontiguousarray(z.reshape(-1, 1))
+        if self.angle_components:
+            self._check_angles(z[:, 0], name)
+        return z
 
     def measurement_vector(self, measurement, name="measurement"):
         """A finite (m,) float64 vector from a Detection or array_like.
@@ -170,7 +177,19 @@ class MeasurementModel:
             raise ValueError(f"{name} must have {self.ndim_meas} components, as a "
                              f"({self.ndim_meas},) or ({self.ndim_meas}, 1) array, for "
                              f"{type(self).__name__}, got shape {z.shape}")
-        return np.ascontiguousarray(z.reshape(-1))
+        z = np.ascontiguousarray(z.reshape(-1))
+        if self.angle_components:
+            self._check_angles(z, name)
+        return z
+
+    def _check_angles(self, z, name):
+        """A ValueError naming ``name`` if an angle of the (m,) measurement ``z`` is beyond
+        :data:`LARGEST_ANGLE` (wrapped in float64, it would lose its digits)."""
+        for r in self.angle_components:
+            if abs(z[r]) > LARGEST_ANGLE:
+                raise ValueError(f"{name}[{r}] is an angle of {z[r]:.3g} rad: angles must lie "
+                                 f"within +-{LARGEST_ANGLE:.0e} rad (wrapped to [-pi, pi) in "
+                                 f"float64, a larger one keeps fewer than 7 digits)")
 
     def wrap(self, values):
         """Wrap the angle rows of (m, N) ``values`` to [-pi, pi), in place; returns them.
