@@ -146,6 +146,10 @@ def test_constant_turn_is_its_mirror_turns_and_flies_straight_at_a_rate_of_zero(
     straight = model.function(np.array([[1.0], [2.0], [3.0], [4.0], [0.0]]),
                               time_interval=0.5)[:, 0]
     np.testing.assert_array_equal(straight, [2.0, 2.0, 5.0, 4.0, 0.0])
+    for tiny in (1e-310, -5e-324, 1e-300):  # subnormal rates: the straight line, not NaN
+        nearly = model.function(np.array([[1.0], [2.0], [3.0], [4.0], [tiny]]),
+                                time_interval=0.5)[:, 0]
+        np.testing.assert_array_equal(nearly, [2.0, 2.0, 5.0, 4.0, tiny])
     with pytest.raises(ValueError, match="linear_noise_coeffs must be two numbers >= 0"):
         ft.ConstantTurn([0.1, -0.1], 0.0)
     with pytest.raises(ValueError, match="turn_noise_coeff"):

@@ -1,16 +1,19 @@
 """Unscented Kalman steps of one Gaussian state (over :mod:`fasttrack._jit.unscented`)."""
-import numbers
-
 import numpy as np
 
-from .. import _errors
-from .. import _jit
+from .. import _errors, _jit, _validate
 from . import kalman_numpy as _numpy
 from . import stack as _stack
 from .kalman import in_numpy
 from .kinds import FUNCTION
 
 _unscented = _jit.lazy("unscented")
+
+
+#: The least sigma-point spread ``c = alpha^2 (ndim + kappa)`` (and the inverse of the
+#: largest): the weights ``1 - ndim / c`` and ``1 / 2c`` lose about ``-log10(c)`` of float64's
+#: 16 digits to cancellation.
+SMALLEST_SPREAD = 1e-12
 
 
 def check_parameters(alpha, beta, kappa):
@@ -21,12 +24,7 @@ def check_parameters(alpha, beta, kappa):
         if value is None and name == "kappa":
             values.append(None)
             continue
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-            raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-        value = float(value)
-        if not np.isfinite(value):
-            raise ValueError(f"{name} must be finite, got {value}")
-        values.append(value)
+        values.append(_validate.real(value, name))
     if values[0] <= 0.0:
         raise ValueError(f"alpha must be > 0, got {values[0]}")
     return tuple(values)
@@ -36,9 +34,15 @@ def scaling(alpha, kappa, d):
     """``kappa`` for ``d`` state dimensions (None: ``3 - d``), checked so that the sigma
     points are defined: ``c = alpha^2 (d + kappa)`` must be > 0."""
     kappa = 3.0 - d if kappa is None else kappa
-    if not alpha * alpha * (d + kappa) > 0.0:
+    spread = alpha * alpha * (d + kappa)
+    if not spread > 0.0:
         raise ValueError(f"kappa must make alpha**2 * (ndim + kappa) > 0 (the sigma-point "
                          f"spread), got kappa={kappa} with alpha={alpha} and ndim={d}")
+    if not SMALLEST_SPREAD <= spread <= 1.0 / SMALLEST_SPREAD:
+        raise ValueError(f"alpha**2 * (ndim + kappa) must lie in [{SMALLEST_SPREAD:.0e}, "
+                         f"{1 / SMALLEST_SPREAD:.0e}] (its inverse weighs the sigma points: "
+                         f"beyond, their moments lose their digits or overflow), got "
+                         f"{spread:.3g} with alpha={alpha}, kappa={kappa} and ndim={d}")
     return kappa
 
 

@@ -159,8 +159,8 @@ def fits(state, ndim):
 def sigma_parameters(component, ndim):
     """``(alpha, beta, kappa)`` of a Stone Soup unscented component as fasttrack's unscented
     kernels take them (``kappa`` None resolved to ``3 - ndim``), or None where they are
-    outside the kernels' range (``alpha <= 0``, a spread ``alpha**2 (ndim + kappa) <= 0``,
-    values that are not finite reals)."""
+    outside the kernels' range (``alpha <= 0``, a spread ``alpha**2 (ndim + kappa)`` outside
+    [1e-12, 1e12], values that are not finite reals)."""
     try:
         alpha, beta, kappa = ft_unscented.check_parameters(component.alpha, component.beta,
                                                            component.kappa)

@@ -150,8 +150,8 @@ class UnscentedKalmanPredictor(_Kalman, ss_kalman.UnscentedKalmanPredictor):
     """Stone Soup's ``UnscentedKalmanPredictor``, compiled for its built-in linear models.
 
     Sigma-point parameters outside fasttrack's range (``alpha <= 0``, a spread
-    ``alpha**2 (ndim + kappa) <= 0``) and covariances without a Cholesky factor (for which
-    Stone Soup regularises the factor) go through Stone Soup's code.
+    ``alpha**2 (ndim + kappa)`` outside [1e-12, 1e12]) and covariances without a Cholesky
+    factor (for which Stone Soup regularises the factor) go through Stone Soup's code.
     """
 
     _stonesoup = ss_kalman.UnscentedKalmanPredictor

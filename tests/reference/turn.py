@@ -7,8 +7,10 @@ def constant_turn(states, dt):
     out = np.empty_like(states)
     for n in range(states.shape[1]):
         x, vx, y, vy, w = states[:, n]
-        if w == 0:
-            out[:, n] = [x + vx * dt, vx, y + vy * dt, vy, 0.0]
+        if abs(w * dt) < 1e-8:  # the first-order series of the arc
+            a = w * dt
+            out[:, n] = [x + vx * dt - 0.5 * a * dt * vy, vx * np.cos(a) - vy * np.sin(a),
+                         y + 0.5 * a * dt * vx + vy * dt, vx * np.sin(a) + vy * np.cos(a), w]
             continue
         rotation = np.array([[np.cos(w * dt), -np.sin(w * dt)],
                              [np.sin(w * dt), np.cos(w * dt)]])
