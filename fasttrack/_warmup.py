@@ -311,8 +311,15 @@ def warmup(families=None, processes=1, report=None, load=True):
     float
         Seconds taken.
     """
-    from ._validate import count
+    from ._validate import count, flag
     processes = count(processes, "processes")
+    load = flag(load, "load")
+    if report is not None and not callable(report):
+        raise TypeError(f"report must be callable (report(family, seconds)) or None, got "
+                        f"{type(report).__name__}")
+    if isinstance(families, str):
+        raise TypeError(f"families must be an iterable of family names, not one string "
+                        f"({families!r}: give [{families!r}])")
     names = list(FAMILIES) if families is None else list(families)
     unknown = sorted(set(names) - set(FAMILIES))
     if unknown:

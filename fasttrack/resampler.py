@@ -5,6 +5,7 @@ import numbers
 import numpy as np
 
 from . import _buffers, _validate
+from ._validate import Setting
 from . import random as _random
 from .core import particle as _particle
 from .core.resample import ResidualMethod, draw
@@ -138,7 +139,10 @@ class ResidualResampler(_SchemeResampler):
 
     def __init__(self, residual_method=ResidualMethod.MULTINOMIAL, rng=None):
         super().__init__(rng)
-        self.residual_method = ResidualMethod.parse(residual_method)
+        self.residual_method = residual_method
+
+    #: The scheme (checked when assigned, here or later).
+    residual_method = Setting(ResidualMethod.parse)
 
     @property
     def method(self):
@@ -159,21 +163,30 @@ class ESSResampler(Resampler):
     """
 
     def __init__(self, threshold=None, resampler=None):
-        if threshold is not None:
-            if not isinstance(threshold, numbers.Real) or isinstance(threshold, bool):
-                raise TypeError(f"threshold must be a number or None, "
-                                f"got {type(threshold).__name__}")
-            threshold = _validate.real(threshold, "threshold")
-            if not threshold > 0:
-                raise ValueError(f"threshold must be finite and > 0 (an ESS is >= 1), "
-                                 f"got {threshold}")
-        if resampler is None:
-            resampler = SystematicResampler()
-        if isinstance(resampler, type) or not callable(getattr(resampler, "resample", None)):
-            raise TypeError(f"resampler must be a resampler (an object with a resample "
-                            f"method, e.g. SystematicResampler()), got {resampler!r}")
         self.threshold = threshold
-        self.resampler = resampler
+        self.resampler = SystematicResampler() if resampler is None else resampler
+
+    # Settings, checked when assigned (here or later).
+    threshold = Setting("_checked_threshold")
+    resampler = Setting("_checked_resampler")
+
+    @staticmethod
+    def _checked_threshold(threshold, name):
+        if threshold is None:
+            return None
+        if not isinstance(threshold, numbers.Real) or isinstance(threshold, bool):
+            raise TypeError(f"{name} must be a number or None, got {type(threshold).__name__}")
+        threshold = _validate.real(threshold, name)
+        if not threshold > 0:
+            raise ValueError(f"{name} must be finite and > 0 (an ESS is >= 1), got {threshold}")
+        return threshold
+
+    @staticmethod
+    def _checked_resampler(resampler, name):
+        if isinstance(resampler, type) or not callable(getattr(resampler, "resample", None)):
+            raise TypeError(f"{name} must be a resampler (an object with a resample method, "
+                            f"e.g. SystematicResampler()), got {resampler!r}")
+        return resampler
 
     def resample(self, particles, nparts=None):
         """``resampler.resample(particles, nparts)`` if the ESS is below the threshold,

@@ -308,3 +308,18 @@ def test_angles_beyond_what_float64_can_wrap_are_refused():
     batch = ft.BatchUnscentedKalmanFilter(transition, sensor)
     with pytest.raises(ValueError, match=r"measurements must hold angles within \+-1e\+09 rad"):
         batch.update(np.ones((2, 4)), np.tile(np.eye(4), (2, 1, 1)), [[0.5, 10.0], [-1e300, 9.0]])
+
+
+def test_warmup_and_position_mapping_arguments_are_checked():
+    for kwargs, error, match in [
+            (dict(load="no"), TypeError, "load must be a bool, got str"),
+            (dict(report="x"), TypeError, "report must be callable"),
+            (dict(families="kalman"), TypeError, "families must be an iterable of family "
+                                                 "names, not one string")]:
+        with pytest.raises(error, match=match):
+            ft.warmup(**kwargs)
+    from fasttrack.montecarlo.metrics import _check_mapping
+    with pytest.raises(ValueError, match=r"position_mapping must be distinct non-negative "
+                                         r"state indices, got \(True, 2\)"):
+        _check_mapping((True, 2))
+    assert _check_mapping((np.int64(1), 2)) == [1, 2]

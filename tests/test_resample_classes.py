@@ -65,6 +65,27 @@ def test_residual_method_invalid_lists_valid_names():
         ResidualResampler(residual_method="metropolis")
 
 
+def test_settings_assigned_later_are_checked():
+    """A threshold of NaN never resampled, a scheme 'x' resampled with some scheme: refused
+    where they are assigned, the resampler unchanged."""
+    residual = ResidualResampler(rng=3)
+    with pytest.raises(ValueError, match="residual_method must be one of"):
+        residual.residual_method = "x"
+    assert residual.residual_method is ResidualMethod.MULTINOMIAL
+    residual.residual_method = "systematic"
+    assert residual.residual_method is ResidualMethod.SYSTEMATIC
+    ess = ESSResampler(threshold=3.0)
+    for value, error, match in [(np.nan, ValueError, "threshold must be finite"),
+                                ("x", TypeError, "threshold must be a number or None"),
+                                (0.0, ValueError, "threshold must be finite and > 0")]:
+        with pytest.raises(error, match=match):
+            ess.threshold = value
+        assert ess.threshold == 3.0
+    with pytest.raises(TypeError, match="resampler must be a resampler"):
+        ess.resampler = SystematicResampler
+    ess.threshold = None  # (half the particles of each call)
+
+
 def test_same_seed_same_draws_and_generator_advances():
     state = ParticleState(np.arange(100.0)[None], log_weight=np.random.default_rng(0).normal(size=100))
     a = MultinomialResampler(rng=7)

@@ -134,6 +134,10 @@ def test_tracks_keep_time_order_and_proxy_the_last_state():
         ft.Track([states[0], ft.GaussianState([0, 0], np.eye(2), timestamp=datetime.datetime(2026, 1, 1))])
     path = ft.GroundTruthPath([ft.GroundTruthState([1, 2], timestamp=5.0, metadata={"id": 1})])
     assert path.state.metadata == {"id": 1} and path.id
+    fixed = ft.ParticleState(np.zeros((2, 3)), fixed_covar=np.eye(2))
+    with pytest.raises(ValueError, match=r"state_vector must have 2 rows \(the dimension of "
+                                         r"fixed_covar\), got 5"):
+        fixed.state_vector = np.zeros((5, 3))
     numpy_times = ft.Track([ft.State([1.0], timestamp=t) for t in np.array([2.0, 1.0, 3.0])]
                            + [ft.State([1.0], timestamp=np.float32(1.5))])
     assert numpy_times.timestamps == [1.0, 1.5, 2.0, 3.0]  # (NumPy floats order too)

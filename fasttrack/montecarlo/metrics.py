@@ -30,7 +30,8 @@ def _check_mapping(mapping):
     """``position_mapping`` as a list of distinct non-negative ints."""
     index = list(mapping) if isinstance(mapping, (list, tuple, np.ndarray)) else None
     if (not index or len(set(index)) != len(index)
-            or not all(isinstance(i, numbers.Integral) and i >= 0 for i in index)):
+            or not all(isinstance(i, numbers.Integral) and not isinstance(i, (bool, np.bool_))
+                       and i >= 0 for i in index)):
         raise ValueError(f"position_mapping must be distinct non-negative state indices, "
                          f"got {mapping!r}")
     return [int(i) for i in index]

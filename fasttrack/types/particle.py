@@ -166,6 +166,9 @@ class ParticleState:
         sv = _validate.state_array(value, "state_vector")
         if sv.shape[1] != len(self):
             raise ValueError(f"state_vector must have {len(self)} columns, got {sv.shape[1]}")
+        if self.fixed_covar is not None and sv.shape[0] != self.fixed_covar.shape[0]:
+            raise ValueError(f"state_vector must have {self.fixed_covar.shape[0]} rows (the "
+                             f"dimension of fixed_covar), got {sv.shape[0]}")
         if self._source is not None:
             self._gather()
         self._state_vector = sv
