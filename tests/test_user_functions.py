@@ -165,6 +165,39 @@ def test_shape_checks_on_every_call_name_the_function_and_shapes():
         model.function(prediction.state_vector)
 
 
+def test_an_error_a_kernel_could_not_pass_on_is_found_and_named():
+    """A function raising for one particle beyond the first block (compiled calls cannot
+    pass the error on): the error names the block and carries the function's own error; a
+    failure that calling again does not reproduce says so, instead of a shape that matches
+    the one expected."""
+    @njit(cache=False)
+    def refuses_outliers(states, dt):
+        for j in range(states.shape[1]):
+            if states[0, j] > 1e3:
+                raise ValueError("an outlier")
+        return states.copy()
+
+    @njit(cache=False)
+    def short_for_five(states, dt):
+        return states[:, :1].copy() if states.shape[1] == 5 else states.copy()
+
+    model = ft.NonlinearGaussianTransitionModel(refuses_outliers, np.eye(4) * 0.01, 4)
+    particles = np.zeros((4, 5000))
+    particles[0, 3000] = 2e3
+    with pytest.raises(ValueError, match=r"transition function 'refuses_outliers' raised "
+                                         r"ValueError: an outlier for states 2048 to 3071 "
+                                         r"\(of 5000\)") as raised:
+        ft.ParticlePredictor(model, rng=0).predict(ft.ParticleState(particles, timestamp=0.0),
+                                                   1.0)
+    assert str(raised.value.__cause__) == "an outlier"
+    model = ft.NonlinearGaussianTransitionModel(short_for_five, np.eye(4), 4)
+    with pytest.raises(ValueError, match=r"'short_for_five' returned an array of the wrong "
+                                         r"shape when a kernel called it .* not when called "
+                                         r"again on these states of shape \(4, 1\)"):
+        ft.ExtendedKalmanPredictor(model).predict(ft.GaussianState(np.arange(4.0), np.eye(4),
+                                                                   timestamp=0.0), 1.0)
+
+
 def test_kernels_check_outputs_as_their_mirrors_do():
     x = np.random.default_rng(2).normal(size=(4, 2500))
     for values, rows, cols in [(x[:2], 2, 2500), (x[:1], 2, 2500), (x[:2, :5], 2, 4),

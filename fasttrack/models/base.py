@@ -8,6 +8,7 @@ from .. import _errors
 from .. import _validate
 from .. import random as _random
 from .._jit import status as _status
+from .._jit.tunables import BLOCK
 
 
 def check_model(model, kind, name):
@@ -243,13 +244,28 @@ class UserFunction:
 
     def error(self, code, states, dt=None):
         """The ValueError for a kernel's status ``code`` about this function's output on
-        (d, n) ``states`` (called again here, on at most 1024 of them, to describe it)."""
-        sample = np.ascontiguousarray(states[:, :1024])
-        if code == _status.FUNCTION_SHAPE:
-            got = np.shape(self._raw(sample, 1.0 if dt is None else dt))
-            return ValueError(self._shape_message(got, sample.shape))
-        return ValueError(f"{self._label} returned NaN or infinite values for states of "
-                          f"shape {states.shape}")
+        (d, n) ``states``: for a wrong shape, the function is called again here on the
+        states in blocks of :data:`~fasttrack._jit.tunables.BLOCK` (as kernels call it) to
+        find the block it fails on, its own error (which compiled code cannot pass on) the
+        cause."""
+        if code != _status.FUNCTION_SHAPE:
+            return ValueError(f"{self._label} returned NaN or infinite values for states of "
+                              f"shape {states.shape}")
+        for lo in range(0, states.shape[1], BLOCK):
+            block = np.ascontiguousarray(states[:, lo:lo + BLOCK])
+            try:
+                got = np.shape(self._raw(block, 1.0 if dt is None else dt))
+            except Exception as raised:
+                error = ValueError(f"{self._label} raised {_first_line(raised)} for states "
+                                   f"{lo} to {lo + block.shape[1] - 1} (of {states.shape[1]})")
+                error.__cause__ = raised
+                return error
+            if got != (self.rows, block.shape[1]):
+                return ValueError(self._shape_message(got, block.shape))
+        return ValueError(f"{self._label} returned an array of the wrong shape when a kernel "
+                          f"called it (or raised an error there, which compiled code cannot "
+                          f"pass on), not when called again on these states of shape "
+                          f"{states.shape}: it must return ({self.rows}, n) for any n states")
 
 
 def _first_line(error):
