@@ -13,8 +13,10 @@ MESSAGES = {
                                       "finite)",
     _status.INNOVATION_NOT_PD: "the innovation covariance S (of the predicted measurement, "
                                "plus R) is not positive definite (singular)",
-    _status.JACOBIAN_UNDEFINED: "the measurement Jacobian is undefined at the predicted "
-                                "state (for a polar sensor: the target is at the sensor)",
+    _status.JACOBIAN_UNDEFINED: "the measurement Jacobian is undefined or not finite at the "
+                                "predicted state (for a polar sensor: the target at the "
+                                "sensor, or a state that is not finite or beyond float64's "
+                                "range when squared)",
     _status.MEASUREMENT_NOT_FINITE: "hypothesis.measurement contains NaN or infinite values",
     _status.MEAN_AT_SENSOR: "the prediction's mean lies at the polar sensor, where its "
                             "bearing is undefined",

@@ -96,6 +96,19 @@ def test_a_measurement_beyond_every_likelihood_is_named(order):
         filt.step(means, covars, probs, [[0.0, 0.0], [1e160, 0.0]], 1.0)
 
 
+def test_a_measurement_that_is_not_finite_is_named_as_such_on_the_kernel_path():
+    """The fused update left NaN weights for a NaN measurement (named 'so far from every
+    model'): the general path, which names it, takes it."""
+    from fasttrack.core import imm as core_imm
+    means, covars = np.zeros((2, 2, 4)), np.tile(np.eye(4), (2, 2, 1, 1))
+    predicted = np.full((2, 2), 0.5)
+    assert core_imm.update(SENSOR, means, covars, predicted, np.array([[0.0, 0.0],
+                                                                     [np.nan, 1.0]])) is None
+    filt = ft.BatchIMMFilter([_cv(0.01), _cv(10.0)], SENSOR, [[0.95, 0.05], [0.05, 0.95]])
+    with pytest.raises(ValueError, match="measurements contains NaN"):
+        filt.step(means, covars, predicted, [[0.0, 0.0], [np.nan, 1.0]], 1.0)
+
+
 @pytest.mark.parametrize("updater", [ft.KalmanUpdater, ft.ExtendedKalmanUpdater,
                                      ft.UnscentedKalmanUpdater])
 def test_the_pair_names_a_measurement_beyond_every_likelihood(updater):

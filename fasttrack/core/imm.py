@@ -470,12 +470,14 @@ def update(measurement_model, means, covars, predicted, measurements, name="meas
     """The IMM's update of K filters' model predictions with their measurements (K, m) in
     one kernel call (:func:`fasttrack._jit.imm.imm_update`): ``(means, covars, probs)``;
     None where the sensor does not select state components, the process runs NumPy first,
-    or an innovation covariance is not positive definite (the caller's general path then
-    reports it); ``name``: the measurements' name in errors (see :func:`weighed`)."""
+    a measurement is not finite or an innovation covariance is not positive definite (the
+    caller's general path then reports it); ``name``: the measurements' name in errors (see
+    :func:`weighed`)."""
     sensor = measurement_model.spec
     k, models = predicted.shape
     if sensor.kind != SELECT or np.count_nonzero(sensor.angles) \
-            or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models):
+            or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models) \
+            or not np.isfinite(measurements).all():
         return None
     out = np.empty_like(means), np.empty_like(covars), np.empty_like(predicted)
     status = np.empty(k, dtype=np.int64)
