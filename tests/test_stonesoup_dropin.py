@@ -170,6 +170,31 @@ def test_akkf_statistically_equal_to_stone_soup():
     assert stats.ks_2samp(ours, theirs).pvalue > 0.01
 
 
+def test_kernel_filter_settings_outside_fasttracks_range_run_stone_soups_code():
+    """A ridge <= 0 and NaN kernel weights: Stone Soup computes them; the drop-ins ran the
+    kernels and blamed an overflow."""
+    transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.05)] * 2)
+    rng = np.random.default_rng(3)
+    weight = np.full(20, 1 / 20)
+    prior = KernelParticleState(StateVectors(rng.normal(size=(4, 20))), weight=weight,
+                                kernel_covar=np.eye(20), timestamp=START)
+    later = START + datetime.timedelta(seconds=1)
+    fss.fallbacks(clear=True)
+    for regulariser, weights in [(-1.0, weight), (1e-3, np.r_[np.nan, weight[1:]])]:
+        state = KernelParticleState(prior.state_vector, weight=weights,
+                                    kernel_covar=np.eye(20), timestamp=START)
+        ours = fss.AdaptiveKernelKalmanPredictor(transition, kernel=fss.QuadraticKernel(),
+                                                 lambda_predictor=regulariser)
+        theirs = ss_kernel_predictor.AdaptiveKernelKalmanPredictor(
+            transition, kernel=SSQuadraticKernel(), lambda_predictor=regulariser)
+        np.testing.assert_allclose(np.asarray(ours.predict(state, later).weight, float),
+                                   np.asarray(theirs.predict(state, later).weight, float),
+                                   rtol=1e-9, atol=1e-12, equal_nan=True)
+    reasons = {reason for (_, method, reason) in fss.fallbacks() if method == "predict"}
+    assert reasons == {"lambda_predictor -1.0 outside fasttrack's range (finite, > 0)",
+                       "kernel weights that are not finite"}
+
+
 def _ekf_track(seed, predictor_class, updater_class, sensor=None):
     transition, polar, truth, detections = _bearing_range_scenario(seed)
     if sensor is not None:

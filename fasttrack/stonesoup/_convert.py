@@ -156,6 +156,21 @@ def fits(state, ndim):
             and np.shape(getattr(state, "covar", None)) == (ndim, ndim))
 
 
+def kernel_filter_refusal(regulariser, name, weight):
+    """Why Stone Soup's code must run an adaptive kernel Kalman step of ridge
+    ``regulariser`` (its property ``name``) on kernel weights ``weight``, or None:
+    fasttrack computes a finite regulariser > 0 and finite weights."""
+    try:
+        value = float(regulariser)
+    except (TypeError, ValueError, OverflowError):
+        return f"{name} that is not a number"
+    if not 0.0 < value < np.inf:
+        return f"{name} {value} outside fasttrack's range (finite, > 0)"
+    if not np.isfinite(floats(weight)).all():
+        return "kernel weights that are not finite"
+    return None
+
+
 def sigma_parameters(component, ndim):
     """``(alpha, beta, kappa)`` of a Stone Soup unscented component as fasttrack's unscented
     kernels take them (``kappa`` None resolved to ``3 - ndim``), or None where they are

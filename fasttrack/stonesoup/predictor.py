@@ -21,8 +21,8 @@ from ..core import kalman as ft_kalman
 from ..core import particle as ft_particle
 from ..core import unscented as ft_unscented
 from ..types import dense_kernel_covar
-from ._convert import (fast_kernel, fast_model, fits, floats, model_rng, plain_particles,
-                       sigma_parameters, uncached, zero_control)
+from ._convert import (fast_kernel, fast_model, fits, floats, kernel_filter_refusal,
+                       model_rng, plain_particles, sigma_parameters, uncached, zero_control)
 from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
 from ._objects import from_state
 from .state import kernel_factors, remember_factors
@@ -180,7 +180,9 @@ class AdaptiveKernelKalmanPredictor(ss_kernel.AdaptiveKernelKalmanPredictor):
             return unknown_model(self.transition_model)
         if fast_kernel(self.kernel) is None:
             return unknown_kernel(self.kernel)
-        return keywords(kwargs, self) or _timestamps(timestamp, prior)
+        return (keywords(kwargs, self) or _timestamps(timestamp, prior)
+                or kernel_filter_refusal(self.lambda_predictor, "lambda_predictor",
+                                         prior.weight))
 
     @predict_lru_cache()
     def predict(self, prior, timestamp=None, proposal=None, **kwargs):

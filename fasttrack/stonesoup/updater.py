@@ -29,8 +29,8 @@ from ..core import unscented as ft_unscented
 from ..models import LinearGaussian
 from ..types import dense_kernel_covar
 from ._convert import (angle_rows, fast_kernel, fast_model, fits, floats, global_rng,
-                       mod_bearing, plain_particles, sigma_parameters, typed_measurement,
-                       uncached)
+                       kernel_filter_refusal, mod_bearing, plain_particles, sigma_parameters,
+                       typed_measurement, uncached)
 from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
 from ._objects import builder, fresh_tags, from_state
 from ._pending import (PendingParticleMeasurement, PendingVectors, bearing_vectors, pending,
@@ -332,7 +332,9 @@ class AdaptiveKernelKalmanUpdater(ss_kernel.AdaptiveKernelKalmanUpdater):
         fast = fast_model(model)
         kernel = fast_kernel(self.kernel)
         reason = unknown_model(model) if fast is None \
-            else unknown_kernel(self.kernel) if kernel is None else keywords(kwargs, self)
+            else unknown_kernel(self.kernel) if kernel is None else (
+                keywords(kwargs, self) or kernel_filter_refusal(
+                    self.lambda_updater, "lambda_updater", prediction.weight))
         if reason:
             fall_back(self, "update", reason)
             return self._stonesoup.update(self, hypothesis, **kwargs)
