@@ -1,6 +1,7 @@
 """Running a filter over a sequence of detections."""
 from . import _validate
-from .types import Detection, SingleHypothesis, Track
+from .types import Detection, SingleHypothesis, State, Track
+from .types.tracks import _time_order
 
 
 def run_filter(predictor, updater, prior, detections):
@@ -30,6 +31,9 @@ def run_filter(predictor, updater, prior, detections):
         if not callable(getattr(value, method, None)):
             raise TypeError(f"{name} must have {article} {method} method (a fasttrack "
                             f"{name}), got {type(value).__name__}")
+    if not isinstance(prior, State):
+        raise TypeError(f"prior must be a state (e.g. a GaussianState), got "
+                        f"{type(prior).__name__}")
     track = Track()
     state = prior
     for k, detection in enumerate(_validate.iterator(detections, "detections")):
@@ -37,7 +41,7 @@ def run_filter(predictor, updater, prior, detections):
             raise TypeError(f"detections[{k}] must be a Detection, got "
                             f"{type(detection).__name__}")
         if None not in (detection.timestamp, state.timestamp) \
-                and detection.timestamp < state.timestamp:
+                and _time_order(detection.timestamp, state.timestamp) < 0:
             raise ValueError(f"detections must be in time order, after the prior: "
                              f"detections[{k}] is at {detection.timestamp}, before "
                              f"{state.timestamp}")

@@ -323,3 +323,21 @@ def test_warmup_and_position_mapping_arguments_are_checked():
                                          r"state indices, got \(True, 2\)"):
         _check_mapping((True, 2))
     assert _check_mapping((np.int64(1), 2)) == [1, 2]
+
+
+def test_metadata_priors_and_numpy_intervals():
+    with pytest.raises(TypeError, match="metadata must be a mapping"):
+        ft.Detection([1.0, 2.0], metadata=5)
+    assert ft.GroundTruthState([1.0], metadata=[("id", 3)]).metadata == {"id": 3}
+    model = ft.ConstantVelocity(0.1)
+    with pytest.raises(TypeError, match="prior must be a state"):
+        ft.run_filter(ft.KalmanPredictor(model), ft.KalmanUpdater(
+            ft.LinearGaussian(2, (0,), np.eye(1))), None, [])
+    np.testing.assert_allclose(model.covar(np.timedelta64(1500, "ms")), model.covar(1.5))
+    with pytest.raises(ValueError, match="time_interval must be finite"):
+        model.covar(np.timedelta64("NaT"))
+    prior = ft.GaussianState([0.0, 1.0], np.eye(2), timestamp=0.0)
+    with pytest.raises(TypeError, match="mix of datetimes and numbers"):
+        ft.run_filter(ft.KalmanPredictor(model), ft.KalmanUpdater(
+            ft.LinearGaussian(2, (0,), np.eye(1))), prior,
+            [ft.Detection([1.0], timestamp=datetime.datetime(2026, 1, 1))])

@@ -320,7 +320,7 @@ def test_bad_model_calls():
     cv = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(1.0)] * 2)
     with pytest.raises(TypeError, match="needs a time_interval"):
         cv.matrix(None)
-    with pytest.raises(TypeError, match="time_interval must be a datetime.timedelta or a number"):
+    with pytest.raises(TypeError, match="time_interval must be a datetime.timedelta, numpy.timedelta64 or a number"):
         cv.function(np.zeros(4), time_interval="1s")
     with pytest.raises(ValueError, match="state must have 4 rows"):
         cv.function(np.zeros(3), time_interval=1.0)

@@ -31,8 +31,11 @@ def state_columns(state, name="state"):
     array = _validate.finite_array(value, name)
     if array.ndim == 1:
         array = array.reshape(-1, 1)
-    if array.ndim != 2 or array.size == 0:
+    if array.ndim != 2:
         raise ValueError(f"{name} must be a (d,) vector or a (d, N) array, got {array.shape}")
+    if array.size == 0:
+        raise ValueError(f"{name} must hold at least one state of at least one component, "
+                         f"got an empty array of shape {array.shape}")
     return array
 
 

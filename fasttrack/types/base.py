@@ -2,6 +2,8 @@
 import datetime
 import weakref
 
+import numpy as np
+
 from .._validate import is_real, real
 
 
@@ -52,7 +54,9 @@ def seconds(interval, name="time_interval"):
     """A time interval in seconds from a ``datetime.timedelta`` or a real number."""
     if isinstance(interval, datetime.timedelta):
         return interval.total_seconds()
+    if isinstance(interval, np.timedelta64):
+        return real(interval / np.timedelta64(1, "s"), name)  # (NaT: NaN, refused)
     if is_real(interval):
         return real(interval, name)
-    raise TypeError(f"{name} must be a datetime.timedelta or a number of seconds, "
-                    f"got {type(interval).__name__}")
+    raise TypeError(f"{name} must be a datetime.timedelta, numpy.timedelta64 or a number of "
+                    f"seconds, got {type(interval).__name__}")

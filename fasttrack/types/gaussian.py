@@ -178,7 +178,7 @@ class GroundTruthState(State):
 
     def __init__(self, state_vector, timestamp=None, metadata=None):
         super().__init__(state_vector, timestamp)
-        self.metadata = {} if metadata is None else dict(metadata)
+        self.metadata = _metadata(metadata)
 
 
 class Detection(State):
@@ -199,4 +199,16 @@ class Detection(State):
     def __init__(self, state_vector, timestamp=None, measurement_model=None, metadata=None):
         super().__init__(state_vector, timestamp)
         self.measurement_model = measurement_model
-        self.metadata = {} if metadata is None else dict(metadata)
+        self.metadata = _metadata(metadata)
+
+
+def _metadata(value):
+    """``metadata`` as a new dict (None: empty), a TypeError unless ``dict`` takes it (a
+    mapping, or key-value pairs)."""
+    if value is None:
+        return {}
+    try:
+        return dict(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"metadata must be a mapping (e.g. a dict) or key-value pairs, got "
+                        f"{value!r}") from None
