@@ -5,6 +5,7 @@ import functools
 import numpy as np
 
 from . import _validate
+from ._sigma import SigmaPointSettings
 from ._validate import Setting
 from .core import imm as _imm
 from .core import kalman as _kalman
@@ -315,7 +316,7 @@ class BatchExtendedKalmanFilter(_BatchFilter):
                                  jacobian=self.jacobian, joseph=self.use_joseph_cov)
 
 
-class BatchUnscentedKalmanFilter(_BatchFilter):
+class BatchUnscentedKalmanFilter(SigmaPointSettings, _BatchFilter):
     """K independent unscented Kalman filters sharing a transition and a measurement
     model, each with its own state, covariance, measurements and time intervals; each
     filter's step is that of :class:`~fasttrack.UnscentedKalmanPredictor` and
@@ -341,13 +342,14 @@ class BatchUnscentedKalmanFilter(_BatchFilter):
     def __init__(self, transition_model, measurement_model, alpha=0.5, beta=2.0, kappa=None,
                  use_joseph_cov=True):
         super().__init__(transition_model, measurement_model)
-        self.alpha, self.beta, self.kappa = _unscented.check_parameters(alpha, beta, kappa)
-        self._kappa = _unscented.scaling(self.alpha, self.kappa, transition_model.ndim_state)
+        self.alpha, self.beta, self.kappa = alpha, beta, kappa
+        self._resolved_kappa(transition_model.ndim_state)  # (the spread checked now)
         self.use_joseph_cov = _validate.flag(use_joseph_cov, "use_joseph_cov")
 
     @property
     def _parameters(self):
-        return self.alpha, self.beta, self._kappa, self.use_joseph_cov
+        return (self.alpha, self.beta, self._resolved_kappa(self.transition_model.ndim_state),
+                self.use_joseph_cov)
 
     def _predict(self, intervals, means, covars):
         return _unscented.stack_predict(self.transition_model, self.measurement_model,

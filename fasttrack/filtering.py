@@ -1,6 +1,6 @@
 """Running a filter over a sequence of detections."""
 from . import _validate
-from .types import Detection, SingleHypothesis, State, Track
+from .types import Detection, SingleHypothesis, Track
 from .types.tracks import _time_order
 
 
@@ -31,8 +31,8 @@ def run_filter(predictor, updater, prior, detections):
         if not callable(getattr(value, method, None)):
             raise TypeError(f"{name} must have {article} {method} method (a fasttrack "
                             f"{name}), got {type(value).__name__}")
-    if not isinstance(prior, State):
-        raise TypeError(f"prior must be a state (e.g. a GaussianState), got "
+    if not (hasattr(prior, "state_vector") and hasattr(prior, "timestamp")):
+        raise TypeError(f"prior must be a state (e.g. a GaussianState or ParticleState), got "
                         f"{type(prior).__name__}")
     track = Track()
     state = prior

@@ -18,6 +18,7 @@ from the exact smoother's); ``predictions="stonesoup"`` reproduces that.
 import numpy as np
 
 from . import _validate
+from ._sigma import SigmaPointSettings
 from ._states import check_finite, stack, step_intervals, track_intervals
 from .core import kalman as _kalman
 from .core import smooth as _smooth
@@ -385,7 +386,7 @@ class ExtendedKalmanSmoother(KalmanSmoother):
 
 
 
-class UnscentedKalmanSmoother(KalmanSmoother):
+class UnscentedKalmanSmoother(SigmaPointSettings, KalmanSmoother):
     """The unscented Kalman (Rauch-Tung-Striebel) smoother: as :class:`KalmanSmoother`, with
     the gain ``G = C P_{k+1|k}^{-1}`` from the unscented transform (Stone Soup's
     ``UnscentedKalmanSmoother``): C is the cross covariance of the sigma points of the
@@ -412,9 +413,9 @@ class UnscentedKalmanSmoother(KalmanSmoother):
     """
 
     def __init__(self, transition_model, alpha=0.5, beta=2.0, kappa=None, predictions="exact"):
-        self.alpha, self.beta, self.kappa = _unscented.check_parameters(alpha, beta, kappa)
+        self.alpha, self.beta, self.kappa = alpha, beta, kappa
         super().__init__(transition_model, predictions)
-        self._kappa = _unscented.scaling(self.alpha, self.kappa, transition_model.ndim_state)
+        self._resolved_kappa(transition_model.ndim_state)  # (the spread checked now)
 
     def _check_model(self, model):
         _unscented.check_transition(model)
@@ -428,7 +429,7 @@ class UnscentedKalmanSmoother(KalmanSmoother):
             return super()._linearise(model, dt, x, covar, need_prediction)
         self._check_model(model)
         x_pred, covar_pred, cross = _unscented.transition_moments(
-            model, dt, x, covar, self.alpha, self.beta, self._kappa)
+            model, dt, x, covar, self.alpha, self.beta, self._resolved_kappa(x.shape[0]))
         f = np.linalg.lstsq(covar, cross, rcond=None)[0].T
         prediction = (x_pred, covar_pred) if need_prediction else None
         return f, np.zeros_like(f), prediction

@@ -467,6 +467,32 @@ def test_a_kappa_without_sigma_point_spread_is_refused():
         ft.UnscentedKalmanPredictor(_transition(), kappa=10**400)
 
 
+
+def test_sigma_point_parameters_changed_later_are_checked_and_honoured():
+    """A kappa assigned after construction was ignored (the resolved one was kept) and an
+    alpha of 'x' accepted: both are settings now, for the predictor, updater, batch filter
+    and smoother."""
+    turn = ft.ConstantTurn([0.1, 0.1], 0.01)
+    prior = ft.GaussianState([0.0, 1.0, 0.0, 1.0, 0.3], np.eye(5), timestamp=0.0)
+    predictor = ft.UnscentedKalmanPredictor(turn)
+    before = predictor.predict(prior, 1.0).covar
+    predictor.kappa = 2.0
+    after = predictor.predict(prior, 1.0).covar
+    np.testing.assert_allclose(after, ft.UnscentedKalmanPredictor(turn, kappa=2.0).predict(
+        prior, 1.0).covar, rtol=1e-12)
+    assert not np.allclose(before, after)
+    for owner in (predictor, ft.UnscentedKalmanUpdater(_sensor()), _batch(),
+                  ft.UnscentedKalmanSmoother(_transition())):
+        with pytest.raises(TypeError, match="alpha must be a real number, got str"):
+            owner.alpha = "x"
+        with pytest.raises(ValueError, match="beta must be finite"):
+            owner.beta = np.inf
+        assert owner.alpha == 0.5 and owner.beta == 2.0
+    predictor.alpha = 1e-9  # (its spread is checked where it is next needed)
+    with pytest.raises(ValueError, match=r"alpha\*\*2 \* \(ndim \+ kappa\) must lie in"):
+        predictor.predict(prior, 1.0)
+
+
 def test_bad_states_models_and_measurements_are_refused():
     bad = np.diag([1.0, -1.0, 1.0, 1.0])
     with pytest.raises(ValueError, match="prior.covar is not positive semi-definite"):

@@ -1,4 +1,5 @@
 """The unscented Kalman predictor."""
+from .._sigma import SigmaPointSettings
 from ..core import unscented as _unscented
 from ..types import GaussianState, GaussianStatePrediction, weak
 from .base import Predictor
@@ -6,7 +7,7 @@ from .base import Predictor
 __all__ = ["UnscentedKalmanPredictor"]
 
 
-class UnscentedKalmanPredictor(Predictor):
+class UnscentedKalmanPredictor(SigmaPointSettings, Predictor):
     """Unscented Kalman prediction: the prior's sigma points moved through the transition
     model, their weighted mean and covariance plus the process noise Q (Stone Soup's
     ``UnscentedKalmanPredictor``, in one compiled kernel).
@@ -32,11 +33,11 @@ class UnscentedKalmanPredictor(Predictor):
     def __init__(self, transition_model, alpha=0.5, beta=2.0, kappa=None):
         super().__init__(transition_model)
         _unscented.check_transition(transition_model)
-        self.alpha, self.beta, self.kappa = _unscented.check_parameters(alpha, beta, kappa)
+        self.alpha, self.beta, self.kappa = alpha, beta, kappa
         # a transition model keeps its dimension (a combined model refuses a new model_list
         # of another size), and summing the parts' dimensions costs more than the kernel
         self._ndim = transition_model.ndim_state
-        self._kappa = _unscented.scaling(self.alpha, self.kappa, self._ndim)
+        self._resolved_kappa(self._ndim)  # (the spread checked now)
 
     def predict(self, prior, timestamp):
         """Predict ``prior`` to ``timestamp`` by the unscented transform.
@@ -65,6 +66,7 @@ class UnscentedKalmanPredictor(Predictor):
         self._check_finite(prior, "prior")
         dt = self._interval(prior, timestamp)
         x_out, covar_out = _unscented.predict(model, float(dt), prior.state_vector,
-                                              prior.covar, self.alpha, self.beta, self._kappa)
+                                              prior.covar, self.alpha, self.beta,
+                                              self._resolved_kappa(self._ndim))
         return GaussianStatePrediction._trusted(
             x_out, covar_out, timestamp, {"transition_model": model, "_prior": weak(prior)})

@@ -1,4 +1,5 @@
 """The unscented Kalman updater."""
+from .._sigma import SigmaPointSettings
 from ..core import unscented as _unscented
 from ..models.base import check_model
 from ..models.measurement import MeasurementModel
@@ -7,7 +8,7 @@ from .kalman import KalmanUpdater
 __all__ = ["UnscentedKalmanUpdater"]
 
 
-class UnscentedKalmanUpdater(KalmanUpdater):
+class UnscentedKalmanUpdater(SigmaPointSettings, KalmanUpdater):
     """Unscented Kalman update: the predicted measurement, innovation covariance and cross
     covariance from the prediction's sigma points through the measurement model (Stone
     Soup's ``UnscentedKalmanUpdater``, in one compiled kernel). Angle components (a
@@ -46,8 +47,7 @@ class UnscentedKalmanUpdater(KalmanUpdater):
 
     def __init__(self, measurement_model=None, alpha=0.5, beta=2.0, kappa=None,
                  use_joseph_cov=True, force_symmetric_covariance=False):
-        self.alpha, self.beta, self.kappa = _unscented.check_parameters(alpha, beta, kappa)
-        self._kappas = {}  # the resolved kappa per state dimension
+        self.alpha, self.beta, self.kappa = alpha, beta, kappa
         self._checked = None  # the last model checked (its type and dimensions are fixed)
         super().__init__(measurement_model, force_symmetric_covariance, use_joseph_cov)
 
@@ -56,9 +56,7 @@ class UnscentedKalmanUpdater(KalmanUpdater):
             return
         check_model(model, MeasurementModel, "measurement model")
         _unscented.check_measurement(model)
-        d = model.ndim_state
-        if d not in self._kappas:
-            self._kappas[d] = _unscented.scaling(self.alpha, self.kappa, d)
+        self._resolved_kappa(model.ndim_state)  # (the spread checked at a model's first use)
         self._checked = model
 
     def predict_measurement(self, predicted_state, measurement_model=None):
@@ -79,5 +77,5 @@ class UnscentedKalmanUpdater(KalmanUpdater):
 
     def _update(self, model, prediction, z, strict=True):
         return _unscented.update(model, prediction.state_vector, prediction.covar, z,
-                                 self.alpha, self.beta, self._kappas[model.ndim_state],
+                                 self.alpha, self.beta, self._resolved_kappa(model.ndim_state),
                                  self.use_joseph_cov, strict)
