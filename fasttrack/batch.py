@@ -296,11 +296,14 @@ class BatchExtendedKalmanFilter(_BatchFilter):
         As :class:`~fasttrack.ExtendedKalmanUpdater`.
     """
 
+    #: The Jacobian's method (checked when assigned, here or later).
+    jacobian = Setting(_kalman.check_jacobian)
+
     def __init__(self, transition_model, measurement_model, use_joseph_cov=True,
                  jacobian="analytic"):
         super().__init__(transition_model, measurement_model)
         self.use_joseph_cov = _validate.flag(use_joseph_cov, "use_joseph_cov")
-        self.jacobian = _kalman.check_jacobian(jacobian)
+        self.jacobian = jacobian
 
     def _predict(self, intervals, means, covars):
         return _kalman.stack_predict(self.transition_model, self.measurement_model, intervals,

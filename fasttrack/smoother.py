@@ -18,6 +18,7 @@ from the exact smoother's); ``predictions="stonesoup"`` reproduces that.
 import numpy as np
 
 from . import _validate
+from ._validate import Setting
 from ._sigma import SigmaPointSettings
 from ._states import check_finite, stack, step_intervals, track_intervals
 from .core import kalman as _kalman
@@ -364,9 +365,12 @@ class ExtendedKalmanSmoother(KalmanSmoother):
         How a prediction in the track is read (see :class:`KalmanSmoother`).
     """
 
+    #: The Jacobian's method (checked when assigned, here or later).
+    jacobian = Setting(_kalman.check_jacobian, allowed=("forward", "central"))
+
     def __init__(self, transition_model, jacobian="forward", predictions="exact"):
         super().__init__(transition_model, predictions)
-        self.jacobian = _kalman.check_jacobian(jacobian, ("forward", "central"))
+        self.jacobian = jacobian
 
     def _check_model(self, model):
         pass

@@ -141,8 +141,8 @@ BIRTH = dict(birth_rate=5.0, birth_mean=np.zeros(4))
     (dict(clutter_rate="5"), TypeError, "clutter_rate must be a real number, got str"),
     (dict(prob_detect=True), TypeError, "prob_detect must be a real number, got bool"),
     (dict(prob_survive=-0.1), ValueError, r"prob_survive must lie in \[0, 1\]"),
-    (dict(time_interval="1"), TypeError, "time_interval must be a datetime.timedelta or a "
-                                         "number of seconds, got str"),
+    (dict(time_interval="1"), TypeError, "time_interval must be a datetime.timedelta, "
+                                         "numpy.timedelta64 or a number of seconds, got str"),
     (dict(time_interval=True), TypeError, "time_interval must be a datetime.timedelta"),
     (dict(time_interval=0.0), ValueError, "time_interval must be > 0 seconds"),
     (dict(time_interval=-1.0), ValueError, "time_interval must be > 0 seconds"),

@@ -75,7 +75,7 @@ def test_gather_takes_the_columns():
 def test_kalman_steps_check_their_jacobian_names():
     assert kalman.check_jacobian("central") == "central"
     with pytest.raises(ValueError, match="jacobian must be one of 'forward', 'central'"):
-        kalman.check_jacobian("analytic", ("forward", "central"))
+        kalman.check_jacobian("analytic", allowed=("forward", "central"))
 
 
 def test_kalman_predict_and_update_equal_the_textbook_formulas():

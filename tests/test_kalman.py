@@ -525,3 +525,25 @@ def test_covariance_checks_of_the_kernels_match_the_mirror():
     np.testing.assert_array_equal(got, [0, 0, reference.status.PRIOR_NOT_PSD,
                                         reference.status.PRIOR_NOT_SYMMETRIC, 0, 0,
                                         reference.status.PRIOR_NOT_PSD, 0])
+
+
+def test_a_jacobian_method_or_covariance_assigned_later_is_checked():
+    """'bogus' raised a KeyError at the next step, a list or a covariance of another size a
+    matmul error."""
+    model = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    for owner in (ft.ExtendedKalmanPredictor(model), ft.ExtendedKalmanSmoother(model)):
+        with pytest.raises(ValueError, match="jacobian must be one of 'forward', 'central', "
+                                             "got 'bogus'"):
+            owner.jacobian = "bogus"
+        assert owner.jacobian == "forward"
+    updater = ft.ExtendedKalmanUpdater(ft.LinearGaussian(4, (0, 2), np.eye(2)))
+    with pytest.raises(ValueError, match="jacobian must be one of 'analytic'"):
+        updater.jacobian = "bogus"
+    state = ft.GaussianState([0.0, 1.0, 0.0, 1.0], np.eye(4), timestamp=0.0)
+    state.covar = np.eye(3)
+    with pytest.raises(ValueError, match=r"prior.covar must be a \(4, 4\) float64 array"):
+        ft.KalmanPredictor(model).predict(state, 1.0)
+    state.covar = np.eye(4).tolist()
+    with pytest.raises(ValueError, match=r"hypothesis.prediction.covar must be a \(4, 4\) "
+                                         r"float64 array .* got list"):
+        updater.update(ft.SingleHypothesis(state, ft.Detection([0.0, 0.0], timestamp=0.0)))

@@ -16,11 +16,13 @@ _kalman = _jit.lazy("kalman")
 JACOBIANS = {"analytic": ANALYTIC, "forward": FORWARD, "central": CENTRAL}
 
 
-def check_jacobian(name, allowed=tuple(JACOBIANS)):
-    """``name`` if it is one of ``allowed``, else a ValueError listing them."""
-    if name not in allowed:
-        raise ValueError(f"jacobian must be one of {', '.join(map(repr, allowed))}, got {name!r}")
-    return name
+def check_jacobian(method, name="jacobian", allowed=tuple(JACOBIANS)):
+    """``method`` if it is one of ``allowed``, else a ValueError naming ``name`` and listing
+    them."""
+    if not isinstance(method, str) or method not in allowed:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}, got "
+                         f"{method!r}")
+    return method
 
 
 def in_numpy(kind):

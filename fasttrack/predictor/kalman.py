@@ -1,4 +1,5 @@
 """The Kalman and extended Kalman predictors."""
+from .._validate import Setting
 from ..core import kalman as _kalman
 from ..types import GaussianState, GaussianStatePrediction, weak
 from .base import Predictor
@@ -70,9 +71,12 @@ class ExtendedKalmanPredictor(KalmanPredictor):
         Finite differences for function-built models (forward: Stone Soup's rule).
     """
 
+    #: The Jacobian's method (checked when assigned, here or later).
+    jacobian = Setting(_kalman.check_jacobian, allowed=("forward", "central"))
+
     def __init__(self, transition_model, jacobian="forward"):
         super().__init__(transition_model)
-        self.jacobian = _kalman.check_jacobian(jacobian, ("forward", "central"))
+        self.jacobian = jacobian
 
     def _check_model(self, model):
         pass

@@ -2,9 +2,11 @@
 import numpy as np
 
 from .. import _validate
+from .._validate import Setting
 from ..core import kalman as _kalman
 from ..models.base import check_model
 from ..models.measurement import LinearGaussian, MeasurementModel
+from ..predictor.base import check_covariance_kind
 from ..types import (GaussianMeasurementPrediction, GaussianState, GaussianStateUpdate,
                      SingleHypothesis)
 from .base import Updater
@@ -54,6 +56,7 @@ class KalmanUpdater(Updater):
         if not np.isfinite(prediction.state_vector).all():
             raise ValueError("the prediction's state_vector contains NaN or infinite values")
         self._check_dimensions(model, prediction)
+        check_covariance_kind(prediction, "hypothesis.prediction")
         return model
 
     def predict_measurement(self, predicted_state, measurement_model=None):
@@ -142,10 +145,13 @@ class ExtendedKalmanUpdater(KalmanUpdater):
         ('analytic' means 'forward' for them).
     """
 
+    #: The Jacobian's method (checked when assigned, here or later).
+    jacobian = Setting(_kalman.check_jacobian)
+
     def __init__(self, measurement_model=None, force_symmetric_covariance=False,
                  use_joseph_cov=True, jacobian="analytic"):
         super().__init__(measurement_model, force_symmetric_covariance, use_joseph_cov)
-        self.jacobian = _kalman.check_jacobian(jacobian)
+        self.jacobian = jacobian
 
     def _check_model(self, model):
         check_model(model, MeasurementModel, "measurement model")
