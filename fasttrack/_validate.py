@@ -355,21 +355,17 @@ class Setting:
     """An attribute checked on every assignment, the constructor's and any later one, so
     that a bad value is refused where it is set: ``check(value, name, **options)`` returns
     the value stored or raises naming ``name``. A string ``check`` names a method of the
-    owner (a check that reads the owner's other attributes)."""
+    owner (a check that reads the owner's other attributes).
+
+    The value is kept in the instance's ``__dict__`` under the attribute's own name, and
+    read from there at the speed of a plain attribute: a descriptor with ``__set__`` and no
+    ``__get__`` only intercepts assignments."""
 
     def __init__(self, check, **options):
         self.check, self.options = check, options
 
     def __set_name__(self, owner, name):
         self.name = name
-
-    def __get__(self, obj, objtype=None):
-        if obj is None:
-            return self
-        try:
-            return obj.__dict__[self.name]
-        except KeyError:
-            raise AttributeError(self.name) from None
 
     def __set__(self, obj, value):
         check = getattr(obj, self.check) if isinstance(self.check, str) else self.check

@@ -155,8 +155,9 @@ class MeasurementModel:
                                  f"({self.ndim_meas},) or ({self.ndim_meas}, 1) array, for "
                                  f"{type(self).__name__}, got shape {z.shape}")
             z = np.ascontiguousarray(z.reshape(-1, 1))
-        if self.angle_components:
-            self._check_angles(z[:, 0], name)
+        for r in self.angle_components:
+            if abs(z[r, 0]) > LARGEST_ANGLE:
+                self._check_angles(z[:, 0], name)
         return z
 
     def measurement_vector(self, measurement, name="measurement"):

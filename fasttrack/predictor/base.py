@@ -46,20 +46,13 @@ class Predictor:
     def _check_finite(state, name):
         """A ValueError if NaN or inf was written into ``state.state_vector`` after it was
         built (a Gaussian mean, or a kernel filter's few particles; a Gaussian covariance's
-        values are checked by the kernels), or a Gaussian covariance of another shape or
-        type than (d, d) float64 was assigned."""
-        if not np.isfinite(state.state_vector).all():
-            raise ValueError(f"{name}.state_vector contains NaN or infinite values")
-        check_covariance_kind(state, name)
+        values are checked by the kernels)."""
+        check_gaussian(state, name)
 
 
-def check_covariance_kind(state, name):
-    """A ValueError unless a Gaussian ``state``'s ``covar`` (if it has one) is still a
-    (d, d) float64 array (an attribute assigned after construction is not checked there)."""
-    covar = state.__dict__.get("covar")
-    if covar is None:
-        return
-    d = state.state_vector.shape[0]
-    if type(covar) is not np.ndarray or covar.shape != (d, d) or covar.dtype != np.float64:
-        raise ValueError(f"{name}.covar must be a ({d}, {d}) float64 array (as the state was "
-                         f"built), got {type(covar).__name__} of shape {np.shape(covar)}")
+def check_gaussian(state, name):
+    """A ValueError if NaN or inf was written into ``state.state_vector`` after it was
+    built (a covariance assigned later is checked when assigned, its values written in
+    place by the kernels)."""
+    if not np.isfinite(state.state_vector).all():
+        raise ValueError(f"{name}.state_vector contains NaN or infinite values")

@@ -59,7 +59,13 @@ class GaussianState(State):
 
     def __init__(self, state_vector, covar, timestamp=None):
         super().__init__(state_vector, timestamp)
-        self.covar = _validate.covariance(covar, "covar", self.ndim)
+        self.covar = covar
+
+    #: Checked when assigned (here or later): (d, d), finite and symmetric.
+    covar = _validate.Setting("_checked_covar")
+
+    def _checked_covar(self, value, name):
+        return _validate.covariance(value, name, self.ndim)
 
     @property
     def mean(self):

@@ -6,7 +6,7 @@ from .._validate import Setting
 from ..core import kalman as _kalman
 from ..models.base import check_model
 from ..models.measurement import LinearGaussian, MeasurementModel
-from ..predictor.base import check_covariance_kind
+from ..predictor.base import check_gaussian
 from ..types import (GaussianMeasurementPrediction, GaussianState, GaussianStateUpdate,
                      SingleHypothesis)
 from .base import Updater
@@ -53,10 +53,8 @@ class KalmanUpdater(Updater):
                 raise ValueError("no measurement model: give the updater one")
         self._check_model(model)
         self._check_prediction(prediction, GaussianState)
-        if not np.isfinite(prediction.state_vector).all():
-            raise ValueError("the prediction's state_vector contains NaN or infinite values")
+        check_gaussian(prediction, "hypothesis.prediction")
         self._check_dimensions(model, prediction)
-        check_covariance_kind(prediction, "hypothesis.prediction")
         return model
 
     def predict_measurement(self, predicted_state, measurement_model=None):
