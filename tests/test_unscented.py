@@ -555,6 +555,13 @@ def test_a_mean_its_sigma_points_cannot_resolve_is_refused():
     means[201, 0] = 1e100
     with pytest.raises(ValueError, match=r"filter 201: means\[201\] has a component more"):
         _batch().step(means, covars, z, 1.0)
+    for negligible in (0.0, 1e-300):  # a state known exactly: its transform is f(x)
+        exact = ft.GaussianState([0.0, 1.0, 12.0, 3.0], np.eye(4) * negligible, timestamp=0.0)
+        np.testing.assert_allclose(ft.UnscentedKalmanPredictor(model).predict(
+            exact, 1.0).state_vector[:, 0], [1.0, 1.0, 15.0, 3.0], rtol=1e-12)
+    assert np.isfinite(_batch().step(np.array([[0.0, 1.0, 12.0, 3.0]] * 2),
+                                     np.zeros((2, 4, 4)), np.array([[0.1, 40.0]] * 2),
+                                     0.0)[0]).all()
     known = ft.GaussianState([1e11, 1.0, 5.0, 1.0], np.diag([1.0, 1.0, 0.0, 1.0]),
                              timestamp=0.0)  # (a component without variance has no spread)
     predicted = ft.UnscentedKalmanPredictor(model).predict(known, 1.0)

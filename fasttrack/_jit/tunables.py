@@ -49,6 +49,9 @@ PSD_TOLERANCE = 1e-10
 #: its sigma points ``x +- sqrt(c) L`` keep about ``16 - log10(ratio)`` digits of their
 #: spread (float64), so beyond 1e12 the transform's moments would be rounding errors.
 SIGMA_RESOLUTION = 1e12
+#: Variances below this count as none in that check: a state known to 1e-100 is known
+#: exactly (its transform is f(x), whatever rounds), as a zero covariance's is.
+NEGLIGIBLE_VARIANCE = 1e-200
 #: Up to this bound on the condition number of ``F F^T + lam I`` the AKKF's ridge map is
 #: computed through its Cholesky factorisation (relative error about cond * eps <= 2e-8);
 #: above it, by LQ, whose error grows with the square root of the condition number only.

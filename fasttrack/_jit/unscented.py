@@ -8,7 +8,9 @@ points ``x``, ``x + sqrt(c) L[:, i]`` (i < d), ``x - sqrt(c) L[:, i]``; mean wei
 ``lambda / c``, ``1 / 2c``; covariance weights the same but ``lambda / c + 1 - alpha^2 + beta``
 for the centre. The transformed points Y give the mean ``sum(Wm Y) / sum(Wm)`` (for an angle
 row the circular mean ``atan2(sum(Wm sin Y), sum(Wm cos Y))``, as Stone Soup's ``Bearing``
-rows average), the covariance ``sum Wc (Y - y)(Y - y)^T + noise`` and the cross covariance
+rows average; other rows summed as ``Y_0 + sum(Wm (Y - Y_0)) / sum(Wm)``, so that the points
+of a state known exactly give its image exactly), the covariance
+``sum Wc (Y - y)(Y - y)^T + noise`` and the cross covariance
 ``sum Wc (X - X_0)(Y - y)^T``, with the angle rows of ``Y - y`` wrapped to [-pi, pi). The
 update is the Kalman gain step of :mod:`kalman` with that cross covariance.
 
@@ -28,7 +30,7 @@ from .kinds import SELECT
 from .sensor import _predict_block, _sensor_frame
 from .status import (MEAN_AT_SENSOR, OK, PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC,
                      PREDICTION_UNRESOLVED, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC, PRIOR_UNRESOLVED)
-from .tunables import SIGMA_RESOLUTION
+from .tunables import NEGLIGIBLE_VARIANCE, SIGMA_RESOLUTION
 from .user import output_status
 
 #: Stages of :func:`batch_unscented` (a bit mask).
@@ -123,15 +125,15 @@ def _moments(nb, points, transformed, mean_weights, covar_weights, angles, noise
                     cosines[b] += c * w
             for b in range(nb):
                 mean[r, b] = wrap_angle(np.arctan2(sines[b] / total, cosines[b] / total))
-        else:
+        else:  # about the centre point: an exact state's points give it exactly
             for b in range(nb):
                 mean[r, b] = 0.0
-            for i in range(n):
+            for i in range(1, n):
                 w = mean_weights[i]
                 for b in range(nb):
-                    mean[r, b] += transformed[r, i, b] * w
+                    mean[r, b] += (transformed[r, i, b] - transformed[r, 0, b]) * w
             for b in range(nb):
-                mean[r, b] /= total
+                mean[r, b] = transformed[r, 0, b] + mean[r, b] / total
     diff = np.empty(transformed.shape)
     for r in range(m):
         for i in range(n):
@@ -285,12 +287,13 @@ def unscented_moments(points, transformed, mean_weights, covar_weights, angles, 
 def _check_resolved(nb, x, covariance, status, unresolved):
     """``status[b]`` (if still OK) becomes ``unresolved`` where a component of the mean
     ``x[:, b]`` exceeds :data:`SIGMA_RESOLUTION` times its standard deviation (of a
-    positive variance): its sigma points would round to it."""
+    variance above :data:`NEGLIGIBLE_VARIANCE`): its sigma points would round to it."""
     d = x.shape[0]
     for b in range(nb):
         for r in range(d):
             v = covariance[r, r, b]
-            if status[b] == OK and v > 0.0 and abs(x[r, b]) > SIGMA_RESOLUTION * np.sqrt(v):
+            if status[b] == OK and v > NEGLIGIBLE_VARIANCE \
+                    and abs(x[r, b]) > SIGMA_RESOLUTION * np.sqrt(v):
                 status[b] = unresolved
 
 

@@ -18,7 +18,7 @@ from .._jit.status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEAN_AT_SENSOR
                            MEASUREMENT_NOT_FINITE, OK, PREDICTION_NOT_PSD,
                            PREDICTION_NOT_SYMMETRIC, PREDICTION_UNRESOLVED, PRIOR_NOT_PSD,
                            PRIOR_NOT_SYMMETRIC, PRIOR_UNRESOLVED, UPDATE_NOT_PSD)
-from .._jit.tunables import PSD_TOLERANCE, SIGMA_RESOLUTION
+from .._jit.tunables import NEGLIGIBLE_VARIANCE, PSD_TOLERANCE, SIGMA_RESOLUTION
 from .._validate import asymmetric as _asymmetric
 from .kinds import ANALYTIC, BEARING_RANGE, CENTRAL, FORWARD, SELECT
 
@@ -320,7 +320,8 @@ def _moments(sigma, transformed, angles, noise):
     ``angles`` rows by circular mean and wrapped differences."""
     points, _, mean_weights, covar_weights = sigma
     total = mean_weights.sum()
-    mean = transformed @ mean_weights / total
+    centre = transformed[:, 0]  # (the kernels' sum about the centre point)
+    mean = centre + (transformed[:, 1:] - centre[:, None]) @ mean_weights[1:] / total
     if angles.any():
         turns = transformed[angles] * 0.15915494309189535
         radians = 2.0 * np.pi * (turns - np.floor(turns))
@@ -335,11 +336,11 @@ def _moments(sigma, transformed, angles, noise):
 
 def _resolved(status, x, covar, unresolved):
     """``status``, or ``unresolved`` if it is OK and a component of the mean ``x`` (d, 1)
-    exceeds ``SIGMA_RESOLUTION`` times its standard deviation (the kernels' rule: its sigma
-    points would round to it)."""
+    exceeds ``SIGMA_RESOLUTION`` times its standard deviation, of a variance above
+    ``NEGLIGIBLE_VARIANCE`` (the kernels' rule: its sigma points would round to it)."""
     variances = np.diagonal(covar)
-    far = (variances > 0.0) & (np.abs(x[:, 0])
-                               > SIGMA_RESOLUTION * np.sqrt(np.maximum(variances, 0.0)))
+    far = (variances > NEGLIGIBLE_VARIANCE) \
+        & (np.abs(x[:, 0]) > SIGMA_RESOLUTION * np.sqrt(np.maximum(variances, 0.0)))
     return unresolved if status == OK and far.any() else status
 
 

@@ -17,11 +17,11 @@ SIGMA_RESOLUTION = 1e12
 
 def _status(x, covariance, asymmetric, indefinite, unresolved):
     """The covariance's status, or ``unresolved`` where a component of x is beyond
-    SIGMA_RESOLUTION standard deviations (of a positive variance)."""
+    SIGMA_RESOLUTION standard deviations (of a variance above 1e-200)."""
     status = _covariance_status(covariance, asymmetric, indefinite)
     for r in range(x.shape[0]):
         v = covariance[r, r]
-        if status == OK and v > 0 and abs(x[r, 0]) > SIGMA_RESOLUTION * np.sqrt(v):
+        if status == OK and v > 1e-200 and abs(x[r, 0]) > SIGMA_RESOLUTION * np.sqrt(v):
             status = unresolved
     return status
 
