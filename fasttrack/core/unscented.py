@@ -10,10 +10,11 @@ from .kinds import FUNCTION
 _unscented = _jit.lazy("unscented")
 
 
-#: The least sigma-point spread ``c = alpha^2 (ndim + kappa)`` (and the inverse of the
-#: largest): the weights ``1 - ndim / c`` and ``1 / 2c`` lose about ``-log10(c)`` of float64's
-#: 16 digits to cancellation.
+#: The least sigma-point spread ``c = alpha^2 (ndim + kappa)``: the weights ``1 - ndim / c``
+#: and ``1 / 2c`` lose about ``-log10(c)`` of float64's 16 digits to cancellation.
 SMALLEST_SPREAD = 1e-12
+#: The largest: the points ``x +- sqrt(c) L`` stay far inside float64's range.
+LARGEST_SPREAD = 1e100
 
 
 def check_parameters(alpha, beta, kappa):
@@ -38,9 +39,9 @@ def scaling(alpha, kappa, d):
     if not spread > 0.0:
         raise ValueError(f"kappa must make alpha**2 * (ndim + kappa) > 0 (the sigma-point "
                          f"spread), got kappa={kappa} with alpha={alpha} and ndim={d}")
-    if not SMALLEST_SPREAD <= spread <= 1.0 / SMALLEST_SPREAD:
+    if not SMALLEST_SPREAD <= spread <= LARGEST_SPREAD:
         raise ValueError(f"alpha**2 * (ndim + kappa) must lie in [{SMALLEST_SPREAD:.0e}, "
-                         f"{1 / SMALLEST_SPREAD:.0e}] (its inverse weighs the sigma points: "
+                         f"{LARGEST_SPREAD:.0e}] (its inverse weighs the sigma points: "
                          f"beyond, their moments lose their digits or overflow), got "
                          f"{spread:.3g} with alpha={alpha}, kappa={kappa} and ndim={d}")
     return kappa

@@ -24,7 +24,7 @@ class UnscentedKalmanPredictor(SigmaPointSettings, Predictor):
         Prior knowledge of the distribution (2 is optimal for a Gaussian).
     kappa : float, optional
         Secondary spread; None means ``3 - ndim_state``. ``alpha**2 * (ndim_state + kappa)``
-        must lie in [1e-12, 1e12] (the sigma points' weights are its inverse).
+        must lie in [1e-12, 1e100] (the sigma points' weights are its inverse).
 
     A prior whose mean has a component more than 1e12 times its standard deviation is
     refused (ValueError): its sigma points would round to the mean in float64.

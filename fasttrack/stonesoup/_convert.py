@@ -175,7 +175,7 @@ def sigma_parameters(component, ndim):
     """``(alpha, beta, kappa)`` of a Stone Soup unscented component as fasttrack's unscented
     kernels take them (``kappa`` None resolved to ``3 - ndim``), or None where they are
     outside the kernels' range (``alpha <= 0``, a spread ``alpha**2 (ndim + kappa)`` outside
-    [1e-12, 1e12], values that are not finite reals)."""
+    [1e-12, 1e100], values that are not finite reals)."""
     try:
         alpha, beta, kappa = ft_unscented.check_parameters(component.alpha, component.beta,
                                                            component.kappa)

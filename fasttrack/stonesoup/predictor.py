@@ -150,7 +150,7 @@ class UnscentedKalmanPredictor(_Kalman, ss_kalman.UnscentedKalmanPredictor):
     """Stone Soup's ``UnscentedKalmanPredictor``, compiled for its built-in linear models.
 
     Sigma-point parameters outside fasttrack's range (``alpha <= 0``, a spread
-    ``alpha**2 (ndim + kappa)`` outside [1e-12, 1e12]) and covariances without a Cholesky
+    ``alpha**2 (ndim + kappa)`` outside [1e-12, 1e100]) and covariances without a Cholesky
     factor (for which Stone Soup regularises the factor) go through Stone Soup's code.
     """
 

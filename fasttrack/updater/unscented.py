@@ -27,7 +27,7 @@ class UnscentedKalmanUpdater(SigmaPointSettings, KalmanUpdater):
         Prior knowledge of the distribution (2 is optimal for a Gaussian).
     kappa : float, optional
         Secondary spread; None means ``3 - ndim_state``. ``alpha**2 * (ndim_state + kappa)``
-        must lie in [1e-12, 1e12] (the sigma points' weights are its inverse).
+        must lie in [1e-12, 1e100] (the sigma points' weights are its inverse).
     use_joseph_cov : bool
         True (the default): the Joseph form ``(I - K H) P (I - K H)^T + K R K^T`` with the
         statistical linearisation ``H = C^T P^-1`` (C the cross covariance), which keeps
