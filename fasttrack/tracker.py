@@ -160,6 +160,15 @@ class MultiTargetTracker(ModelSettings):
                              f"{value.means.shape}")
         return value
 
+    def _start(self):
+        """:meth:`_initiation` of the current sensor, remembered until its spec changes
+        (a new sensor, or a parameter assigned)."""
+        spec = self.measurement_model.spec
+        if self.__dict__.get("_started_from") is not spec:
+            self._started = self._initiation(self.measurement_model, *self._prior)
+            self._started_from = spec
+        return self._started
+
     @staticmethod
     def _initiation(model, mean, covar):
         """The affine map from a detection to a new track: ``x = x0 + G z``, covariance
@@ -194,7 +203,7 @@ class MultiTargetTracker(ModelSettings):
                         np.where(hit, 0, tracks.misses + 1), tracks.ages + 1), taken
 
     def _start_tracks(self, detections):
-        x0, gain, p0 = self._initiation(self.measurement_model, *self._prior)
+        x0, gain, p0 = self._start()
         n = detections.shape[0]
         ids = np.arange(self._next_id, self._next_id + n)
         self._next_id += n

@@ -277,3 +277,18 @@ def test_track_sets_of_different_kinds_do_not_join():
     with pytest.raises(ValueError, match="models must be >= 1, got 0"):
         IMMTrackSet.empty(4, 0)
     assert len(TrackSet.concatenate(TrackSet.empty(4), TrackSet.empty(4))) == 0
+
+
+def test_new_tracks_start_from_the_current_sensor():
+    tracker = MultiTargetTracker(TRANSITION, ft.LinearGaussian(4, (0, 2), np.eye(2)),
+                                 np.zeros(4), PRIOR_COVAR)
+    tracker.step([[0.0, 0.0]], 0.0)
+    first = tracker.tentative.covars[0].copy()
+    tracker.measurement_model.noise_covar = 4.0 * np.eye(2)  # (a parameter assigned)
+    tracker.step([[50.0, 50.0]], 1.0)
+    np.testing.assert_allclose(tracker.tentative.covars[-1][[0, 2]][:, [0, 2]],
+                               4.0 * first[[0, 2]][:, [0, 2]])
+    tracker.measurement_model = ft.LinearGaussian(4, (0, 2), 9.0 * np.eye(2))  # (a new one)
+    tracker.step([[-50.0, 50.0]], 2.0)
+    np.testing.assert_allclose(tracker.tentative.covars[-1][[0, 2]][:, [0, 2]],
+                               9.0 * first[[0, 2]][:, [0, 2]])
