@@ -28,6 +28,9 @@ MESSAGES = {
                                    f"{SIGMA_RESOLUTION:.0e} times its standard deviation "
                                    "(the square root of its variance): its sigma points would "
                                    "round to it (float64 keeps 16 digits)",
+    _status.PREDICTION_OVERFLOW: "the prediction overflowed: its mean or covariance is beyond "
+                                 "float64's range (the prior, the transition or the interval "
+                                 "is too large)",
     _status.UPDATE_NOT_PSD: "the update by hypothesis.measurement left a covariance that is "
                             "not positive semi-definite (the standard form P - K S K^T; "
                             "use_joseph_cov=True keeps it)",

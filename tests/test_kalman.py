@@ -547,3 +547,31 @@ def test_a_jacobian_method_or_covariance_assigned_later_is_checked_when_assigned
     state.covar = np.eye(4).tolist()  # (stored as a float64 array)
     assert type(state.covar) is np.ndarray and state.covar.dtype == np.float64
     assert ft.KalmanPredictor(model).predict(state, 1.0).covar.shape == (4, 4)
+
+
+def test_a_prediction_that_overflows_is_refused_where_it_starts():
+    """A prior of 1e307 over 10 s (F P F^T beyond float64) came back as an inf covariance,
+    refused only at the next step: the kernels, their NumPy twin, the mirror, one filter and
+    a batch name it at the prediction."""
+    from fasttrack._jit import kalman as kernels
+    from fasttrack._jit.status import PREDICTION_OVERFLOW
+    from fasttrack.core import kalman_numpy
+    import reference.kalman
+    model = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    x, huge = np.array([[0.0], [1.0], [0.0], [1.0]]), np.eye(4) * 1e307
+    kind, rates, matrix, noise = model.spec(10.0).kalman()
+    for predict in (kernels.predict_one, reference.kalman.predict_one):
+        assert predict(kind, rates, matrix, noise, 10.0, x, huge, np.empty((4, 1)),
+                       np.empty((4, 4))) == PREDICTION_OVERFLOW
+    assert kalman_numpy.predict(model.spec(10.0), x, huge)[0] == PREDICTION_OVERFLOW
+    for predictor in (ft.KalmanPredictor(model), ft.ExtendedKalmanPredictor(model)):
+        with pytest.raises(ValueError, match="the prediction overflowed"):
+            predictor.predict(ft.GaussianState(x, huge, timestamp=0.0), 10.0)
+        with pytest.raises(ValueError, match="the prediction overflowed"):
+            predictor.predict(ft.GaussianState([1e308, 1e308, 0.0, 0.0], np.eye(4),
+                                               timestamp=0.0), 1.0)
+    batch = ft.BatchExtendedKalmanFilter(model, ft.LinearGaussian(4, (0, 2), np.eye(2)))
+    means = np.zeros((3, 4))
+    means[1] = [1e308, 1e308, 0.0, 0.0]
+    with pytest.raises(ValueError, match="filter 1: the prediction overflowed"):
+        batch.predict(means, np.tile(np.eye(4), (3, 1, 1)), 1.0)

@@ -33,8 +33,8 @@ from .sensor import SELECT, _polar_jacobian, _predict_block, _sensor_frame
 from .linalg import _check_covariance, _cholesky, _covariance_code, _sandwich, _solve
 from .numeric import copy_into, fill, wrap_angle
 from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
-                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
-                     PRIOR_NOT_SYMMETRIC, UPDATE_NOT_PSD)
+                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PREDICTION_OVERFLOW,
+                     PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC, UPDATE_NOT_PSD)
 from .user import output_status
 from .tunables import FILTERS_PER_BLOCK
 
@@ -85,6 +85,22 @@ def _predict(nb, matrix, covar, x, covariance, x_out, covariance_out, status):
                 s += matrix[r, k, b] * x[k, b]
             x_out[r, b] = s
     _predict_covariance(nb, matrix, covar, covariance, covariance_out, status)
+    _check_overflow(nb, x_out, covariance_out, status)
+
+
+@jit()
+def _check_overflow(nb, x_out, covariance_out, status):
+    """``status[b]`` (if still OK) becomes PREDICTION_OVERFLOW where the predicted mean or
+    covariance of filter b is not finite (``v * 0`` is NaN exactly then)."""
+    d = x_out.shape[0]
+    for b in range(nb):
+        total = 0.0
+        for r in range(d):
+            total += x_out[r, b] * 0.0
+            for c in range(d):
+                total += covariance_out[r, c, b] * 0.0
+        if status[b] == OK and total != 0.0:
+            status[b] = PREDICTION_OVERFLOW
 
 
 @jit()
@@ -344,7 +360,8 @@ def linear_predict(matrix, covar, mapping, noise, means, covariances, means_out,
     """Kalman prediction of K tracks (means (K, d), covariances (K, d, d)) through one F
     and Q (d, d), and their measurements by a sensor of the ``mapping`` rows with noise R:
     ``z_hats`` (K, m) and ``S = P[mapping, mapping] + R`` (K, m, m). ``status[k]`` says
-    whether track k's covariance is symmetric positive semi-definite."""
+    whether track k's covariance is symmetric positive semi-definite and its prediction
+    finite."""
     k_tracks, d = means.shape
     m = mapping.size
     product = np.empty((d, d))
@@ -369,6 +386,8 @@ def linear_predict(matrix, covar, mapping, noise, means, covariances, means_out,
                     s += product[r, q] * matrix[c, q]
                 covariances_out[t, r, c] = s
                 covariances_out[t, c, r] = s
+        _check_overflow(1, means_out[t].reshape((d, 1)), covariances_out[t].reshape((d, d, 1)),
+                        status[t:t + 1])
         for i in range(m):
             z_hats[t, i] = means_out[t, mapping[i]]
             for j in range(m):
@@ -535,6 +554,7 @@ def predict_function(function, dt, covar, central, x, covariance, x_out, covaria
     status = np.zeros(1, dtype=np.int64)
     _predict_covariance(1, matrix, covar.reshape((d, d, 1)), covariance.reshape((d, d, 1)),
                         covariance_out.reshape((d, d, 1)), status)
+    _check_overflow(1, x_out, covariance_out.reshape((d, d, 1)), status)
     return status[0]
 
 

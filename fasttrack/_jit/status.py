@@ -31,3 +31,5 @@ MEAN_AT_SENSOR = np.int64(11)
 PRIOR_UNRESOLVED = np.int64(12)
 #: The same of a prediction's mean.
 PREDICTION_UNRESOLVED = np.int64(13)
+#: A prediction whose mean or covariance overflowed float64.
+PREDICTION_OVERFLOW = np.int64(14)

@@ -16,7 +16,8 @@ import numpy as np
 
 from .._jit.status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEAN_AT_SENSOR,
                            MEASUREMENT_NOT_FINITE, OK, PREDICTION_NOT_PSD,
-                           PREDICTION_NOT_SYMMETRIC, PREDICTION_UNRESOLVED, PRIOR_NOT_PSD,
+                           PREDICTION_NOT_SYMMETRIC, PREDICTION_OVERFLOW,
+                           PREDICTION_UNRESOLVED, PRIOR_NOT_PSD,
                            PRIOR_NOT_SYMMETRIC, PRIOR_UNRESOLVED, UPDATE_NOT_PSD)
 from .._jit.tunables import NEGLIGIBLE_VARIANCE, PSD_TOLERANCE, SIGMA_RESOLUTION
 from .._validate import asymmetric as _asymmetric
@@ -107,7 +108,11 @@ def predict(spec, x, covar):
     prior covariance is symmetric positive semi-definite."""
     matrix = spec.matrix
     status = covariance_status(covar, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
-    return status, matrix @ x, _symmetric(matrix @ covar @ matrix.T + spec.noise)
+    with np.errstate(over="ignore", invalid="ignore"):
+        x_out, covar_out = matrix @ x, _symmetric(matrix @ covar @ matrix.T + spec.noise)
+    if status == OK and not (np.isfinite(x_out).all() and np.isfinite(covar_out).all()):
+        status = PREDICTION_OVERFLOW
+    return status, x_out, covar_out
 
 
 def _polar(sensor, points):
@@ -233,8 +238,12 @@ def stack_predict(transition_model, sensor, method, intervals, means, covars):
     if sensor.kind == SELECT and k > 1 and _all_positive_definite(covars):
         h = jacobian(sensor, method, means[0, :, None])
         f, q = _transitions(transition_model, intervals)
-        x = (f @ means[:, :, None])[:, :, 0]
-        covar = _symmetric(f @ covars @ np.swapaxes(f, -1, -2) + q)
+        with np.errstate(over="ignore", invalid="ignore"):
+            x = (f @ means[:, :, None])[:, :, 0]
+            covar = _symmetric(f @ covars @ np.swapaxes(f, -1, -2) + q)
+        if not np.isfinite(covar.sum(axis=(1, 2)) + x.sum(axis=1)).all():
+            status[~(np.isfinite(x).all(axis=1) & np.isfinite(covar).all(axis=(1, 2)))] = \
+                PREDICTION_OVERFLOW
         return status, x, covar, x[:, sensor.mapping], _symmetric(
             h @ covar @ h.T + sensor.noise_covar)
     out = np.empty((k, d)), np.empty((k, d, d)), np.empty((k, m)), np.empty((k, m, m))

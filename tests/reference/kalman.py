@@ -7,8 +7,8 @@ from .jacobian import (measurement_jacobian, measurement_jacobian_function,
 from .likelihood import measure
 from .numeric import wrap_angle
 from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
-                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
-                     PRIOR_NOT_SYMMETRIC, UPDATE_NOT_PSD)
+                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PREDICTION_OVERFLOW,
+                     PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC, UPDATE_NOT_PSD)
 from .user import output_status
 
 
@@ -53,9 +53,13 @@ def _standard_form(posterior, covariance_out):
 def predict_one(kind, rates, fixed_matrix, fixed_covar, dt, x, covariance, x_out,
                 covariance_out):
     f, q = _transition(kind, rates, fixed_matrix, fixed_covar, dt, x.shape[0])
-    x_out[:] = f @ x
-    covariance_out[:] = f @ covariance @ f.T + q
-    return _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    with np.errstate(over="ignore", invalid="ignore"):
+        x_out[:] = f @ x
+        covariance_out[:] = f @ covariance @ f.T + q
+    status = _covariance_status(covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
+    if status == OK and not (np.isfinite(x_out).all() and np.isfinite(covariance_out).all()):
+        return PREDICTION_OVERFLOW
+    return status
 
 
 def predict_function(function, dt, covar, central, x, covariance, x_out, covariance_out):
@@ -187,8 +191,12 @@ def linear_predict(matrix, covar, mapping, noise, means, covariances, means_out,
                    covariances_out, z_hats, innovation_covars, status):
     for k in range(means.shape[0]):
         status[k] = _covariance_status(covariances[k], PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD)
-        means_out[k] = matrix @ means[k]
-        covariances_out[k] = matrix @ covariances[k] @ matrix.T + covar
+        with np.errstate(over="ignore", invalid="ignore"):
+            means_out[k] = matrix @ means[k]
+            covariances_out[k] = matrix @ covariances[k] @ matrix.T + covar
+        if status[k] == OK and not (np.isfinite(means_out[k]).all()
+                                    and np.isfinite(covariances_out[k]).all()):
+            status[k] = PREDICTION_OVERFLOW
         z_hats[k] = means_out[k][mapping]
         innovation_covars[k] = covariances_out[k][np.ix_(mapping, mapping)] + noise
 
