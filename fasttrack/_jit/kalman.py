@@ -30,11 +30,12 @@ from .kinds import CV, FIXED
 from .jacobian import (ANALYTIC, measurement_jacobian, measurement_jacobian_function,
                        transition_jacobian_function)
 from .sensor import SELECT, _polar_jacobian, _predict_block, _sensor_frame
-from .linalg import _check_covariance, _cholesky, _covariance_code, _sandwich, _solve
+from .linalg import (_check_covariance, _check_overflow, _cholesky, _covariance_code, _sandwich,
+                     _solve)
 from .numeric import copy_into, fill, wrap_angle
 from .status import (INNOVATION_NOT_PD, JACOBIAN_UNDEFINED, MEASUREMENT_NOT_FINITE, OK,
-                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PREDICTION_OVERFLOW,
-                     PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC, UPDATE_NOT_PSD)
+                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PRIOR_NOT_PSD,
+                     PRIOR_NOT_SYMMETRIC, UPDATE_NOT_PSD)
 from .user import output_status
 from .tunables import FILTERS_PER_BLOCK
 
@@ -86,21 +87,6 @@ def _predict(nb, matrix, covar, x, covariance, x_out, covariance_out, status):
             x_out[r, b] = s
     _predict_covariance(nb, matrix, covar, covariance, covariance_out, status)
     _check_overflow(nb, x_out, covariance_out, status)
-
-
-@jit()
-def _check_overflow(nb, x_out, covariance_out, status):
-    """``status[b]`` (if still OK) becomes PREDICTION_OVERFLOW where the predicted mean or
-    covariance of filter b is not finite (``v * 0`` is NaN exactly then)."""
-    d = x_out.shape[0]
-    for b in range(nb):
-        total = 0.0
-        for r in range(d):
-            total += x_out[r, b] * 0.0
-            for c in range(d):
-                total += covariance_out[r, c, b] * 0.0
-        if status[b] == OK and total != 0.0:
-            status[b] = PREDICTION_OVERFLOW
 
 
 @jit()

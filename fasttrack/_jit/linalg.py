@@ -5,7 +5,7 @@ import numpy as np
 
 from .dispatch import jit
 from .tunables import PSD_TOLERANCE
-from .status import OK
+from .status import OK, PREDICTION_OVERFLOW
 
 
 @jit()
@@ -163,3 +163,18 @@ def _solve(nb, lower, rhs, half, out):
                 for j in range(r + 1, n):
                     s -= lower[j, r, b] * out[j, c, b]
                 out[r, c, b] = s / lower[r, r, b]
+
+
+@jit()
+def _check_overflow(nb, x_out, covariance_out, status):
+    """``status[b]`` (if still OK) becomes PREDICTION_OVERFLOW where the predicted mean or
+    covariance of filter b is not finite (``v * 0`` is NaN exactly then)."""
+    d = x_out.shape[0]
+    for b in range(nb):
+        total = 0.0
+        for r in range(d):
+            total += x_out[r, b] * 0.0
+            for c in range(d):
+                total += covariance_out[r, c, b] * 0.0
+        if status[b] == OK and total != 0.0:
+            status[b] = PREDICTION_OVERFLOW
