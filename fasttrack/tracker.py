@@ -349,29 +349,24 @@ class IMMTracker(MultiTargetTracker, ModelSetSettings):
         self.jpda = association == "jpda"
         super().__init__(models[0], measurement_model, prior_mean, prior_covar,
                          association="gnn" if self.jpda else association, **options)
-        prob_detect = _validate.probability(prob_detect, "prob_detect")  # (read by JPDA)
-        if clutter_density is not None:
-            clutter_density = _validate.positive(clutter_density, "clutter_density")
-        if self.jpda:
-            if clutter_density is None:
-                raise ValueError("association='jpda' needs clutter_density (> 0)")
-            self.prob_detect, self.clutter_density = prob_detect, clutter_density
-            self.max_nodes = max_nodes
+        self.prob_detect, self.clutter_density = prob_detect, clutter_density  # (read by JPDA)
+        self.max_nodes = max_nodes
+        if self.jpda and clutter_density is None:
+            raise ValueError("association='jpda' needs clutter_density (> 0)")
         self.transition_matrix = transition_matrix
         self.mode_probs = (np.full(len(models), 1.0 / len(models)) if mode_probs is None
                            else mode_probs)
 
     _nonlinear_transitions = True
     prob_detect = Setting("_detection_probability")
-    clutter_density = Setting(_validate.positive)
+    clutter_density = Setting(_validate.optional(_validate.positive))
     max_nodes = Setting(_validate.count)
     mode_probs = Setting("_initial_modes")
     _tracks = IMMTrackSet
 
-    @staticmethod
-    def _detection_probability(value, name):
+    def _detection_probability(self, value, name):
         value = _validate.probability(value, name)
-        if not value > 0:
+        if self.jpda and not value > 0:
             raise ValueError(f"{name} must be > 0 for JPDA, got {value}")
         return value
 
