@@ -569,6 +569,41 @@ def test_a_mean_its_sigma_points_cannot_resolve_is_refused():
         known, 1.0).covar, rtol=1e-4, atol=1e-4)
 
 
+def test_a_prediction_that_overflows_is_refused_where_it_starts():
+    """Sigma points moved by F = 1e200 I have moments beyond float64 (an inf covariance came
+    back, refused only at the next step): the kernels, the NumPy twin, the mirror, the
+    predictor with a matrix or a user function, and the batch filter name it at the
+    prediction."""
+    from fasttrack.core import kalman_numpy
+    from fasttrack._jit.status import PREDICTION_OVERFLOW
+
+    @njit(cache=False)
+    def huge(states, dt):
+        return states * 1e200
+
+    model = ft.LinearGaussianTransitionModel(np.eye(4) * 1e200, np.eye(4))
+    x, covar = np.array([[0.0], [1.0], [0.0], [1.0]]), np.eye(4)
+    outs = (np.empty((4, 1)), np.empty((4, 4)))
+    for predict in (kernels.unscented_predict, reference.unscented.unscented_predict):
+        assert predict(*model.spec(1.0).kalman(), 1.0, 0.5, 2.0, -1.0, x, covar,
+                       *outs) == PREDICTION_OVERFLOW
+    for predict in (kernels.unscented_predict_function,
+                    reference.unscented.unscented_predict_function):
+        assert predict(huge, 1.0, np.eye(4), 0.5, 2.0, -1.0, x, covar, *outs,
+                       np.empty((0, 4))) == PREDICTION_OVERFLOW
+    assert kalman_numpy.unscented_predict(model.spec(1.0), 0.5, 2.0, -1.0, x,
+                                          covar)[0] == PREDICTION_OVERFLOW
+    prior = ft.GaussianState(x, covar, timestamp=0.0)
+    for transition in (model, ft.NonlinearGaussianTransitionModel(huge, np.eye(4), 4)):
+        with pytest.raises(ValueError, match="the prediction overflowed"):
+            ft.UnscentedKalmanPredictor(transition).predict(prior, 1.0)
+    means, covars, z = _batch_inputs(300, np.random.default_rng(14))
+    intervals = np.ones(300)
+    intervals[201] = 1e300
+    with pytest.raises(ValueError, match="filter 201: the prediction overflowed"):
+        _batch().step(means, covars, z, intervals)
+
+
 def test_exported():
     assert {"UnscentedKalmanPredictor", "UnscentedKalmanUpdater",
             "BatchUnscentedKalmanFilter"} <= set(ft.__all__)

@@ -24,7 +24,7 @@ import numpy as np
 
 from .dispatch import jit
 from .kalman import FILTERS_PER_BLOCK, _correct, _from_block, _to_block, _transition
-from .linalg import _check_covariance, _solve
+from .linalg import _check_covariance, _check_overflow, _solve
 from .numeric import copy_into, fill, sin_cos_turns, wrap_angle
 from .kinds import SELECT
 from .sensor import _predict_block, _sensor_frame
@@ -314,7 +314,8 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
                       covariance, x_out, covariance_out):
     """One filter's unscented prediction through a FIXED or CV transition (see
     :mod:`kalman`): the prior's sigma points moved by F, their moments plus Q. Returns the
-    status (PRIOR_NOT_SYMMETRIC / PRIOR_NOT_PSD for a bad prior covariance)."""
+    status (PRIOR_NOT_SYMMETRIC / PRIOR_NOT_PSD for a bad prior covariance,
+    PREDICTION_OVERFLOW for a prediction beyond float64's range)."""
     d = x.shape[0]
     status = _checked(x, covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_UNRESOLVED)
     if status[0] == OK:
@@ -322,6 +323,7 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
         _transition(1, kind, rates, fixed_matrix, fixed_covar, np.full(1, dt), matrix, covar)
         _predict(1, matrix, covar, alpha, beta, kappa, x, covariance.reshape((d, d, 1)), x_out,
                  covariance_out.reshape((d, d, 1)))
+        _check_overflow(1, x_out, covariance_out.reshape((d, d, 1)), status)
     return status[0]
 
 
@@ -331,7 +333,8 @@ def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covar
     """One filter's unscented prediction through a user transition ``f((d, n), dt)``: the
     prior's sigma points through f (its output checked first, see :mod:`user`), their
     moments plus ``covar`` (Q), and their cross covariance with the prior's sigma points
-    into ``cross`` (d, d; not computed if it has no rows). Returns the status."""
+    into ``cross`` (d, d; not computed if it has no rows). Returns the status
+    (PREDICTION_OVERFLOW for moments beyond float64's range)."""
     d = x.shape[0]
     status = _checked(x, covariance, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD, PRIOR_UNRESOLVED)
     if status[0] != OK:
@@ -340,12 +343,13 @@ def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covar
                                                     beta, kappa)
     n = points.shape[1]
     moved = function(points.reshape((d, n)), dt)
-    code = output_status(moved, d, n)
-    if code == OK:
+    status[0] = output_status(moved, d, n)
+    if status[0] == OK:
         _moments(1, points, np.ascontiguousarray(moved).reshape((d, n, 1)), mean_weights,
                  covar_weights, np.zeros(d, dtype=np.bool_), covar.reshape((d, d, 1)), x_out,
                  covariance_out.reshape((d, d, 1)), cross.reshape((cross.shape[0], d, 1)))
-    return code
+        _check_overflow(1, x_out, covariance_out.reshape((d, d, 1)), status)
+    return status[0]
 
 
 @jit()
@@ -435,6 +439,7 @@ def batch_unscented(t_kind, rates, fixed_matrix, fixed_covar, dts, m_kind, mappi
             x_pred, covariance_pred = np.empty((d, nb)), np.empty((d, d, nb))
             _predict(nb, matrix, covar, alpha, beta, kappa, x, covariance, x_pred,
                      covariance_pred)
+            _check_overflow(nb, x_pred, covariance_pred, block_status)
             x, covariance = x_pred, covariance_pred
         if stages & (MEASURE | UPDATE):
             _check_covariance(nb, covariance, block_status, PREDICTION_NOT_SYMMETRIC,

@@ -355,14 +355,18 @@ def _resolved(status, x, covar, unresolved):
 
 def unscented_predict(spec, alpha, beta, kappa, x, covar):
     """``(status, x, P)``: the sigma points of ``(x, covar)`` moved by F of the linear
-    transition ``spec``, their moments plus Q."""
+    transition ``spec``, their moments plus Q (PREDICTION_OVERFLOW if they are beyond
+    float64's range)."""
     status = _resolved(covariance_status(covar, PRIOR_NOT_SYMMETRIC, PRIOR_NOT_PSD), x, covar,
                        PRIOR_UNRESOLVED)
     if status != OK:
         return status, x, covar
     sigma = _sigma(x, covar, alpha, beta, kappa)
-    mean, covar_out, _ = _moments(sigma, spec.matrix @ sigma[0],
-                                  np.zeros(x.shape[0], dtype=np.bool_), spec.noise)
+    with np.errstate(over="ignore", invalid="ignore"):
+        mean, covar_out, _ = _moments(sigma, spec.matrix @ sigma[0],
+                                      np.zeros(x.shape[0], dtype=np.bool_), spec.noise)
+    if not (np.isfinite(mean).all() and np.isfinite(covar_out).all()):
+        status = PREDICTION_OVERFLOW
     return status, mean, covar_out
 
 

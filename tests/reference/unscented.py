@@ -7,8 +7,9 @@ from .likelihood import measure
 from .numeric import wrap_angle
 from .sensor import SELECT
 from .status import (INNOVATION_NOT_PD, MEAN_AT_SENSOR, MEASUREMENT_NOT_FINITE, OK,
-                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PREDICTION_UNRESOLVED,
-                     PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC, PRIOR_UNRESOLVED)
+                     PREDICTION_NOT_PSD, PREDICTION_NOT_SYMMETRIC, PREDICTION_OVERFLOW,
+                     PREDICTION_UNRESOLVED, PRIOR_NOT_PSD, PRIOR_NOT_SYMMETRIC,
+                     PRIOR_UNRESOLVED)
 from .user import output_status
 
 #: ``fasttrack._jit.tunables.SIGMA_RESOLUTION``.
@@ -85,9 +86,10 @@ def unscented_predict(kind, rates, fixed_matrix, fixed_covar, dt, alpha, beta, k
     d = x.shape[0]
     f, q = _transition(kind, rates, fixed_matrix, fixed_covar, dt, d)
     _, points, wm, wc = _sigma(x, covariance, alpha, beta, kappa)
-    unscented_moments(points, f @ points, wm, wc, np.zeros(d, bool), q, x_out,
-                      covariance_out, np.empty((d, d)))
-    return OK
+    with np.errstate(over="ignore", invalid="ignore"):
+        unscented_moments(points, f @ points, wm, wc, np.zeros(d, bool), q, x_out,
+                          covariance_out, np.empty((d, d)))
+    return _overflow(x_out, covariance_out)
 
 
 def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covariance,
@@ -101,10 +103,18 @@ def unscented_predict_function(function, dt, covar, alpha, beta, kappa, x, covar
     status = output_status(moved, d, points.shape[1])
     if status == OK:
         full = np.empty((d, d))
-        unscented_moments(points, moved, wm, wc, np.zeros(d, bool), covar, x_out,
-                          covariance_out, full)
+        with np.errstate(over="ignore", invalid="ignore"):
+            unscented_moments(points, moved, wm, wc, np.zeros(d, bool), covar, x_out,
+                              covariance_out, full)
         cross[:] = full[:cross.shape[0]]
+        status = _overflow(x_out, covariance_out)
     return status
+
+
+def _overflow(x, covariance):
+    """PREDICTION_OVERFLOW if a predicted mean or covariance is not finite, else OK."""
+    return OK if np.isfinite(x).all() and np.isfinite(covariance).all() \
+        else PREDICTION_OVERFLOW
 
 
 def unscented_update(kind, mapping, offset, rotation, noise, angles, alpha, beta, kappa,
