@@ -34,6 +34,21 @@ def test_mean_and_covar_follow_stone_soup_formulas():
     assert np.array_equal(state.covar, np.eye(4))
 
 
+
+@pytest.mark.parametrize("numpy_first", [False, True])
+def test_moments_whose_sums_overflow_are_refused(monkeypatch, numpy_first):
+    """Finite particles near float64's limit: a mean of 1e308 particles came back inf;
+    spreads of 1e160 square beyond float64."""
+    from fasttrack import _jit
+    monkeypatch.setattr(_jit, "numpy_first", lambda work=1: numpy_first)
+    for scale, attr in ((1e308, "mean"), (1e160, "covar")):
+        state = ParticleState(np.full((2, 100), scale) * np.linspace(1, 0.5, 100))
+        with pytest.raises(ValueError, match=r"weighted mean or covariance is beyond "
+                                             r"float64's range"):
+            getattr(state, attr)
+    spread = np.sqrt(ParticleState(np.full((2, 100), 1e150)).covar.max())
+    assert spread <= 1e150 * 1e-14  # (rounding of the mean)
+
 def test_moments_are_recomputed_after_assignment():
     state = ParticleState(np.array([[0.0, 2.0]]))
     assert state.mean[0, 0] == 1.0

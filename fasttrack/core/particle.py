@@ -135,20 +135,33 @@ def gather(particles, index, out=None):
 
 def mean(particles, log_weight):
     """The (d, 1) weighted mean of (d, N) ``particles`` with (N,) unnormalised
-    ``log_weight``, in one pass."""
+    ``log_weight``, in one pass. Raises ValueError if its sums overflow float64."""
     if _jit.numpy_first(_numpy.work(particles)):
-        return _numpy.mean(particles, log_weight)[0]
-    out = np.empty(particles.shape[0])
-    _weights.weighted_mean(particles, log_weight, log_weight.max(), out)
-    return out.reshape(-1, 1)
+        with np.errstate(over="ignore", invalid="ignore"):
+            out = _numpy.mean(particles, log_weight)[0]
+    else:
+        out = np.empty(particles.shape[0])
+        _weights.weighted_mean(particles, log_weight, log_weight.max(), out)
+    return _finite_moments(out.reshape(-1, 1))
 
 
 def mean_covar(particles, log_weight):
     """``(mean, covar)``, (d, 1) and (d, d): the weighted mean and covariance
-    ``sum w (x - mean)(x - mean)^T / sum w`` of (d, N) ``particles``, in two passes."""
+    ``sum w (x - mean)(x - mean)^T / sum w`` of (d, N) ``particles``, in two passes.
+    Raises ValueError if their sums overflow float64."""
     if _jit.numpy_first(_numpy.work(particles)):
-        return _numpy.mean_covar(particles, log_weight)
+        with np.errstate(over="ignore", invalid="ignore"):
+            return _finite_moments(*_numpy.mean_covar(particles, log_weight))
     d = particles.shape[0]
     mean_out, covar = np.empty(d), np.empty((d, d))
     _weights.weighted_mean_covar(particles, log_weight, log_weight.max(), mean_out, covar)
-    return mean_out.reshape(d, 1), covar
+    return _finite_moments(mean_out.reshape(d, 1), covar)
+
+
+def _finite_moments(*moments):
+    """``moments`` (the first alone if it is the only one), or ValueError if one is not
+    finite: finite particles whose weighted sums overflow float64."""
+    if not all(np.isfinite(m).all() for m in moments):
+        raise ValueError("the particles' weighted mean or covariance is beyond float64's "
+                         "range (states or spreads near 1.8e308, or their squares)")
+    return moments if len(moments) > 1 else moments[0]
