@@ -221,10 +221,13 @@ class KalmanSmoother:
                                                np.array([m[0] for m in matrices]),
                                                np.array([m[1] for m in matrices]), step)
         if status:
-            _, t, what = _smooth.failure(status, n)
+            _, t, what = _smooth.failure(status, 1, n)
             if what == "filtered":
                 raise ValueError(f"track[{offset + t}].covar is not symmetric positive "
                                  f"semi-definite")
+            if what == "smoothed":
+                raise ValueError(f"the smoothed state of track[{offset + t}] "
+                                 f"{_smooth.SMOOTHED_UNRESOLVED}")
             raise ValueError(f"the predicted covariance of track[{offset + t}] is not "
                              f"positive definite: cannot form the smoothing gain")
         return _with_moments(body[:-1], x_out.reshape(n, d, 1), covar_out[0]) + [body[-1]]
@@ -334,10 +337,12 @@ class KalmanSmoother:
         x_out, covar_out, status = _smooth.rts_linear(model, x, covar, x_pred, covar_pred,
                                                       recompute, intervals)
         if status:
-            k, t, what = _smooth.failure(status, n)
+            k, t, what = _smooth.failure(status, k_tracks, n)
             where = f"[{t}]" if single else f"[{k}, {t}]"
             if what == "filtered":
                 raise ValueError(f"covars{where} is not symmetric positive semi-definite")
+            if what == "smoothed":
+                raise ValueError(f"the smoothed state{where} {_smooth.SMOOTHED_UNRESOLVED}")
             predicted = ("predicted_covars" if predicted_covars is not None
                          else "the predicted covariance F P F^T + Q at ")
             raise ValueError(f"{predicted}{where} is not positive definite: cannot form the "

@@ -251,7 +251,7 @@ _UNTIMED = [ft.GaussianState([i, 0, i, 0], np.eye(4)) for i in range(3)]
 @pytest.mark.parametrize("call, error, match", [
     (lambda: ft.KalmanSmoother(_CV).smooth_arrays(np.full((5, 4), 1e308),
                                                   np.tile(np.eye(4), (5, 1, 1)), 1.0),
-     ValueError, "the smoothed states are not finite"),
+     ValueError, r"the smoothed state\[0\] is not finite or has a negative variance"),
     (lambda: ft.KalmanSmoother(_CV).smooth_arrays(np.zeros((3, 4)), np.tile(np.eye(4), (3, 1, 1)),
                                                   10**400),
      ValueError, "time_intervals must lie within the float range"),

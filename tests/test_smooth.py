@@ -517,6 +517,31 @@ def test_short_tracks():
     assert two[0] is prior and two[1] is track[0]
 
 
+
+def test_a_smoothed_state_lost_to_cancellation_is_refused():
+    """A track filtered from a prior variance of 1e300 beside variances of 1 smoothed into
+    a variance of -7e283 (Stone Soup raises LinAlgError): named, for a track, for arrays
+    and for a batch."""
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
+    sensor = ft.LinearGaussian(4, (0, 2), np.eye(2))
+    rng = np.random.default_rng(2)
+    truth = ft.ground_truth(transition, [0, 1, 0, 1], steps=10, start_time=0.0, rng=rng)
+    prior = ft.GaussianState([0, 1, 0, 1], np.eye(4) * 1e300, timestamp=0.0)
+    track = ft.run_filter(ft.KalmanPredictor(transition), ft.KalmanUpdater(sensor), prior,
+                          ft.detections(truth, sensor, rng=rng))
+    smoother = ft.KalmanSmoother(transition)
+    with pytest.raises(ValueError, match=r"the smoothed state of track\[0\] is not finite or "
+                                         r"has a negative variance"):
+        smoother.smooth(track)
+    means = np.array([state.state_vector[:, 0] for state in track])
+    covars = np.array([state.covar for state in track])
+    with pytest.raises(ValueError, match=r"the smoothed state\[0\] is not finite"):
+        smoother.smooth_arrays(means, covars, 1.0)
+    with pytest.raises(ValueError, match=r"the smoothed state\[1, 0\] is not finite"):
+        smoother.smooth_arrays(np.stack([means * 0, means]),
+                               np.stack([np.tile(np.eye(4), (len(track), 1, 1)), covars]), 1.0)
+
+
 def test_bad_input_names_the_argument():
     transition, _ = _models()
     smoother = ft.KalmanSmoother(transition)

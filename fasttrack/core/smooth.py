@@ -14,25 +14,39 @@ def rts(x, covar, x_pred, covar_pred, recompute, matrices, noises, step):
     ``covar_pred`` the one-step predictions (recomputed from ``matrices`` (S, d, d) and
     ``noises`` (S, d, d) where ``recompute`` (n,) uint8 says so); ``step`` (n,) int64 the
     index of each step's (F, Q). ``status`` is 0, ``1 + k n + t`` for the first track k
-    and time t whose predicted covariance is not positive definite, or ``-(1 + k n + t)``
-    for the first whose filtered covariance is not symmetric positive semi-definite (see
-    :func:`failure`). A ValueError if the smoothed states are not finite (inputs of
-    magnitudes whose products overflow).
+    and time t whose predicted covariance is not positive definite, ``-(1 + k n + t)``
+    for the first whose filtered covariance is not symmetric positive semi-definite, or
+    ``1 + K n + k n + t`` for the first smoothed state that is not finite or has a negative
+    variance (see :func:`failure`).
     """
     x_out, covar_out = np.empty_like(x), np.empty_like(covar)
     status = _smooth.rts_kernel(x.shape[-1])(x, covar, x_pred, covar_pred, recompute, matrices,
                                              noises, step, x_out, covar_out)
-    if not status and not (np.isfinite(x_out).all() and np.isfinite(covar_out).all()):
-        raise ValueError("the smoothed states are not finite: the filtered states' magnitudes "
-                         "overflow the smoother's arithmetic (beyond about 1e150)")
+    if not status:
+        variances = np.diagonal(covar_out, axis1=-2, axis2=-1)
+        bad = ~(np.isfinite(x_out).all(axis=-1) & np.isfinite(covar_out).all(axis=(-2, -1))
+                & (variances >= 0.0).all(axis=-1))
+        if bad.any():
+            status = 1 + bad.size + int(np.argmax(bad.ravel()))
     return x_out, covar_out, status
 
 
-def failure(status, n):
-    """``(k, t, what)`` of a non-zero :func:`rts` ``status`` over n steps: the track, the
-    time and which covariance failed ('predicted' or 'filtered')."""
-    k, t = divmod(abs(status) - 1, n)
-    return k, t, "predicted" if status > 0 else "filtered"
+def failure(status, k, n):
+    """``(k, t, what)`` of a non-zero :func:`rts` ``status`` over k tracks of n steps: the
+    track, the time and what failed ('predicted' or 'filtered' covariance, 'smoothed'
+    state)."""
+    what = "predicted" if status > 0 else "filtered"
+    if status > k * n:
+        status, what = status - k * n, "smoothed"
+    track, t = divmod(abs(status) - 1, n)
+    return track, t, what
+
+
+#: Why a smoothed state is not finite or has a negative variance.
+SMOOTHED_UNRESOLVED = ("is not finite or has a negative variance: the filtered states overflow "
+                       "the smoother's arithmetic (beyond about 1e150) or their covariances "
+                       "span more than float64's 16 digits (e.g. a prior variance of 1e300 "
+                       "beside variances of 1)")
 
 
 def rts_linear(model, x, covar, x_pred, covar_pred, recompute, intervals):

@@ -142,7 +142,9 @@ class _Kalman:
                 predicted_covars[None, part], np.zeros(end - first, dtype=np.uint8),
                 intervals[first:end - 1])
             if status:
-                return "a predicted covariance that is not positive definite"
+                what = ft_smooth.failure(status, 1, end - first)[2]
+                return ("a smoothed state beyond the kernels' arithmetic" if what == "smoothed"
+                        else "a predicted covariance that is not positive definite")
             means[part], covars[part] = smoothed_means[0], smoothed_covars[0]
         return means[..., None], covars
 
