@@ -452,10 +452,11 @@ def states(values, columns):
     x = np.resize(np.array(values), (4, columns))
     with np.errstate(all="ignore"):
         state = ft.ParticleState(x, timestamp=0.0)
-        _ = state.mean, state.covar
         transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
         sensor = ft.CartesianToBearingRange(4, (0, 2), np.diag([1e-4, 1.0]))
         for call in (
+                lambda: state.mean,
+                lambda: state.covar,
                 lambda: ft.ParticleUpdater(sensor, ft.SystematicResampler(rng=1)).update(
                     ft.SingleHypothesis(ft.ParticlePredictor(transition, rng=0).predict(state, 1.0),
                                         ft.Detection([0.1, 10.0]))),
