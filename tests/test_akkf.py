@@ -231,6 +231,20 @@ def test_kernel_particle_state_errors(kwargs, message):
         ft.KernelParticleState(np.full((2, 5), np.nan))
 
 
+
+def test_kernel_particle_state_assignments_are_checked():
+    """Particles or weights assigned later reached the moments unchecked (NumPy's matmul
+    error, or NaN moments)."""
+    state = ft.KernelParticleState(np.zeros((2, 5)), timestamp=0.0)
+    with pytest.raises(ValueError, match="state_vector must hold the state's 5 particles"):
+        state.state_vector = np.zeros((2, 6))
+    with pytest.raises(ValueError, match="weight must have length 5"):
+        state.weight = np.ones(3)
+    with pytest.raises(ValueError, match="weight contains NaN"):
+        state.weight = np.full(5, np.nan)
+    state.state_vector, state.weight = np.ones((3, 5)), np.arange(5.0)
+    np.testing.assert_allclose(state.mean, np.full((3, 1), 10.0))
+
 def _tutorial_filter(kernel, scenario, rng=0):
     return (ft.AdaptiveKernelKalmanPredictor(scenario.transition_model, kernel),
             ft.AdaptiveKernelKalmanUpdater(scenario.measurement_model, kernel, rng=rng))

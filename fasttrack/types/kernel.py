@@ -33,18 +33,35 @@ class KernelParticleState:
     """
 
     def __init__(self, state_vector, timestamp=None, weight=None, kernel_covar=None):
-        self.state_vector = _validate.state_array(state_vector, "state_vector")
+        self.state_vector = state_vector
         m = self.state_vector.shape[1]
-        if weight is None:
-            self.weight = np.full(m, 1.0 / m)
-        else:
-            self.weight = _validate.finite_array(weight, "weight", 1).copy()
-            if self.weight.size != m:
-                raise ValueError(f"weight must have length {m}, got {self.weight.size}")
+        self.weight = np.full(m, 1.0 / m) if weight is None else weight
         self.timestamp = check_timestamp(timestamp)
         self._factors = isotropic_factors(m, 1.0 / m) if kernel_covar is None else \
             factor_kernel_covar(kernel_covar, m)
         self._kernel_covar = None
+
+    #: Checked when assigned (here or later): (d, M) finite, M the particles the weights
+    #: and the kernel covariance hold.
+    state_vector = _validate.Setting("_checked_particles")
+    #: Checked when assigned: (M,) finite.
+    weight = _validate.Setting("_checked_weight")
+
+    def _checked_particles(self, value, name):
+        x = _validate.state_array(value, name)
+        held = self.__dict__.get("weight")
+        if held is not None and x.shape[1] != held.size:
+            raise ValueError(f"{name} must hold the state's {held.size} particles (its weights "
+                             f"and kernel covariance are theirs), got {x.shape[1]}: make a new "
+                             f"KernelParticleState for another number")
+        return x
+
+    def _checked_weight(self, value, name):
+        w = _validate.finite_array(value, name, 1).copy()
+        m = self.state_vector.shape[1]
+        if w.size != m:
+            raise ValueError(f"{name} must have length {m}, got {w.size}")
+        return w
 
     @classmethod
     def _trusted(cls, state_vector, weight, factors, timestamp, **attributes):
