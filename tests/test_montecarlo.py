@@ -44,6 +44,16 @@ def linear_scenario(seed, steps=15):
                     ft.GaussianState(mean, covar, timestamp=0.0))
 
 
+
+def known_scenario(seed):
+    """:func:`linear_scenario` with a noiseless transition and an exactly known prior: the
+    Kalman posteriors' covariances are zero (singular)."""
+    scenario = linear_scenario(seed, steps=3)
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.0)] * 2)
+    return Scenario(transition, scenario.measurement_model, scenario.truth,
+                    scenario.detections, ft.GaussianState(scenario.prior.state_vector,
+                                                          np.zeros((4, 4)), timestamp=0.0))
+
 def make_kalman(scenario, rng):
     return ft.KalmanPredictor(scenario.transition_model), ft.KalmanUpdater(scenario.measurement_model)
 
@@ -469,11 +479,21 @@ def test_a_position_mapping_outside_the_states_is_an_error_up_front():
     with pytest.raises(ValueError, match="position_mapping"):
         mc.run_trial(pf_scenario, make_pf, mc.run_seeds(1, 1)[0], position_mapping=(0, 5))
 
+def test_nees_of_a_singular_posterior_is_named():
+    """A posterior covariance of zero has no inverse: the NEES was numpy's LinAlgError."""
+    with pytest.raises(ValueError, match="metric 'nees': the posterior covariance is not "
+                                         "positive definite"):
+        mc.run_trial(known_scenario, make_kalman, mc.run_seeds(1, 1)[0])
+    table = mc.run_trial(known_scenario, make_kalman, mc.run_seeds(1, 1)[0],
+                         metrics=("position_error", "nis"))
+    assert np.isfinite(table["nis"]).all()
+
 
 _UNGUARDED = """
 import functools
 import fasttrack as ft
 from fasttrack.scenarios import particle_filter_tutorial
+
 
 def make_filter(scenario, rng):
     return (ft.ParticlePredictor(scenario.transition_model, rng=rng),

@@ -65,9 +65,16 @@ def _check_metrics(metrics, multi_target=False):
     return metrics
 
 
-def _quadratic_form(error, covar):
-    """``e^T C^-1 e`` by a Cholesky solve."""
-    half = np.linalg.solve(np.linalg.cholesky(covar), error)
+def _quadratic_form(error, covar, metric):
+    """``e^T C^-1 e`` by a Cholesky solve; ValueError naming the ``metric`` if C is not
+    positive definite."""
+    try:
+        half = np.linalg.solve(np.linalg.cholesky(covar), error)
+    except np.linalg.LinAlgError:
+        covariance = "posterior" if metric == "nees" else "innovation"
+        raise ValueError(f"metric {metric!r}: the {covariance} covariance is not positive "
+                         f"definite, so it has no inverse to weigh the error by (leave "
+                         f"{metric!r} out of metrics for this filter)") from None
     return float(half @ half)
 
 
@@ -80,14 +87,15 @@ def _score(metrics, posterior, truth, hypothesis, model, mapping, effective, sec
             out.append(math.sqrt(error @ error))
         elif name == "nees":
             out.append(_quadratic_form(np.ravel(posterior.mean) - np.ravel(truth.state_vector),
-                                       posterior.covar)
+                                       posterior.covar, name)
                        if isinstance(posterior, GaussianState) else np.nan)
         elif name == "nis":
             predicted = hypothesis.measurement_prediction
             if isinstance(predicted, GaussianMeasurementPrediction):
                 innovation = (np.ravel(hypothesis.measurement.state_vector)
                               - np.ravel(predicted.state_vector))[:, None]
-                out.append(_quadratic_form(model.wrap(innovation)[:, 0], predicted.covar))
+                out.append(_quadratic_form(model.wrap(innovation)[:, 0], predicted.covar,
+                                           name))
             else:
                 out.append(np.nan)
         else:
