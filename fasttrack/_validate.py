@@ -147,6 +147,8 @@ def square_matrix(value, name, size):
 def covariance(value, name, size):
     """A finite, symmetric (size, size) float64 covariance matrix."""
     a = square_matrix(value, name, size)
+    if not a.size:
+        raise ValueError(f"{name} must have at least one row and column, got shape (0, 0)")
     scale = max(np.abs(a).max(), np.finfo(float).tiny)
     if np.abs(a - a.T).max() > 1e-9 * scale:
         raise ValueError(f"{name} must be symmetric")

@@ -248,7 +248,25 @@ _RADAR = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.01, 1.0]), translation
 _UNTIMED = [ft.GaussianState([i, 0, i, 0], np.eye(4)) for i in range(3)]
 
 
+_NAIVE = datetime.datetime(2026, 1, 1)
+_AWARE = datetime.datetime(2026, 1, 1, 0, 0, 1, tzinfo=datetime.timezone.utc)
+
+
 @pytest.mark.parametrize("call, error, match", [
+    (lambda: ft.KalmanUpdater(_LG).update(ft.SingleHypothesis(
+        ft.KalmanPredictor(_CV).predict(ft.GaussianState(np.zeros(4), np.eye(4),
+                                                         timestamp=0.0), 1.0),
+        np.array([1.0, 1.0]))),
+     TypeError, r"hypothesis.measurement must be a Detection \(a state_vector and a "
+                r"timestamp\), got ndarray"),
+    (lambda: ft.KalmanPredictor(_CV).predict(ft.GaussianState(np.zeros(4), np.eye(4),
+                                                              timestamp=_NAIVE), _AWARE),
+     TypeError, "must both have a time zone or both have none"),
+    (lambda: ft.Track([ft.GaussianState(np.zeros(4), np.eye(4), timestamp=_NAIVE),
+                       ft.GaussianState(np.zeros(4), np.eye(4), timestamp=_AWARE)]),
+     TypeError, "one has a time zone, the other none"),
+    (lambda: ft.NonlinearGaussianMeasurement(lambda x: x[:0], 4, np.zeros((0, 0))),
+     ValueError, r"noise_covar must have at least one row and column"),
     (lambda: ft.KalmanSmoother(_CV).smooth_arrays(np.full((5, 4), 1e308),
                                                   np.tile(np.eye(4), (5, 1, 1)), 1.0),
      ValueError, r"the smoothed state\[0\] is not finite or has a negative variance"),

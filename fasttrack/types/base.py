@@ -43,6 +43,9 @@ def weak(state):
 def time_interval(later, earlier, name="timestamp"):
     """Seconds from ``earlier`` to ``later`` (two datetimes or two numbers of seconds)."""
     if isinstance(later, datetime.datetime) and isinstance(earlier, datetime.datetime):
+        if (later.utcoffset() is None) != (earlier.utcoffset() is None):
+            raise TypeError(f"{name} {later!r} and the prior's timestamp {earlier!r} must both "
+                            f"have a time zone or both have none")
         return (later - earlier).total_seconds()
     if is_real(later) and is_real(earlier):
         return float(later) - float(earlier)

@@ -1,4 +1,5 @@
 """Sequences of states in time order (tracks, ground truth paths) and hypotheses."""
+import datetime
 import numbers
 import uuid
 import weakref
@@ -76,6 +77,9 @@ def _time_order(a, b):
     both_real = isinstance(a, numbers.Real) and isinstance(b, numbers.Real)
     if type(a) is not type(b) and not both_real:
         raise TypeError(f"cannot order timestamps {a!r} and {b!r}: mix of datetimes and numbers")
+    if isinstance(a, datetime.datetime) and (a.utcoffset() is None) != (b.utcoffset() is None):
+        raise TypeError(f"cannot order timestamps {a!r} and {b!r}: one has a time zone, the "
+                        f"other none")
     return int(a > b) - int(a < b)  # (NumPy scalars' bools do not subtract)
 
 

@@ -39,8 +39,12 @@ class Updater:
         if not isinstance(hypothesis, SingleHypothesis):
             raise TypeError(f"hypothesis must be a SingleHypothesis, "
                             f"got {type(hypothesis).__name__}")
-        if hypothesis.measurement is None:
+        measurement = hypothesis.measurement
+        if measurement is None:
             raise ValueError("hypothesis.measurement is None: nothing to update with")
+        if not (hasattr(measurement, "state_vector") and hasattr(measurement, "timestamp")):
+            raise TypeError(f"hypothesis.measurement must be a Detection (a state_vector and "
+                            f"a timestamp), got {type(measurement).__name__}")
 
     @staticmethod
     def _check_prediction(prediction, kind, name="the prediction"):
