@@ -43,7 +43,7 @@ def predict_cardinality(log_cardinality, prob_survival, birth_mean):
     birth_mean = _validate.non_negative(birth_mean, "birth_mean")
     with np.errstate(divide="ignore"):
         log_survive, log_die = np.log(p_s), np.log1p(-p_s)
-    if _jit.numpy_first(_numpy.work(0, log_cardinality.size)):
+    if _jit.numpy_first(_numpy.predict_work(log_cardinality.size)):
         return _numpy.predict_cardinality(log_cardinality, log_survive, log_die, birth_mean)
     out = np.empty(log_cardinality.size)
     _cphd.predict_cardinality(log_cardinality, log_survive, log_die, birth_mean, out)

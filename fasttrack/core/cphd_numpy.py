@@ -10,6 +10,12 @@ def work(m, size):
     return 6 + m // 5 + size // 64
 
 
+def predict_work(size):
+    """The :func:`~fasttrack._jit.numpy_first` units of a cardinality prediction of ``size``
+    numbers (its NumPy twin builds (size, size) tables: a large one takes the kernel)."""
+    return 6 + size * size // 1024
+
+
 def logsumexp(logs, axis=None):
     """log sum exp over ``axis`` (all, by default), -inf for an empty or all -inf sum."""
     logs = np.asarray(logs, dtype=float)
