@@ -12,6 +12,8 @@ from .core import cphd as _cphd
 from .core import kalman as _kalman
 from .core import mixture as _mixture
 from .core import phd as _phd
+from .core.cphd_numpy import logsumexp
+from .core.mixture_numpy import first_bad_covariance
 from .mixturereducer import GaussianMixtureReducer
 from .types.mixture import GaussianMixture
 
@@ -53,8 +55,8 @@ class _IntensityTracker(ModelSettings):
 
     def _birth(self, birth, name):
         """``birth``, checked: a mixture of the models' state, its covariances positive
-        semi-definite, its expected births finite, and (unless unscented) the sensor
-        differentiable at its means."""
+        definite (the reducer measures distances by their inverses), its expected number
+        of births finite, and (unless unscented) the sensor differentiable at its means."""
         if not isinstance(birth, GaussianMixture):
             raise TypeError(f"{name} must be a GaussianMixture, got {type(birth).__name__}")
         d = self.measurement_model.ndim_state
@@ -62,12 +64,17 @@ class _IntensityTracker(ModelSettings):
             raise ValueError(f"{name} must have {d}-D components (the models' state), got "
                              f"{birth.means.shape[1]}-D")
         _mixture.check_covariances(birth.covars, f"{name}.covars")
+        singular = first_bad_covariance(birth.covars) if len(birth) else -1
+        if singular >= 0:
+            raise ValueError(f"{name}.covars[{singular // 2}] must be positive definite (the "
+                             f"reducer measures distances by its inverse)")
         if self.unscented is None:  # (each update linearises the sensor at the births' means)
             _phd.jacobians_at(self.measurement_model.spec, birth.means, f"{name}.means")
-        if len(birth) and birth.log_weights.max() > _LOG_LARGEST:
-            raise ValueError(f"{name}.log_weights must be at most {_LOG_LARGEST:.1f} (the "
-                             f"expected births a scan, their exponentials, finite), got "
-                             f"{birth.log_weights.max()}")
+        total = logsumexp(birth.log_weights)
+        if total > _LOG_LARGEST:
+            raise ValueError(f"{name}.log_weights must total at most {_LOG_LARGEST:.1f} in "
+                             f"log (the expected number of births a scan, finite), got "
+                             f"{total}")
         return birth
 
     def step(self, detections, time):

@@ -371,7 +371,7 @@ class IMMTracker(MultiTargetTracker, ModelSetSettings):
         return value
 
     def _initial_modes(self, value, name):
-        return _imm.mode_probabilities(value, (len(self.transition_models),), name)
+        return _imm.mode_probabilities(value, (len(self.transition_models),), name).copy()
 
     @property
     def prob_gate(self):

@@ -101,7 +101,9 @@ def test_zero_dimensional_components_are_refused_by_the_kernels_too():
     ((CV, CV), None, TypeError, "measurement_model must be a built-in MeasurementModel"),
     ((CV, SENSOR), "indefinite", ValueError, r"birth.covars\[0\] is not positive semi-definite"),
     ((CV, SENSOR), "asymmetric", ValueError, r"birth.covars\[0\] is not symmetric"),
-    ((CV, SENSOR), "heavy", ValueError, "birth.log_weights must be at most 709.8"),
+    ((CV, SENSOR), "heavy", ValueError, "birth.log_weights must total at most 709.8"),
+    ((CV, SENSOR), "two heavy", ValueError, "birth.log_weights must total at most 709.8"),
+    ((CV, SENSOR), "singular", ValueError, r"birth.covars\[0\] must be positive definite"),
 ])
 def test_intensity_trackers_check_models_and_birth_when_built(kind, models, birth, error,
                                                               match):
@@ -111,11 +113,33 @@ def test_intensity_trackers_check_models_and_birth_when_built(kind, models, birt
         covars[0, 1, 1] = -1.0
     if birth == "asymmetric":
         covars[0, 0, 1] += 1.0
-    log_weights = np.full(len(births), 800.0) if birth == "heavy" else births.log_weights
+    if birth == "singular":
+        covars[0] = 0.0
+    log_weights = {"heavy": np.full(len(births), 800.0),
+                   "two heavy": np.full(len(births), 709.5)}.get(birth, births.log_weights)
     births = ft.GaussianMixture(births.means, covars, log_weights)
     with pytest.raises(error, match=match):
         kind(*models, births, 0.9, 0.99, 1e-5, *([10.0] if kind is CPHDTracker else []))
 
+
+
+def test_arrays_given_stay_the_caller_s():
+    """A mixture, a switching matrix and initial mode probabilities kept the caller's
+    arrays: changing those afterwards changed them past every check (NaN weights, rows
+    summing to 3)."""
+    means, covars, log_weights = np.zeros((2, 1)), np.ones((2, 1, 1)), np.zeros(2)
+    mixture = ft.GaussianMixture(means, covars, log_weights)
+    means[0], covars[0], log_weights[0] = np.nan, -1.0, np.nan
+    assert np.isfinite(mixture.means).all() and (mixture.covars == 1.0).all()
+    assert (mixture.log_weights == 0.0).all()
+    matrix, modes = np.array([[0.9, 0.1], [0.1, 0.9]]), np.array([0.5, 0.5])
+    models = [ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(q)] * 2)
+              for q in (0.1, 10.0)]
+    imm = ft.BatchIMMFilter(models, SENSOR, matrix)
+    tracker = ft.IMMTracker(models, SENSOR, matrix, np.zeros(4), np.eye(4), mode_probs=modes)
+    matrix[:], modes[:] = 3 * np.eye(2), [7.0, 2.0]
+    assert imm.transition_matrix.sum() == 2.0 and tracker.transition_matrix.sum() == 2.0
+    assert tracker.mode_probs.tolist() == [0.5, 0.5]
 
 @pytest.mark.parametrize("covars", [np.eye(4) * [-0.5, 1, -0.5, 1], np.eye(4) * [1, -1, 1, -1]])
 def test_phd_and_cphd_updates_refuse_an_indefinite_prediction(covars):

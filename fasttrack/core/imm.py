@@ -51,7 +51,7 @@ def transition_matrix(matrix, models):
         raise ValueError(f"each row of transition_matrix must sum to 1 (the probabilities of "
                          f"switching from one model); row {rows[0]} sums to "
                          f"{float(matrix[rows[0]].sum())!r}")
-    return matrix
+    return matrix.copy()  # (the caller's array stays theirs)
 
 
 def mode_probabilities(probs, shape, name="mode_probs", values=True):

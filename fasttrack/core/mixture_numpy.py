@@ -30,7 +30,7 @@ def reduce(means, covars, weights, mode, prune_threshold, merging, merge_thresho
     local_member = np.arange(n)
     merged = {}  # output -> (mean, covariance, weight) of a merge of several
     if merging and n > 1:
-        failed = _first_bad_covariance(covars)
+        failed = first_bad_covariance(covars)
         if failed >= 0:
             j, kind = divmod(failed, 2)
             return -(1 + 2 * int(kept[j]) + kind)
@@ -59,7 +59,7 @@ def ordered_sum(values):
     return functools.reduce(operator.add, values.tolist(), 0.0)
 
 
-def _first_bad_covariance(covars):
+def first_bad_covariance(covars):
     """``2 j + 1`` for the first covariance j not symmetric (to 1e-9 of its largest
     entry), ``2 j`` for one not positive definite, else -1."""
     bad = asymmetric(covars)

@@ -51,8 +51,8 @@ class GaussianMixture:
         labels = np.zeros(k, dtype=np.int64) if self.labels is None \
             else _mixture.label_array(self.labels, k)
         for name, value in (("means", means), ("covars", covars), ("log_weights", log_weights),
-                            ("labels", labels)):
-            object.__setattr__(self, name, value)
+                            ("labels", labels)):  # (copies: the caller's arrays stay theirs)
+            object.__setattr__(self, name, value.copy())
 
     @classmethod
     def _made(cls, means, covars, log_weights, labels, timestamp=None):
