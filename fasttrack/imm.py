@@ -259,8 +259,10 @@ class BatchIMMFilter(ModelSetSettings):
     (1, 2)
     """
 
-    #: The multiple-model algorithm of :meth:`step` (one of ``core.imm.ALGORITHMS``).
-    algorithm = "imm"
+    @property
+    def algorithm(self):
+        """The multiple-model algorithm of :meth:`step` (one of ``core.imm.ALGORITHMS``)."""
+        return "imm"
 
     def __init__(self, transition_models, measurement_model, transition_matrix):
         self.measurement_model = measurement_model
@@ -456,11 +458,22 @@ class BatchGPBFilter(BatchIMMFilter):
     """
 
     def __init__(self, transition_models, measurement_model, transition_matrix, order=2):
+        self.order = order
+        super().__init__(transition_models, measurement_model, transition_matrix)
+
+    #: Checked when assigned (here or later).
+    order = _validate.Setting("_checked_order")
+
+    @staticmethod
+    def _checked_order(order, name):
         if not _validate.is_integer(order):
-            raise TypeError(f"order must be an int, 1 or 2 (GPB1 or GPB2), got "
+            raise TypeError(f"{name} must be an int, 1 or 2 (GPB1 or GPB2), got "
                             f"{type(order).__name__}")
         if order not in (1, 2):
-            raise ValueError(f"order must be 1 or 2 (GPB1 or GPB2), got {order!r}")
-        super().__init__(transition_models, measurement_model, transition_matrix)
-        self.order = order
-        self.algorithm = f"gpb{order}"
+            raise ValueError(f"{name} must be 1 or 2 (GPB1 or GPB2), got {order!r}")
+        return int(order)
+
+    @property
+    def algorithm(self):
+        """The multiple-model algorithm of :meth:`step`: 'gpb1' or 'gpb2'."""
+        return f"gpb{self.order}"

@@ -28,16 +28,19 @@ class GaussianMixtureReducer:
 
     def __init__(self, prune_threshold=1e-9, merge_threshold=16.0, max_number_components=None,
                  merging=True, pruning=True, truncating=True, mode="textbook"):
-        self.prune_threshold = _validate.non_negative(prune_threshold, "prune_threshold")
-        self.merge_threshold = _validate.threshold(merge_threshold, "merge_threshold")
-        self.max_number_components = _validate.count(max_number_components,
-                                                     "max_number_components",
-                                                     default=_validate.MAX_COUNT)
-        self.merging = _validate.flag(merging, "merging")
-        self.pruning = _validate.flag(pruning, "pruning")
-        self.truncating = _validate.flag(truncating, "truncating")
-        _mixture.check_mode(mode)
+        self.prune_threshold, self.merge_threshold = prune_threshold, merge_threshold
+        self.max_number_components = max_number_components
+        self.merging, self.pruning, self.truncating = merging, pruning, truncating
         self.mode = mode
+
+    #: Checked when assigned (here or later), as the parameters.
+    prune_threshold = _validate.Setting(_validate.non_negative)
+    merge_threshold = _validate.Setting(_validate.threshold)
+    max_number_components = _validate.Setting(_validate.count, default=_validate.MAX_COUNT)
+    merging = _validate.Setting(_validate.flag)
+    pruning = _validate.Setting(_validate.flag)
+    truncating = _validate.Setting(_validate.flag)
+    mode = _validate.Setting(_mixture.check_mode)
 
     def reduce(self, mixture, first_label=None):
         """The reduced ``mixture``.

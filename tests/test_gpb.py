@@ -131,3 +131,10 @@ def test_the_batch_is_the_filters_one_by_one_and_a_far_measurement_stays_finite(
 def test_an_order_other_than_one_or_two_is_refused(order, error, match):
     with pytest.raises(error, match=match):
         ft.BatchGPBFilter(_models(), SENSOR, MATRIX, order=order)
+    gpb = ft.BatchGPBFilter(_models(), SENSOR, MATRIX, order=2)
+    with pytest.raises(error, match=match):  # (it was accepted and ignored)
+        gpb.order = order
+    gpb.order = 1
+    assert gpb.order == 1 and gpb.algorithm == "gpb1"
+    with pytest.raises(AttributeError):
+        gpb.algorithm = "gpb3"

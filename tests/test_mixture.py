@@ -341,3 +341,30 @@ def test_the_reducer_face_keeps_labels_and_names_new_ones():
         GaussianMixtureReducer().reduce([0.0])
     with pytest.raises(TypeError, match="first_label must be an int"):
         GaussianMixtureReducer().reduce(mixture, first_label=1.5)
+
+
+def test_reducer_settings_are_checked_when_assigned():
+    """``pruning = "no"`` was taken as True, ``truncating = None`` turned the cap off and
+    ``max_number_components = 0`` was named ``max_components`` at the next call."""
+    from fasttrack.mixturereducer import GaussianMixtureReducer
+    reducer = GaussianMixtureReducer()
+    for name, value, error in (("pruning", "no", TypeError), ("truncating", None, TypeError),
+                               ("max_number_components", 0, ValueError),
+                               ("prune_threshold", -1.0, ValueError),
+                               ("merge_threshold", np.nan, ValueError),
+                               ("mode", "vo", ValueError)):
+        with pytest.raises(error, match=name):
+            setattr(reducer, name, value)
+    reducer.max_number_components = None  # (no cap, as in the constructor)
+    assert reducer.max_number_components >= 2**31
+
+
+@pytest.mark.parametrize("covars, match", [(-np.eye(2), "positive semi-definite"),
+                                           (np.array([[1.0, 5.0], [0.0, 1.0]]), "symmetric")])
+def test_moment_match_checks_the_covariances(covars, match):
+    """It returned a covariance of -I or an asymmetric one, where ``reduce`` refused."""
+    means = np.array([[0.0, 0.0], [1.0, 0.0]])
+    with pytest.raises(ValueError, match=rf"covars\[0\] is not {match}"):
+        mixture.moment_match(means, np.stack([covars, np.eye(2)]), [0.0, 0.0])
+    with pytest.raises(ValueError, match=rf"covars\[0\] is not {match}"):
+        GaussianMixture(means, np.stack([covars, np.eye(2)])).reduce()

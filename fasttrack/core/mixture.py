@@ -67,10 +67,12 @@ def component_gains(covars, cross, innovation):
     return gains, updated
 
 
-def check_mode(mode):
-    """ValueError unless ``mode`` names reduction rules (see :func:`reduce`)."""
-    if not isinstance(mode, str) or mode not in MODES:
-        raise ValueError(f"mode must be one of {', '.join(map(repr, MODES))}, got {mode!r}")
+def check_mode(value, name="mode"):
+    """``value``, the name of reduction rules (see :func:`reduce`), else ValueError."""
+    if not isinstance(value, str) or value not in MODES:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, MODES))}, got "
+                         f"{value!r}")
+    return value
 
 
 def stack(means, covars):
@@ -138,6 +140,7 @@ def moment_match(means, covars, log_weights, labels=None):
     ----------
     means : (K, d) float64 ndarray
     covars : (K, d, d) float64 ndarray
+        Symmetric positive semi-definite (checked).
     log_weights : (K,) float64 ndarray
         Unnormalised; -inf is a zero weight.
     labels : (K,) int64 ndarray, optional
@@ -153,9 +156,11 @@ def moment_match(means, covars, log_weights, labels=None):
     Raises
     ------
     ValueError
-        If a group has no positive finite total weight, naming its label.
+        If a covariance is not symmetric positive semi-definite, or a group has no positive
+        finite total weight, naming it.
     """
     means, covars = stack(means, covars)
+    check_covariances(covars, "covars")
     log_weights = log_weight_array(log_weights, means.shape[0])
     labels = np.zeros(means.shape[0], dtype=np.int64) if labels is None \
         else label_array(labels, means.shape[0])

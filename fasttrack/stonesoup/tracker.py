@@ -57,8 +57,11 @@ def _reduce(states, probabilities):
         return None
     if not np.isfinite(log_weights.max()):  # no weight, or an infinite one: Stone Soup's code
         return None
-    mean, covar, _, _ = moment_match(means.T.astype(np.float64), covars.astype(np.float64),
-                                     log_weights)
+    try:
+        mean, covar, _, _ = moment_match(means.T.astype(np.float64),
+                                         covars.astype(np.float64), log_weights)
+    except ValueError:  # covariances it refuses: Stone Soup's code
+        return None
     return StateVector(mean.reshape(d, 1)), CovarianceMatrix(covar[0])
 
 
