@@ -11,8 +11,7 @@ from .core import imm as _imm
 from .core import kalman as _kalman
 from .core import stack as _stack
 from .core import unscented as _unscented
-from .models.measurement import (LARGEST_ANGLE, MeasurementModel,
-                                 NonlinearGaussianMeasurement)
+from .models.measurement import MeasurementModel, NonlinearGaussianMeasurement
 from .models.transition import TransitionModel
 
 __all__ = ["BatchExtendedKalmanFilter", "BatchUnscentedKalmanFilter"]
@@ -147,12 +146,7 @@ class _BatchFilter(ModelSettings):
         if measurements.shape != (*leading, k, m):
             raise ValueError(f"measurements must have shape {(*leading, k, m)}, "
                              f"got {measurements.shape}")
-        angles = list(self.measurement_model.angle_components)
-        largest = np.abs(measurements[..., angles]).max(initial=0.0) if angles else 0.0
-        if largest > LARGEST_ANGLE:
-            raise ValueError(f"measurements must hold angles within +-{LARGEST_ANGLE:.0e} rad "
-                             f"(wrapped to [-pi, pi) in float64, a larger one keeps fewer than "
-                             f"7 digits), got {largest:.3g}")
+        self.measurement_model.check_angle_columns(measurements, "measurements")
         return means, covars, measurements
 
     def predict(self, means, covars, time_intervals):

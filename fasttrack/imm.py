@@ -307,6 +307,7 @@ class BatchIMMFilter(ModelSetSettings):
             self._stacks(means, covars, mode_probs, "(K, ")  # raises, naming the argument
             _validate.finite_array(measurements, "measurements", 2)
             _imm.covariances(covars)
+        self.measurement_model.check_angle_columns(measurements, "measurements")
         intervals = _validate.intervals(time_intervals, (k,))
         if k == 0:
             return means.copy(), covars.copy(), mode_probs.copy()

@@ -141,6 +141,26 @@ def test_arrays_given_stay_the_caller_s():
     assert imm.transition_matrix.sum() == 2.0 and tracker.transition_matrix.sum() == 2.0
     assert tracker.mode_probs.tolist() == [0.5, 0.5]
 
+
+@pytest.mark.parametrize("numpy_first", [False, True])
+def test_a_bearing_beyond_1e9_rad_is_refused_by_the_stacks(numpy_first, monkeypatch):
+    """A bearing of 1e300 rad moved an IMM mean by 5e282; a PHD update of a 1e20 rad
+    bearing gave a log weight of -0.0012 in NumPy and -3.3e8 on the kernels."""
+    monkeypatch.setattr(_jit, "numpy_first", lambda work=1: numpy_first)
+    radar = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.01, 1.0]))
+    match = r"must hold angles within \+-1e\+09 rad"
+    with pytest.raises(ValueError, match="detections " + match):
+        core_phd.update(radar, np.array([[10.0, 0, 10, 0]]), np.eye(4)[None], [0.0],
+                        [[1e20, 14.0]], 0.9, 1e-3)
+    birth = ft.GaussianMixture(np.array([[0.0, 10, 10, 30]]), np.eye(4)[None] * 100,
+                               np.log([0.1]))
+    with pytest.raises(ValueError, match=match):
+        PHDTracker(CV, radar, birth, 0.9, 0.99, 1e-4).run([[[1e300, 10.0]]] * 2)
+    imm = ft.BatchIMMFilter([CV, CV], radar, np.full((2, 2), 0.5))
+    means, covars = np.tile([10.0, 0, 10, 0], (1, 2, 1)), np.tile(np.eye(4), (1, 2, 1, 1))
+    with pytest.raises(ValueError, match="measurements " + match):
+        imm.step(means, covars, [[0.5, 0.5]], [[1e300, 14.0]], 1.0)
+
 @pytest.mark.parametrize("covars", [np.eye(4) * [-0.5, 1, -0.5, 1], np.eye(4) * [1, -1, 1, -1]])
 def test_phd_and_cphd_updates_refuse_an_indefinite_prediction(covars):
     covars = np.tile(covars, (3, 1, 1))

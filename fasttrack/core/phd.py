@@ -103,6 +103,7 @@ def detections_of(model, detections):
     scan = scan.reshape(0, spec.ndim_meas) if scan.shape == (0,) else scan  # (an empty list)
     if scan.ndim != 2 or scan.shape[1] != spec.ndim_meas:
         raise ValueError(f"detections must have shape (M, {spec.ndim_meas}), got {scan.shape}")
+    model.check_angle_columns(scan, "detections")
     return scan
 
 

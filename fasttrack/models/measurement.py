@@ -183,6 +183,16 @@ class MeasurementModel:
             self._check_angles(z, name)
         return z
 
+    def check_angle_columns(self, z, name):
+        """A ValueError naming ``name`` if an angle of the (..., m) measurements ``z`` is
+        beyond :data:`LARGEST_ANGLE` (see :meth:`_check_angles`)."""
+        angles = list(self.angle_components)
+        largest = np.abs(z[..., angles]).max(initial=0.0) if angles else 0.0
+        if largest > LARGEST_ANGLE:
+            raise ValueError(f"{name} must hold angles within +-{LARGEST_ANGLE:.0e} rad "
+                             f"(wrapped to [-pi, pi) in float64, a larger one keeps fewer than "
+                             f"7 digits), got {largest:.3g}")
+
     def _check_angles(self, z, name):
         """A ValueError naming ``name`` if an angle of the (m,) measurement ``z`` is beyond
         :data:`LARGEST_ANGLE` (wrapped in float64, it would lose its digits)."""
