@@ -47,11 +47,23 @@ class _IntensityTracker(ModelSettings):
 
     # Settings, checked when assigned (here or later).
     birth = _validate.Setting("_birth")
+    mixture = _validate.Setting("_intensity")
+    time = _validate.Setting(_validate.optional(_validate.real))
     prob_detect = _validate.Setting(_validate.probability)
     prob_survival = _validate.Setting(_validate.probability)
     clutter_intensity = _validate.Setting(_validate.positive)
     gate_threshold = _validate.Setting(_validate.optional(_validate.positive))
     reducer = _validate.Setting(_validate.instance, kind=GaussianMixtureReducer)
+
+    def _intensity(self, mixture, name):
+        """``mixture``, checked to be a mixture of the models' state."""
+        if not isinstance(mixture, GaussianMixture):
+            raise TypeError(f"{name} must be a GaussianMixture, got {type(mixture).__name__}")
+        d = self.measurement_model.ndim_state
+        if mixture.means.shape[1] != d:
+            raise ValueError(f"{name} must have {d}-D components (the models' state), got "
+                             f"{mixture.means.shape[1]}-D")
+        return mixture
 
     def _birth(self, birth, name):
         """``birth``, checked: a mixture of the models' state, its covariances positive
@@ -260,7 +272,8 @@ class CPHDTracker(_IntensityTracker):
     mixture : GaussianMixture
         The current intensity.
     log_cardinality : (N + 1,) ndarray
-        Log probabilities of 0..N targets (at first, no target).
+        Log probabilities of 0..N targets (at first, no target); read-only, checked when
+        assigned.
     time : float or None
         The last scan's time in seconds (None before the first).
     """
@@ -271,12 +284,20 @@ class CPHDTracker(_IntensityTracker):
         super().__init__(transition_model, measurement_model, birth, prob_detect,
                          prob_survival, clutter_intensity, gate_threshold, reducer, unscented)
         self.clutter_rate = clutter_rate
-        self.log_cardinality = np.full(_validate.count(max_targets, "max_targets",
-                                                       maximum=MAX_TARGETS) + 1,
-                                       -np.inf)
-        self.log_cardinality[0] = 0.0
+        none = np.full(_validate.count(max_targets, "max_targets", maximum=MAX_TARGETS) + 1,
+                       -np.inf)
+        none[0] = 0.0
+        self.log_cardinality = none
 
     clutter_rate = _validate.Setting(_validate.positive)
+    log_cardinality = _validate.Setting("_cardinality")
+
+    @staticmethod
+    def _cardinality(value, name):
+        """A read-only copy of a valid log cardinality distribution ``value``."""
+        values = _cphd.cardinality(value, name).copy()
+        values.flags.writeable = False
+        return values
 
     @property
     def expected_number(self):

@@ -154,11 +154,12 @@ class MultiTargetTracker(ModelSettings):
         if not isinstance(value, kind):
             raise TypeError(f"{name} must be of type {kind.__name__}, got "
                             f"{type(value).__name__}")
-        d = self.transition_model.ndim_state
-        if value.means.ndim != 2 or value.means.shape[1] != d:
-            raise ValueError(f"{name} must hold {d}-D tracks, got means of shape "
-                             f"{value.means.shape}")
+        value.check_shapes(name, self.transition_model.ndim_state, self._models())
         return value
+
+    def _models(self):
+        """The number of models a track of this tracker holds (None: one filter)."""
+        return None
 
     def _start(self):
         """:meth:`_initiation` of the current sensor, remembered until its spec changes
@@ -250,8 +251,9 @@ class MultiTargetTracker(ModelSettings):
             keep &= tentative.ages < self.confirm_within - 1
         tentative = TrackSet.concatenate(tentative.take(keep),
                                          self._start_tracks(detections[free]))
-        self.confirmed, self.tentative, self.time = confirmed, tentative, time
-        return self.confirmed.copy()
+        # (the scan's own arrays and checked time: stored without the settings' checks)
+        self.__dict__.update(confirmed=confirmed, tentative=tentative, time=time)
+        return confirmed.copy()
 
     def _scan(self, detections):
         """``detections`` as a finite (M, m) array."""
@@ -351,18 +353,21 @@ class IMMTracker(MultiTargetTracker, ModelSetSettings):
                          association="gnn" if self.jpda else association, **options)
         self.prob_detect, self.clutter_density = prob_detect, clutter_density  # (read by JPDA)
         self.max_nodes = max_nodes
-        if self.jpda and clutter_density is None:
-            raise ValueError("association='jpda' needs clutter_density (> 0)")
         self.transition_matrix = transition_matrix
         self.mode_probs = (np.full(len(models), 1.0 / len(models)) if mode_probs is None
                            else mode_probs)
 
     _nonlinear_transitions = True
     prob_detect = Setting("_detection_probability")
-    clutter_density = Setting(_validate.optional(_validate.positive))
+    clutter_density = Setting("_clutter")
     max_nodes = Setting(_validate.count)
     mode_probs = Setting("_initial_modes")
     _tracks = IMMTrackSet
+
+    def _clutter(self, value, name):
+        if value is None and self.jpda:
+            raise ValueError(f"association='jpda' needs {name} (> 0)")
+        return _validate.optional(_validate.positive)(value, name)
 
     def _detection_probability(self, value, name):
         value = _validate.probability(value, name)
@@ -390,8 +395,10 @@ class IMMTracker(MultiTargetTracker, ModelSetSettings):
         return scan
 
     def _no_tracks(self):
-        return IMMTrackSet.empty(self.transition_model.ndim_state,
-                                 len(self.transition_models))
+        return IMMTrackSet.empty(self.transition_model.ndim_state, self._models())
+
+    def _models(self):
+        return len(self.transition_models)
 
     def _advance(self, tracks, detections, dt, available):
         taken = np.zeros(detections.shape[0], dtype=np.bool_)

@@ -14,6 +14,7 @@ from fasttrack.core import mixture as core_mixture
 from fasttrack.core import phd as core_phd
 from fasttrack.phd import CPHDTracker, PHDTracker
 from fasttrack.scenarios import vo_linear_birth
+from fasttrack.types.mixture import IMMTrackSet
 
 CV = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
 CV6 = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 3)
@@ -160,6 +161,41 @@ def test_a_bearing_beyond_1e9_rad_is_refused_by_the_stacks(numpy_first, monkeypa
     means, covars = np.tile([10.0, 0, 10, 0], (1, 2, 1)), np.tile(np.eye(4), (1, 2, 1, 1))
     with pytest.raises(ValueError, match="measurements " + match):
         imm.step(means, covars, [[0.5, 0.5]], [[1e300, 14.0]], 1.0)
+
+
+def test_tracker_state_assigned_is_checked():
+    """A PHD intensity of 2-D components or None, a time 'x', a log cardinality of NaN
+    (and one changed in place), an IMM track set of 3 models or ragged fields, and no
+    clutter density for IMM-JPDA met NumPy's or Python's errors a step later, or none."""
+    birth = ft.GaussianMixture(np.zeros((1, 4)), np.eye(4)[None] * 100, np.log([0.1]))
+    phd = PHDTracker(CV, SENSOR, birth, 0.9, 0.99, 1e-4)
+    with pytest.raises(ValueError, match="mixture must have 4-D components"):
+        phd.mixture = ft.GaussianMixture(np.zeros((1, 2)), np.eye(2)[None])
+    with pytest.raises(TypeError, match="mixture must be a GaussianMixture"):
+        phd.mixture = None
+    with pytest.raises(TypeError, match="time must be a real number"):
+        phd.time = "x"
+    cphd = CPHDTracker(CV, SENSOR, birth, 0.9, 0.99, 1e-4, 5.0)
+    with pytest.raises(ValueError, match="log_cardinality must be N"):
+        cphd.log_cardinality = np.array([np.nan])
+    cphd.step(np.zeros((1, 2)), 0.0)
+    with pytest.raises(ValueError, match="read-only"):
+        cphd.log_cardinality[:] = 0.0
+    models = [CV, CV]
+    imm = ft.IMMTracker(models, SENSOR, np.full((2, 2), 0.5), np.zeros(4), np.eye(4))
+    three = IMMTrackSet.empty(4, 3)
+    with pytest.raises(ValueError, match=r"confirmed.model_means must be a float64 array of "
+                                         r"shape \(0, 2, 4\)"):
+        imm.confirmed = three
+    ragged = IMMTrackSet.empty(4, 2)
+    ragged.ids = np.array([0, 1])
+    with pytest.raises(ValueError, match=r"tentative.means must be a float64 array of shape "
+                                         r"\(2, 4\) \(2 tracks\)"):
+        imm.tentative = ragged
+    jpda = ft.IMMTracker(models, SENSOR, np.full((2, 2), 0.5), np.zeros(4), np.eye(4),
+                         association="jpda", clutter_density=1e-3)
+    with pytest.raises(ValueError, match="association='jpda' needs clutter_density"):
+        jpda.clutter_density = None
 
 @pytest.mark.parametrize("covars", [np.eye(4) * [-0.5, 1, -0.5, 1], np.eye(4) * [1, -1, 1, -1]])
 def test_phd_and_cphd_updates_refuse_an_indefinite_prediction(covars):

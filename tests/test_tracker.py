@@ -181,8 +181,9 @@ def test_tracker_names_a_bad_setting(arguments, error, match):
     ("max_covar_trace", np.nan, ValueError, "max_covar_trace must be > 0, got nan"),
     ("time", "x", TypeError, "time must be a real number, got str"),
     ("confirmed", None, TypeError, "confirmed must be of type TrackSet, got NoneType"),
-    ("tentative", TrackSet.empty(6), ValueError, r"tentative must hold 4-D tracks, got means "
-                                                 r"of shape \(0, 6\)"),
+    ("tentative", TrackSet.empty(6), ValueError, r"tentative.means must be a float64 array "
+                                                 r"of shape \(0, 4\) \(0 tracks\), got "
+                                                 r"float64 of shape \(0, 6\)"),
 ])
 def test_tracker_settings_are_checked_when_changed(name, value, error, match):
     tracker = _tracker(confirm_within=5)

@@ -192,6 +192,30 @@ class TrackSet:
         """The arrays, in field order (not copied, unlike ``dataclasses.astuple``)."""
         return [getattr(self, field.name) for field in dataclasses.fields(self)]
 
+    def check_shapes(self, name, d, models=None):
+        """ValueError naming ``name.field`` unless every field is an ndarray of its shape
+        for K tracks of dimension ``d`` (and ``models`` models, for an
+        :class:`IMMTrackSet`)."""
+        k = np.shape(self.ids)[0] if np.ndim(self.ids) else -1
+        for field, value in zip(dataclasses.fields(self), self._fields()):
+            shape = self._shape(field.name, k, d, models)
+            if not isinstance(value, np.ndarray) or value.shape != shape \
+                    or value.dtype.kind != ("f" if field.name in _FLOAT_FIELDS else "i"):
+                kind = "float64" if field.name in _FLOAT_FIELDS else "int64"
+                raise ValueError(f"{name}.{field.name} must be a {kind} array of shape "
+                                 f"{shape} ({k} tracks), got "
+                                 f"{getattr(value, 'dtype', type(value).__name__)} of shape "
+                                 f"{np.shape(value)}")
+
+    @staticmethod
+    def _shape(field, k, d, models):
+        return {"means": (k, d), "covars": (k, d, d), "model_means": (k, models, d),
+                "model_covars": (k, models, d, d), "mode_probs": (k, models)}.get(field, (k,))
+
+
+#: The fields of track sets that hold floats (the others hold integers).
+_FLOAT_FIELDS = {"means", "covars", "model_means", "model_covars", "mode_probs"}
+
 
 @dataclasses.dataclass
 class IMMTrackSet(TrackSet):
