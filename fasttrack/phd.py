@@ -69,12 +69,7 @@ class _IntensityTracker(ModelSettings):
         """``birth``, checked: a mixture of the models' state, its covariances positive
         definite (the reducer measures distances by their inverses), its expected number
         of births finite, and (unless unscented) the sensor differentiable at its means."""
-        if not isinstance(birth, GaussianMixture):
-            raise TypeError(f"{name} must be a GaussianMixture, got {type(birth).__name__}")
-        d = self.measurement_model.ndim_state
-        if birth.means.shape[1] != d:
-            raise ValueError(f"{name} must have {d}-D components (the models' state), got "
-                             f"{birth.means.shape[1]}-D")
+        self._intensity(birth, name)
         _mixture.check_covariances(birth.covars, f"{name}.covars")
         singular = first_bad_covariance(birth.covars) if len(birth) else -1
         if singular >= 0:
