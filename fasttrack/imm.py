@@ -9,7 +9,7 @@ from ._states import step_intervals
 from .batch import ModelSetSettings
 from .core import imm as _imm
 from .core import imm_smooth as _imm_smooth
-from .core.mixture import check_covariances
+from .core.mixture import check_covariances, check_finite_moments
 from .models.measurement import LinearGaussian
 from .predictor.base import Predictor
 from .predictor.kalman import KalmanPredictor
@@ -384,6 +384,10 @@ class BatchIMMFilter(ModelSetSettings):
             raise ValueError(f"the prediction from step {where}{code - 1} to the next (from "
                              f"one model through another) is not positive definite: cannot "
                              f"form the smoothing gain")
+        if not all(np.isfinite(a).all() for a in (out_means, out_covars, out_probs)):
+            raise ValueError("the smoothed states are not finite: the states' magnitudes (or "
+                             "their differences between models, squared) overflow float64 "
+                             "(means beyond about 1e150)")
         if single:
             return out_means[0], out_covars[0], out_probs[0]
         return out_means, out_covars, out_probs
@@ -430,7 +434,9 @@ class BatchIMMFilter(ModelSetSettings):
                              f"{covars.shape}")
         _imm.covariances(covars)
         mode_probs = _imm.mode_probabilities(mode_probs, means.shape[:-1])
-        return _imm.combine(means, covars, mode_probs)
+        mean, covar = _imm.combine(means, covars, mode_probs)
+        check_finite_moments(mean, covar)
+        return mean, covar
 
 
 class BatchGPBFilter(BatchIMMFilter):

@@ -368,3 +368,23 @@ def test_moment_match_checks_the_covariances(covars, match):
         mixture.moment_match(means, np.stack([covars, np.eye(2)]), [0.0, 0.0])
     with pytest.raises(ValueError, match=rf"covars\[0\] is not {match}"):
         GaussianMixture(means, np.stack([covars, np.eye(2)])).reduce()
+
+
+def test_moments_beyond_float64_are_named():
+    """Means of +-1e200 merged into an inf covariance silently (reduce, moment matching, a
+    mixture's covariance, an IMM combination); weights of 1e308 summed to inf, blamed on
+    zero weights."""
+    import fasttrack as ft
+    means, covars = np.array([[1e200], [-1e200]]), np.ones((2, 1, 1))
+    match = "the merged covariance overflows float64"
+    with pytest.raises(ValueError, match=match):
+        mixture.reduce(means, covars, [0.5, 0.5], merge_threshold=np.inf)
+    with pytest.raises(ValueError, match=match):
+        mixture.moment_match(means, covars, [0.0, 0.0])
+    with pytest.raises(ValueError, match=match):
+        GaussianMixture(means, covars).covar
+    with pytest.raises(ValueError, match=match):
+        ft.BatchIMMFilter.combine(means[None], covars[None], [[0.5, 0.5]])
+    with pytest.raises(ValueError, match="a merged weight overflows float64"):
+        mixture.reduce(np.zeros((3, 1)), np.ones((3, 1, 1)), [1e308] * 3,
+                       merge_threshold=np.inf)

@@ -174,7 +174,16 @@ def moment_match(means, covars, log_weights, labels=None):
     if failed >= 0:
         raise ValueError(f"the components labelled {unique[failed]} have no positive finite "
                          f"total weight to merge by")
+    check_finite_moments(out[0], out[1])
     return (*out, unique)
+
+
+def check_finite_moments(*moments):
+    """ValueError unless the merged ``moments`` (means, covariances) are finite: finite
+    components whose spread, squared, overflows float64."""
+    if not all(np.isfinite(m).all() for m in moments):
+        raise ValueError("the merged covariance overflows float64: the components' means lie "
+                         "too far apart (differences beyond about 1e154, squared)")
 
 
 def reduce(means, covars, weights, mode="textbook", prune_threshold=1e-9,
@@ -250,10 +259,13 @@ def reduce(means, covars, weights, mode="textbook", prune_threshold=1e-9,
         i, asymmetric = divmod(-(1 + count), 2)
         problem = "symmetric" if asymmetric else "positive definite"
         raise ValueError(f"covars[{i}] is not {problem}")
+    if np.isinf(out[2][:count]).any():
+        raise ValueError("weights: a merged weight overflows float64 (a sum beyond 1.8e308)")
     if not (np.isfinite(out[0][:count]).all() and np.isfinite(out[2][:count]).all()):
         raise ValueError("weights: components of zero weight (or below 2.2e-308, which the "
                          "kernels count as zero) merged: there is no weight to average them "
                          "by; prune them (prune_threshold > 0)")
+    check_finite_moments(out[1][:count])
     return out[0][:count], out[1][:count], out[2][:count], source[:count], member
 
 

@@ -100,6 +100,7 @@ class GaussianMixture:
         weights = np.exp(self.log_weights - self.log_weights.max())
         mean, covar = _imm.combine(self.means[None], self.covars[None],
                                    (weights / weights.sum())[None])
+        _mixture.check_finite_moments(mean, covar)
         return mean[0], covar[0]
 
     def reduce(self):
