@@ -218,9 +218,9 @@ def test_smoothed_states_beyond_float64_are_named():
     """Means of +-1e155 smoothed into NaN and inf covariances silently."""
     models = [ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(q)] * 2)
               for q in (0.1, 10.0)]
-    imm = ft.BatchIMMFilter(models, ft.LinearGaussian(4, (0, 2), np.eye(2)),
+    bank = ft.BatchIMMFilter(models, ft.LinearGaussian(4, (0, 2), np.eye(2)),
                             np.full((2, 2), 0.5))
     means = np.zeros((5, 2, 4))
     means[:, 0, 0], means[:, 1, 0] = 1e155, -1e155
     with pytest.raises(ValueError, match="the smoothed states are not finite"):
-        imm.smooth(means, np.tile(np.eye(4), (5, 2, 1, 1)), np.full((5, 2), 0.5), 1.0)
+        bank.smooth(means, np.tile(np.eye(4), (5, 2, 1, 1)), np.full((5, 2), 0.5), 1.0)
