@@ -242,6 +242,18 @@ def test_component_gains_refuse_stacks_that_do_not_match():
                                 np.tile(np.eye(2), (2, 1, 1)))
 
 
+@pytest.mark.parametrize("numpy_first", [False, True])
+def test_component_gains_refuse_a_nan_innovation_covariance(numpy_first, monkeypatch):
+    """The NumPy twin returned NaN gains where the kernel refused."""
+    from fasttrack import _jit
+    from fasttrack.core import mixture
+    monkeypatch.setattr(_jit, "numpy_first", lambda work=1: numpy_first)
+    covars = np.tile(np.eye(2), (2, 1, 1))
+    with pytest.raises(ValueError, match="innovation covariance of component 0 is not "
+                                         "positive definite"):
+        mixture.component_gains(covars, covars[:, :, :1].copy(), np.full((2, 1, 1), np.nan))
+
+
 _CV = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)
 _LG = ft.LinearGaussian(4, (0, 2), np.eye(2))
 _RADAR = ft.CartesianToBearingRange(4, (0, 2), np.diag([0.01, 1.0]), translation_offset=[50, 0])

@@ -186,7 +186,7 @@ def _truncate(stonesoup, count, keep, means, covars, weights, source, member):
 def component_gains(covars, cross, innovation, gains, updated):
     """:func:`fasttrack._jit.mixture.component_gains` (the lower triangle of the posterior
     covariance mirrored, as the kernel's)."""
-    bad = np.flatnonzero(np.linalg.eigvalsh(innovation)[:, 0] <= 0.0) if innovation.size \
+    bad = np.flatnonzero(~(np.linalg.eigvalsh(innovation)[:, 0] > 0.0)) if innovation.size \
         else np.empty(0, dtype=np.int64)
     if bad.size:
         return int(bad[0])
