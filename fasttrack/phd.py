@@ -2,6 +2,7 @@
 2007), on arrays: the intensity is a :class:`~fasttrack.types.GaussianMixture` whose labels
 follow each component's line (the heaviest child of a merge keeps its parent's), so the
 estimates it extracts are tagged."""
+import functools
 import math
 
 import numpy as np
@@ -15,9 +16,16 @@ from .core import phd as _phd
 from .core.cphd_numpy import logsumexp
 from .core.mixture_numpy import first_bad_covariance
 from .mixturereducer import GaussianMixtureReducer
+from .models.measurement import LinearGaussian
 from .types.mixture import GaussianMixture
 
 _LOG_LARGEST = math.log(np.finfo(np.float64).max)
+
+
+@functools.lru_cache(maxsize=None)
+def _first_row(d):
+    """The sensor of the first of d state rows, without noise to speak of."""
+    return LinearGaussian(d, (0,), np.eye(1))
 
 #: The largest cardinality a CPHDTracker carries (its recursions cost O(N^2) a scan).
 MAX_TARGETS = 10_000
@@ -145,9 +153,10 @@ class _IntensityTracker(ModelSettings):
         mixture = self.mixture
         k = len(mixture)
         means, covars = mixture.means, mixture.covars
-        if k and dt > 0:
+        if k and dt > 0:  # (a sensor of one state row: the measurements are not used)
             means, covars, _, _ = _kalman.stack_predict(
-                self.transition_model, self.measurement_model, np.full(k, dt), means, covars)
+                self.transition_model, _first_row(means.shape[1]), np.full(k, dt), means,
+                covars)
         log_survive = _phd.log_probability(self.prob_survival)
         births = len(self.birth)
         labels = np.concatenate((mixture.labels,

@@ -295,3 +295,16 @@ def test_vo_linear_scenario_and_the_tracker_on_it():
     # a newborn target passes 0.5 after a scan or two (12 births), a missed one drops below
     # it for a scan (2 % of some 800): about 0.4-0.5 a scan, against 7.7 for no estimates
     assert np.mean(errors) < 0.8
+
+
+def test_an_unscented_tracker_predicts_a_component_at_the_sensor():
+    """Its prediction measured every component by the sensor's Jacobian, which is undefined
+    at a polar sensor: the second scan failed ('filter 0: the measurement Jacobian is
+    undefined'), though the unscented update needs no Jacobian."""
+    transition = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.1)] * 2)
+    birth = ft.GaussianMixture(np.array([[5.0, 0.0, -3.0, 0.0]]), np.eye(4)[None])  # at it
+    tracker = ft.PHDTracker(transition, RADAR, birth, 0.9, 0.99, 1e-3,
+                            unscented=(0.5, 2, None))
+    for time in (0.0, 1.0, 2.0):
+        tracker.step([[0.7, 10.0]], time)
+    assert np.isfinite(tracker.mixture.means).all() and len(tracker.mixture)
