@@ -184,8 +184,21 @@ class MeasurementModel:
         return z
 
     def check_angle_columns(self, z, name):
-        """A ValueError naming ``name`` if an angle of the (..., m) measurements ``z`` is
-        beyond :data:`LARGEST_ANGLE` (see :meth:`_check_angles`)."""
+        """Refuse measurements whose angles are beyond :data:`LARGEST_ANGLE` rad (wrapped
+        in float64, they would keep fewer than 7 digits).
+
+        Parameters
+        ----------
+        z : (..., m) float64 ndarray
+            Measurements, one a row.
+        name : str
+            Their name in the error message.
+
+        Raises
+        ------
+        ValueError
+            If an angle component of a row is beyond :data:`LARGEST_ANGLE`.
+        """
         angles = list(self.angle_components)
         largest = np.abs(z[..., angles]).max(initial=0.0) if angles else 0.0
         if largest > LARGEST_ANGLE:
