@@ -154,7 +154,7 @@ class MultiTargetTracker(ModelSettings):
         if not isinstance(value, kind):
             raise TypeError(f"{name} must be of type {kind.__name__}, got "
                             f"{type(value).__name__}")
-        value.check_shapes(name, self.transition_model.ndim_state, self._models())
+        value.check(name, self.transition_model.ndim_state, self._models())
         return value
 
     def _models(self):

@@ -192,6 +192,11 @@ def test_tracker_state_assigned_is_checked():
     with pytest.raises(ValueError, match=r"tentative.means must be a float64 array of shape "
                                          r"\(2, 4\) \(2 tracks\)"):
         imm.tentative = ragged
+    one = IMMTrackSet(np.array([0]), np.zeros((1, 4)), np.eye(4)[None], *np.zeros((3, 1), int),
+                      np.zeros((1, 2, 4)), np.tile(np.eye(4), (1, 2, 1, 1)),
+                      np.array([[np.nan, 7.0]]))
+    with pytest.raises(ValueError, match="confirmed.mode_probs must be finite"):
+        imm.confirmed = one
     jpda = ft.IMMTracker(models, SENSOR, np.full((2, 2), 0.5), np.zeros(4), np.eye(4),
                          association="jpda", clutter_density=1e-3)
     with pytest.raises(ValueError, match="association='jpda' needs clutter_density"):

@@ -193,10 +193,10 @@ class TrackSet:
         """The arrays, in field order (not copied, unlike ``dataclasses.astuple``)."""
         return [getattr(self, field.name) for field in dataclasses.fields(self)]
 
-    def check_shapes(self, name, d, models=None):
+    def check(self, name, d, models=None):
         """ValueError naming ``name.field`` unless every field is an ndarray of its shape
         for K tracks of dimension ``d`` (and ``models`` models, for an
-        :class:`IMMTrackSet`)."""
+        :class:`IMMTrackSet`), its floats finite."""
         k = np.shape(self.ids)[0] if np.ndim(self.ids) else -1
         for field, value in zip(dataclasses.fields(self), self._fields()):
             shape = self._shape(field.name, k, d, models)
@@ -207,6 +207,8 @@ class TrackSet:
                                  f"{shape} ({k} tracks), got "
                                  f"{getattr(value, 'dtype', type(value).__name__)} of shape "
                                  f"{np.shape(value)}")
+            if field.name in _FLOAT_FIELDS and not np.isfinite(value).all():
+                raise ValueError(f"{name}.{field.name} must be finite")
 
     @staticmethod
     def _shape(field, k, d, models):
