@@ -426,8 +426,8 @@ class BatchIMMFilter(ModelSetSettings):
         means, covars : (..., d), (..., d, d) ndarray
         """
         means = _validate.finite_array(means, "means")
-        if means.ndim < 2:
-            raise ValueError(f"means must have shape (..., M, d), got {means.shape}")
+        if means.ndim < 2 or not means.shape[-1]:
+            raise ValueError(f"means must have shape (..., M, d), d >= 1, got {means.shape}")
         covars = _validate.finite_array(covars, "covars")
         if covars.shape != means.shape + means.shape[-1:]:
             raise ValueError(f"covars must have shape {means.shape + means.shape[-1:]}, got "

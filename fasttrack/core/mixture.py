@@ -18,7 +18,7 @@ def segment_logsumexp(values, starts):
     """(S,) ``log sum exp`` of each CSR segment ``values[starts[s]:starts[s + 1]]`` of a
     (K,) float64 array (-inf for an empty segment or one of zero weights); ``starts``
     (S + 1,) integers, non-decreasing within ``[0, K]`` (ValueError otherwise)."""
-    values = np.ascontiguousarray(values, dtype=np.float64)
+    values = _validate.float_array(values, "values")
     starts = np.ascontiguousarray(starts)
     if values.ndim != 1 or starts.ndim != 1 or starts.size < 1 or starts.dtype.kind not in "iu":
         raise ValueError(f"values must be 1-D and starts a non-empty 1-D integer array, got "
@@ -52,6 +52,8 @@ def component_gains(covars, cross, innovation):
     (J, d, d), ``cross`` C = P H^T (J, d, m) and innovation covariance S (J, m, m)
     (:func:`fasttrack._jit.mixture.component_gains`). Raises ValueError naming the first
     component whose S is not positive definite."""
+    covars, cross, innovation = (_validate.float_array(a, name, 3) for a, name in (
+        (covars, "covars"), (cross, "cross"), (innovation, "innovation")))
     j, d, m = cross.shape
     if covars.shape != (j, d, d) or innovation.shape != (j, m, m):
         raise ValueError(f"covars, cross and innovation must have shapes (J, d, d), (J, d, m) "
@@ -93,7 +95,7 @@ def check_covariances(covars, name):
     """ValueError naming the first of the (K, d, d) ``covars`` that is not symmetric
     positive semi-definite, by the kernels' rule (see
     :func:`~fasttrack.core.kalman_numpy.covariance_statuses`)."""
-    status = _kalman_numpy.covariance_statuses(covars, 1, 2)
+    status = _kalman_numpy.covariance_statuses(_validate.float_array(covars, name, 3), 1, 2)
     bad = np.flatnonzero(status)
     if bad.size:
         problem = "symmetric" if status[bad[0]] == 1 else "positive semi-definite"

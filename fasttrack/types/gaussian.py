@@ -28,8 +28,19 @@ class State:
     """
 
     def __init__(self, state_vector, timestamp=None):
-        self.state_vector = column_vector(state_vector)
+        self.state_vector = state_vector
         self.timestamp = check_timestamp(timestamp)
+
+    #: Checked when assigned (here or later): (d, 1), finite; d the covariance's, if any.
+    state_vector = _validate.Setting("_checked_vector")
+
+    def _checked_vector(self, value, name):
+        vector = column_vector(value, name)
+        covar = self.__dict__.get("covar")
+        if covar is not None and covar.shape[0] != vector.shape[0]:
+            raise ValueError(f"{name} must have {covar.shape[0]} components (the covariance's "
+                             f"dimension), got {vector.shape[0]}")
+        return vector
 
     @property
     def ndim(self):
@@ -100,7 +111,10 @@ class WeightedGaussianState(GaussianState):
 
     def __init__(self, state_vector, covar, weight=1.0, timestamp=None):
         super().__init__(state_vector, covar, timestamp)
-        self.weight = _validate.non_negative(weight, "weight")
+        self.weight = weight
+
+    #: Checked when assigned (here or later): finite, >= 0.
+    weight = _validate.Setting(_validate.non_negative)
 
 
 class GaussianStatePrediction(GaussianState):
