@@ -2,7 +2,7 @@
 and the checks of hypotheses and predictions."""
 from ..models.base import check_model
 from ..models.measurement import MeasurementModel
-from ..types import SingleHypothesis
+from ..types import Detection, SingleHypothesis
 
 __all__ = ["Updater"]
 
@@ -42,7 +42,8 @@ class Updater:
         measurement = hypothesis.measurement
         if measurement is None:
             raise ValueError("hypothesis.measurement is None: nothing to update with")
-        if not (hasattr(measurement, "state_vector") and hasattr(measurement, "timestamp")):
+        if type(measurement) is not Detection and not (hasattr(measurement, "state_vector")
+                                                       and hasattr(measurement, "timestamp")):
             raise TypeError(f"hypothesis.measurement must be a Detection (a state_vector and "
                             f"a timestamp), got {type(measurement).__name__}")
 
