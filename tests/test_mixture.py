@@ -388,3 +388,16 @@ def test_moments_beyond_float64_are_named():
     with pytest.raises(ValueError, match="a merged weight overflows float64"):
         mixture.reduce(np.zeros((3, 1)), np.ones((3, 1, 1)), [1e308] * 3,
                        merge_threshold=np.inf)
+
+
+@pytest.mark.parametrize("mode", ["textbook", "stonesoup"])
+@pytest.mark.parametrize("numpy_first", [False, True])
+def test_a_merge_of_weights_the_kernels_cannot_divide_by_is_refused_on_both_paths(
+        mode, numpy_first, monkeypatch):
+    """Two weights of 5e-324 (log weights of -745): the kernels' reciprocal of their total
+    overflows and the merge is refused; the NumPy twin merged them."""
+    import fasttrack._jit
+    monkeypatch.setattr(fasttrack._jit, "numpy_first", lambda work=1: numpy_first)
+    with pytest.raises(ValueError, match="components of zero weight"):
+        mixture.reduce(np.zeros((2, 1)), np.ones((2, 1, 1)), [5e-324, 5e-324], mode,
+                       prune_threshold=0.0)

@@ -109,7 +109,7 @@ def _merge(means, covars, weights, stonesoup, threshold, member, merged):
             taken = candidates[np.einsum("ki,ij,kj->k", v, precisions[b], v) <= threshold]
             members = np.r_[b, taken]
             total = ordered_sum(weights[members])
-            w = weights[members] / total
+            w = weights[members] * _reciprocal(total)
             mean = w @ means[members]
             spread = means[members] - mean
             group = mean, np.einsum("k,kij->ij", w, covars[members]) \
@@ -155,7 +155,7 @@ def _merge_running(means, covars, weights, precisions, b, candidates, threshold,
         start, hits = int(hits[0]), None
         c = int(candidates[start])
         total = weight + weights[c]
-        w1, w2 = weight / total, weights[c] / total
+        w1, w2 = weight * _reciprocal(total), weights[c] * _reciprocal(total)
         diff = mean - means[c]
         mean = mean * w1 + means[c] * w2
         covar = covar * w1 + covars[c] * w2 + diff[:, None] * diff * (w1 * w2)
@@ -163,6 +163,13 @@ def _merge_running(means, covars, weights, precisions, b, candidates, threshold,
         taken.append(c)
         start += 1
     return mean, covar, weight, np.array(taken, dtype=np.int64)
+
+
+def _reciprocal(total):
+    """``1 / total`` as the kernels take it (they divide by multiplying with it): +inf for
+    a total below 1 / 1.8e308, whose merge then has no finite mean."""
+    with np.errstate(over="ignore", divide="ignore"):
+        return np.float64(1.0) / total
 
 
 def _truncate(stonesoup, count, keep, means, covars, weights, source, member):
