@@ -298,8 +298,12 @@ class CPHDTracker(_IntensityTracker):
 
     @staticmethod
     def _cardinality(value, name):
-        """A read-only copy of a valid log cardinality distribution ``value``."""
+        """A read-only copy of a valid log cardinality distribution ``value`` (of at most
+        :data:`MAX_TARGETS` targets)."""
         values = _cphd.cardinality(value, name).copy()
+        if values.size > MAX_TARGETS + 1:
+            raise ValueError(f"{name} must hold at most {MAX_TARGETS + 1} probabilities (of "
+                             f"0..max_targets), got {values.size}")
         values.flags.writeable = False
         return values
 

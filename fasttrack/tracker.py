@@ -80,7 +80,7 @@ class MultiTargetTracker(ModelSettings):
         if mean.shape != (d,):
             raise ValueError(f"prior_mean must have {d} components, got {mean.size}")
         covar = _validate.psd_covariance(prior_covar, "prior_covar", d)
-        self._prior = mean, covar
+        self._prior = mean.copy(), covar.copy()  # (the caller's arrays stay theirs)
         self.missed_distance = missed_distance
         self.min_points = min_points
         self.delete_after_misses = delete_after_misses

@@ -178,6 +178,8 @@ def test_tracker_state_assigned_is_checked():
     cphd = CPHDTracker(CV, SENSOR, birth, 0.9, 0.99, 1e-4, 5.0)
     with pytest.raises(ValueError, match="log_cardinality must be N"):
         cphd.log_cardinality = np.array([np.nan])
+    with pytest.raises(ValueError, match="log_cardinality must hold at most 10001"):
+        cphd.log_cardinality = np.log(np.full(10_002, 1 / 10_002))
     cphd.step(np.zeros((1, 2)), 0.0)
     with pytest.raises(ValueError, match="read-only"):
         cphd.log_cardinality[:] = 0.0
@@ -347,3 +349,11 @@ def test_multiple_model_filters_check_swapped_models_and_switching():
             owner.transition_matrix = np.eye(3)
         owner.transition_models = [CV, CV]  # (models that fit: accepted)
         assert len(owner.transition_models) == 2
+
+
+def test_a_tracker_keeps_a_copy_of_its_prior():
+    """NaN written into the caller's prior after construction reached the tracks."""
+    mean, covar = np.zeros(4), np.eye(4)
+    tracker = ft.IMMTracker([CV, CV], SENSOR, np.full((2, 2), 0.5), mean, covar)
+    mean[1], covar[1, 1] = np.nan, np.nan
+    assert len(tracker.run([np.zeros((1, 2))] * 3)[-1]) == 1

@@ -181,11 +181,12 @@ def moment_match(means, covars, log_weights, labels=None):
 
 
 def check_finite_moments(*moments):
-    """ValueError unless the merged ``moments`` (means, covariances) are finite: finite
-    components whose spread, squared, overflows float64."""
+    """ValueError unless the merged ``moments`` (means, covariances) are finite."""
     if not all(np.isfinite(m).all() for m in moments):
-        raise ValueError("the merged covariance overflows float64: the components' means lie "
-                         "too far apart (differences beyond about 1e154, squared)")
+        raise ValueError("the merged mean or covariance is not finite: the components' means "
+                         "lie too far apart or too far out (differences or values beyond "
+                         "about 1e154, squared, overflow float64), or their weights are not "
+                         "finite")
 
 
 def reduce(means, covars, weights, mode="textbook", prune_threshold=1e-9,
