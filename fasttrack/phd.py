@@ -24,7 +24,8 @@ _LOG_LARGEST = math.log(np.finfo(np.float64).max)
 
 @functools.lru_cache(maxsize=None)
 def _first_row(d):
-    """The sensor of the first of d state rows, without noise to speak of."""
+    """A sensor of the first of d state rows (for predictions whose measurements nobody
+    reads)."""
     return LinearGaussian(d, (0,), np.eye(1))
 
 #: The largest cardinality a CPHDTracker carries (its recursions cost O(N^2) a scan).

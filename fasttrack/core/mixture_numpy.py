@@ -34,7 +34,7 @@ def reduce(means, covars, weights, mode, prune_threshold, merging, merge_thresho
         if failed >= 0:
             j, kind = divmod(failed, 2)
             return -(1 + 2 * int(kept[j]) + kind)
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             heads = _merge(means, covars, work, stonesoup, merge_threshold, local_member,
                            merged)
     else:
@@ -155,7 +155,8 @@ def _merge_running(means, covars, weights, precisions, b, candidates, threshold,
         start, hits = int(hits[0]), None
         c = int(candidates[start])
         total = weight + weights[c]
-        w1, w2 = weight * _reciprocal(total), weights[c] * _reciprocal(total)
+        inverse = _reciprocal(total)
+        w1, w2 = weight * inverse, weights[c] * inverse
         diff = mean - means[c]
         mean = mean * w1 + means[c] * w2
         covar = covar * w1 + covars[c] * w2 + diff[:, None] * diff * (w1 * w2)
@@ -168,8 +169,7 @@ def _merge_running(means, covars, weights, precisions, b, candidates, threshold,
 def _reciprocal(total):
     """``1 / total`` as the kernels take it (they divide by multiplying with it): +inf for
     a total below 1 / 1.8e308, whose merge then has no finite mean."""
-    with np.errstate(over="ignore", divide="ignore"):
-        return np.float64(1.0) / total
+    return np.float64(1.0) / total
 
 
 def _truncate(stonesoup, count, keep, means, covars, weights, source, member):
