@@ -290,6 +290,8 @@ _AWARE = datetime.datetime(2026, 1, 1, 0, 0, 1, tzinfo=datetime.timezone.utc)
     (lambda: ft.BatchIMMFilter.combine(np.zeros((1, 2, 0)), np.zeros((1, 2, 0, 0)),
                                        np.full((1, 2), 0.5)),
      ValueError, r"means must have shape \(..., M, d\), d >= 1"),
+    (lambda: ft.GaussianMixture(np.zeros((1, 1)), np.ones((1, 1, 1)), [800.0]).components,
+     ValueError, r"log_weights beyond log\(1.8e308\) = 709.78 have no float64 weight"),
     (lambda: ft.NonlinearGaussianMeasurement(lambda x: x[:0], 4, np.zeros((0, 0))),
      ValueError, r"noise_covar must have at least one row and column"),
     (lambda: ft.KalmanSmoother(_CV).smooth_arrays(np.full((5, 4), 1e308),

@@ -76,8 +76,11 @@ class GaussianMixture:
     def components(self):
         """The components as :class:`~fasttrack.types.WeightedGaussianState` (new objects)."""
         from .gaussian import WeightedGaussianState
-        with np.errstate(under="ignore"):
+        with np.errstate(under="ignore", over="ignore"):
             weights = np.exp(self.log_weights)
+        if np.isinf(weights).any():
+            raise ValueError(f"log_weights beyond log(1.8e308) = 709.78 have no float64 weight "
+                             f"for a component, got {self.log_weights.max()}")
         return [WeightedGaussianState(m, p, float(w), self._timestamp)
                 for m, p, w in zip(self.means, self.covars, weights)]
 
