@@ -31,16 +31,11 @@ class State:
         self.state_vector = state_vector
         self.timestamp = check_timestamp(timestamp)
 
-    #: Checked when assigned (here or later): (d, 1), finite; d the covariance's, if any.
+    #: Checked when assigned (here or later): (d, 1), finite.
     state_vector = _validate.Setting("_checked_vector")
 
     def _checked_vector(self, value, name):
-        vector = column_vector(value, name)
-        covar = self.__dict__.get("covar")
-        if covar is not None and covar.shape[0] != vector.shape[0]:
-            raise ValueError(f"{name} must have {covar.shape[0]} components (the covariance's "
-                             f"dimension), got {vector.shape[0]}")
-        return vector
+        return column_vector(value, name)
 
     @property
     def ndim(self):
@@ -77,6 +72,15 @@ class GaussianState(State):
 
     def _checked_covar(self, value, name):
         return _validate.covariance(value, name, self.ndim)
+
+    def _checked_vector(self, value, name):
+        """A mean of the covariance's dimension, once there is one."""
+        vector = column_vector(value, name)
+        covar = self.__dict__.get("covar")
+        if covar is not None and covar.shape[0] != vector.shape[0]:
+            raise ValueError(f"{name} must have {covar.shape[0]} components (the covariance's "
+                             f"dimension), got {vector.shape[0]}")
+        return vector
 
     @property
     def mean(self):
