@@ -8,6 +8,10 @@ out and returns one again once nothing but this pool refers to it (its reference
 says so): the array a state still holds is never reused, and a loop that drops its old
 states reuses their memory. Each thread has its own pool; at most :data:`PER_SHAPE` arrays
 of one shape and dtype are kept.
+
+Every resampled state has the weights 1/n: :func:`uniform_log_weights` hands them out as one
+read-only array per n, so a track of resampled states holds a single log-weight array (and
+a fresh one is not faulted in at every step); :func:`is_uniform` recognises it.
 """
 import sys
 import threading
@@ -20,6 +24,8 @@ PER_SHAPE = 4
 SMALLEST = 1 << 16
 
 _local = threading.local()
+#: The uniform log weights last handed out, by size (one size kept).
+_uniform = {}
 
 
 def empty(shape, dtype=np.float64):
@@ -46,3 +52,20 @@ def empty(shape, dtype=np.float64):
 def empty_like(array):
     """:func:`empty` of ``array``'s shape and dtype."""
     return empty(array.shape, array.dtype)
+
+
+def uniform_log_weights(n):
+    """A read-only (n,) array of ``-log(n)``, shared by every caller asking for this n."""
+    array = _uniform.get(n)
+    if array is None:
+        array = np.full(n, -np.log(n))
+        array.flags.writeable = False
+        _uniform.clear()  # one size kept: a loop resamples to one n
+        _uniform[n] = array
+    return array
+
+
+def is_uniform(log_weight):
+    """Whether ``log_weight`` is the array :func:`uniform_log_weights` returned last for its
+    size."""
+    return _uniform.get(log_weight.size) is log_weight

@@ -2,8 +2,6 @@
 ``resampler.resample(particles, nparts=None)``."""
 import numbers
 
-import numpy as np
-
 from . import _buffers, _validate
 from ._validate import Setting
 from . import random as _random
@@ -60,9 +58,10 @@ class _SchemeResampler(Resampler):
         -------
         ParticleState
             Same type as the input, other attributes shared with it; ``state_vector`` holds
-            the drawn columns (ancestor indices ascending), ``log_weight`` is ``-log(nparts)``,
-            and ``parent`` is the input's parent indexed by the same ancestors (its own parent
-            dropped), or None.
+            the drawn columns (ancestor indices ascending), ``log_weight`` is ``-log(nparts)``
+            (one read-only array, shared by the states resampled to this size: assign a new
+            array to change it), and ``parent`` is the input's parent indexed by the same
+            ancestors (its own parent dropped), or None.
         """
         state = as_particle_state(particles)
         parent = state.parent
@@ -72,10 +71,8 @@ class _SchemeResampler(Resampler):
         idx, columns = draw(state.log_weight, nparts, self.method, self.residual, self.rng,
                             columns=state.state_vector, name="particles.log_weight",
                             compact=True)
-        n = idx.size
-        log_weight = _buffers.empty(n)
-        log_weight.fill(-np.log(n))
-        return state._replace(state_vector=columns, log_weight=log_weight,
+        return state._replace(state_vector=columns,
+                              log_weight=_buffers.uniform_log_weights(idx.size),
                               parent=None if parent is None else parent._indexed(idx))
 
 

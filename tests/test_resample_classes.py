@@ -162,3 +162,28 @@ def test_default_rng_follows_seed():
     a = resampler.resample(state).state_vector
     ft.seed(3)
     assert np.array_equal(a, resampler.resample(state).state_vector)
+
+
+def test_resampled_states_share_one_read_only_uniform_log_weight():
+    state = ParticleState(np.arange(12.0).reshape(2, 6), log_weight=np.log([1, 5, 1.5, 0.5, 2, 1]))
+    first, second = SystematicResampler(rng=1).resample(state), MultinomialResampler(rng=2).resample(state)
+    assert first.log_weight is second.log_weight  # one array per size, not one per state
+    np.testing.assert_array_equal(first.log_weight, np.full(6, -np.log(6)))
+    with pytest.raises(ValueError, match="read-only"):
+        first.log_weight[0] = 0.0  # an in-place edit would change every resampled state
+    first.log_weight = np.log([2, 1, 1, 1, 1, 1])  # assigning gives the state its own
+    assert first.log_weight.flags.writeable and second.log_weight[0] == -np.log(6)
+    assert SystematicResampler(rng=1).resample(state, 4).log_weight.size == 4
+
+
+def test_mean_of_a_resampled_state_is_the_plain_mean():
+    rng = np.random.default_rng(3)
+    state = ParticleState(rng.normal(size=(3, 500)) * [[1.0], [10.0], [1e3]],
+                          log_weight=rng.normal(size=500))
+    out = SystematicResampler(rng=4).resample(state)
+    np.testing.assert_allclose(out.mean[:, 0], out.state_vector.mean(axis=1), rtol=1e-14)
+    weighted = ParticleState(out.state_vector, log_weight=np.full(500, -np.log(500)))
+    np.testing.assert_allclose(out.mean, weighted.mean, rtol=1e-12)  # the weighted path
+    huge = ParticleState(np.full((1, 4), 1e308), log_weight=np.zeros(4))
+    with pytest.raises(ValueError, match="beyond float64's range"):
+        SystematicResampler(rng=1).resample(huge).mean

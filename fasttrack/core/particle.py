@@ -136,7 +136,10 @@ def gather(particles, index, out=None):
 def mean(particles, log_weight):
     """The (d, 1) weighted mean of (d, N) ``particles`` with (N,) unnormalised
     ``log_weight``, in one pass. Raises ValueError if its sums overflow float64."""
-    if _jit.numpy_first(_numpy.work(particles)):
+    if _buffers.is_uniform(log_weight):  # a resampled state's: the plain mean
+        with np.errstate(over="ignore", invalid="ignore"):
+            out = particles.mean(axis=1)
+    elif _jit.numpy_first(_numpy.work(particles)):
         with np.errstate(over="ignore", invalid="ignore"):
             out = _numpy.mean(particles, log_weight)[0]
     else:

@@ -176,7 +176,9 @@ class ParticleState:
 
     @property
     def log_weight(self):
-        """(N,) float64 log weights (unnormalised; ``-inf`` is a zero weight)."""
+        """(N,) float64 log weights (unnormalised; ``-inf`` is a zero weight). A resampled
+        state's are read-only (shared by the states resampled to the same size); assign a
+        new array to change them."""
         if self._source is not None:
             self._gather()
         return self._log_weight
