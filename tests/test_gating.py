@@ -374,6 +374,33 @@ def test_detections_spanning_the_float_range_gate_as_the_dense_mirror():
                                   [[True, False, False, True], [False, False, True, False]])
 
 
+@pytest.mark.parametrize("scale", [1e35, 1e40, 1e300])
+def test_a_gate_box_wider_than_int64_cells_gates_as_the_dense_mirror(scale):
+    """A track of innovation variance 1e40 among ordinary ones lost its candidates: its
+    gate box spans more grid cells than an int64 counts, and the cell index overflowed."""
+    z_hats, covars, detections = _scenario(20, 60, 40.0, 3)
+    covars[4] = np.eye(2) * scale
+    result = gate(z_hats, covars, detections, 9.0)
+    d2, _ = _mirror_gate(z_hats, covars, detections, 9.0, np.zeros(2, bool))
+    np.testing.assert_array_equal(np.isfinite(result.dense()), np.isfinite(d2))
+    assert result.starts[5] - result.starts[4] == 60  # every detection, in ascending order
+    assert list(result.detections[result.starts[4]:result.starts[5]]) == list(range(60))
+
+
+def test_a_gate_box_of_more_cell_rows_than_detections_tests_each_detection_once():
+    """Detections 1e6 gates apart: a wide gate's box covers ~1e6 cell rows; it tests the
+    200 detections directly instead of searching every row."""
+    rng = np.random.default_rng(7)
+    detections = rng.uniform(0, 1e6, (200, 2))
+    z_hats = np.vstack([detections[:30] + 0.1, [[5e5, 5e5]]])
+    covars = np.tile(np.eye(2) * 0.01, (31, 1, 1))
+    covars[30] = np.eye(2) * 1e11
+    result = gate(z_hats, covars, detections, 9.0)
+    d2, _ = _mirror_gate(z_hats, covars, detections, 9.0, np.zeros(2, bool))
+    np.testing.assert_array_equal(np.isfinite(result.dense()), np.isfinite(d2))
+    assert result.starts[31] - result.starts[30] > 50
+
+
 def test_no_tracks_or_no_detections():
     z_hats, covars, detections = _scenario(3, 4, 10.0, 0)
     empty = gate(z_hats, covars, np.empty((0, 2)), 9.0)

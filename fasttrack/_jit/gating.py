@@ -54,34 +54,39 @@ def _distance2(z, z_hat, lower, angles, work):
 
 
 @jit()
-def _key_range(k, z_hats, covariances, axes, origin, cell, shape, threshold, row):
-    """The cell keys ``[low, high]`` of track k's gate box in cell row ``row`` (of
-    :func:`_rows`); empty (low > high) where the box misses the grid."""
-    lo = np.zeros(2, dtype=np.int64)
-    hi = np.zeros(2, dtype=np.int64)
-    for a in range(axes.size):
-        half = np.sqrt(threshold * covariances[k, axes[a], axes[a]])
-        lo[a] = max(_cell(z_hats[k, axes[a]] - half, origin[a], cell), 0)
-        hi[a] = min(_cell(z_hats[k, axes[a]] + half, origin[a], cell), shape[a] - 1)
-    if axes.size == 0:
-        return np.int64(0), np.int64(0)
-    if axes.size == 1:
-        return lo[0], hi[0]
-    base = (lo[0] + row) * shape[1]
-    if lo[0] + row > hi[0]:
-        return np.int64(1), np.int64(0)
-    return base + lo[1], base + hi[1]
+def _cell_between(value, origin, cell, low, high):
+    """The cell of ``value``, clamped to ``[low, high]`` while still a float (a gate box
+    can span more cells than an int64 counts)."""
+    c = np.floor((value - origin) / cell)
+    if c <= low:
+        return np.int64(low)
+    if c >= high:
+        return np.int64(high)
+    return np.int64(c)
 
 
 @jit()
-def _rows(k, z_hats, covariances, axes, origin, cell, shape, threshold):
-    """Number of cell rows track k's gate box spans (1 without a second grid axis)."""
-    if axes.size < 2:
-        return np.int64(1)
-    half = np.sqrt(threshold * covariances[k, axes[0], axes[0]])
-    lo = max(_cell(z_hats[k, axes[0]] - half, origin[0], cell), 0)
-    hi = min(_cell(z_hats[k, axes[0]] + half, origin[0], cell), shape[0] - 1)
-    return max(hi - lo + 1, 0)
+def _cells_met(k, z_hats, covariances, axis, origin, cell, cells, threshold):
+    """The cells ``[lo, hi]`` that track k's gate box meets on grid axis ``axis`` of
+    ``cells`` cells from ``origin`` (lo > hi where it misses them)."""
+    half = np.sqrt(threshold * covariances[k, axis, axis])
+    centre = z_hats[k, axis]
+    return (_cell_between(centre - half, origin, cell, 0, cells),
+            _cell_between(centre + half, origin, cell, -1, cells - 1))
+
+
+@jit()
+def _box(k, z_hats, covariances, axes, origin, cell, shape, threshold):
+    """Track k's gate box on the grid: the cells ``[lo0, hi0] x [lo1, hi1]`` it meets
+    (lo > hi on an axis where it misses them; 0, 0 on an axis the grid lacks)."""
+    lo0 = hi0 = lo1 = hi1 = np.int64(0)
+    if axes.size > 0:
+        lo0, hi0 = _cells_met(k, z_hats, covariances, axes[0], origin[0], cell, shape[0],
+                              threshold)
+    if axes.size > 1:
+        lo1, hi1 = _cells_met(k, z_hats, covariances, axes[1], origin[1], cell, shape[1],
+                              threshold)
+    return lo0, hi0, lo1, hi1
 
 
 @jit()
@@ -99,15 +104,20 @@ def _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles, 
         log_norm += np.log(lower[r, r])
     work = np.empty(m)
     count = np.int64(0)
-    for row in range(_rows(k, z_hats, covariances, axes, origin, cell, shape, threshold)):
-        low, high = _key_range(k, z_hats, covariances, axes, origin, cell, shape, threshold,
-                               row)
-        if low > high:
-            continue
-        start = np.searchsorted(sorted_keys, low, side="left")
-        stop = np.searchsorted(sorted_keys, high, side="right")
+    lo0, hi0, lo1, hi1 = _box(k, z_hats, covariances, axes, origin, cell, shape, threshold)
+    rows = max(hi0 - lo0 + 1, 0) if axes.size > 1 else 1  # (cell rows of the box)
+    whole = rows > detections.shape[0]  # more rows than detections: test each detection
+    for row in range(1 if whole else rows):
+        if whole:
+            start, stop = 0, detections.shape[0]
+        else:  # the keys of the box's cells in this row (lo > hi: none)
+            low, high = lo0, hi0  # (0, 0: every key, without grid axes)
+            if axes.size > 1:
+                low, high = (lo0 + row) * shape[1] + lo1, (lo0 + row) * shape[1] + hi1
+            start = np.searchsorted(sorted_keys, low, side="left")
+            stop = np.searchsorted(sorted_keys, high, side="right")
         for i in range(start, stop):
-            j = order[i]
+            j = i if whole else order[i]
             d2 = _distance2(detections[j], z_hats[k], lower, angles, work)
             if d2 < threshold:
                 if write:
@@ -115,7 +125,7 @@ def _scan(k, z_hats, covariances, detections, order, sorted_keys, axes, angles, 
                     distances2[first + count] = d2
                     log_likelihoods[first + count] = -0.5 * d2 - log_norm
                 count += 1
-    if write:  # cells come row by row: restore ascending detection order (a few each)
+    if write and not whole:  # cells come row by row: restore ascending detection order
         for q in range(first + 1, first + count):
             j, d2, ll = candidates[q], distances2[q], log_likelihoods[q]
             p = q
