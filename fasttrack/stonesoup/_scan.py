@@ -181,6 +181,8 @@ class _Scan:
         if len(set(map(id, self.tracks))) < len(self.tracks):
             raise _NotFast("a track given twice")
         self.detections = list(detections)
+        if len(set(map(id, self.detections))) < len(self.detections):
+            raise _NotFast("a detection given twice")
         self.timestamp = timestamp
         if timestamp is None or any(d.timestamp != timestamp for d in self.detections):
             raise _NotFast("detections at other times than the scan's")
