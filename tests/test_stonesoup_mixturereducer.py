@@ -77,3 +77,41 @@ def test_a_kd_tree_gate_runs_stone_soups_code_and_says_why():
     fallbacks(clear=True)
     GaussianMixtureReducer(kdtree_max_distance=5.0).reduce(_components(2, 10, 2))
     assert [reason for (_, _, reason) in fallbacks()] == ["a kd-tree gate (kdtree_max_distance)"]
+
+
+def _edited(components, case):
+    """``components`` with one of the inputs Stone Soup reduces and fasttrack's arrays
+    refuse (or read otherwise)."""
+    if case == "singular covariance":
+        components[4].covar[:] = np.diag([1.0, 0.0])  # (a birth of no velocity spread)
+    elif case == "negative weight kept":
+        components[5].weight = -0.5
+    elif case == "a component twice":
+        components[7] = components[2]
+    return components
+
+
+@pytest.mark.parametrize("case, settings", [
+    ("singular covariance", {}),
+    ("negative weight kept", dict(prune_threshold=-1.0)),
+    ("a component twice", {}),
+    ("", dict(prune_threshold=float("nan"))),
+    ("", dict(merge_threshold=float("nan"))),
+    ("", dict(max_number_components=True)),
+    ("", dict(max_number_components=2.5, merge_threshold=1e4)),
+    ("", dict(merging=None)),
+])
+def test_what_fasttrack_refuses_or_reads_otherwise_is_reduced_as_stone_soup_reduces_it(
+        case, settings):
+    """A singular covariance, a negative weight left by a negative threshold, the same
+    component twice (Stone Soup's merge counts it once), a NaN threshold (Stone Soup keeps
+    w >= NaN: none) and settings Stone Soup reads by truthiness or slicing were refused with
+    the arrays' names, reduced otherwise or merged a component with itself, and a refusal
+    had already added the pruned mass to the caller's weights."""
+    components = _edited(_components(3, 10, 2, clusters=4), case)
+    theirs = copy.deepcopy(components)
+    got = GaussianMixtureReducer(**settings).reduce(components)
+    want = Original(**settings).reduce(theirs)
+    _same(got, want)
+    for mine, original in zip(components, theirs):
+        assert mine.weight == pytest.approx(original.weight, rel=1e-12)

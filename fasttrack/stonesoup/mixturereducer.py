@@ -15,9 +15,14 @@ mode "stonesoup"), gated by a grid instead of testing every pair.
   unmerged are built (the update's list, when read, is made of them and of the others with
   their pruned weights).
 - A kd-tree gate (``kdtree_max_distance``), components that are not weighted Gaussian
-  states of one dimension, and a subclass's own ``prune``, ``merge``, ``merge_components``
-  or ``truncate`` run Stone Soup's code.
+  states of one dimension, the same component given twice, a subclass's own ``prune``,
+  ``merge``, ``merge_components`` or ``truncate``, and whatever fasttrack's arrays refuse
+  (a covariance that is singular or not symmetric, a weight that is not a finite number
+  >= 0, a setting that is not a number or a bool) run Stone Soup's code, on the components
+  as they were given.
 """
+import numbers
+
 import numpy as np
 from stonesoup.mixturereducer import gaussianmixture as ss
 from stonesoup.types.array import CovarianceMatrix, StateVector
@@ -42,42 +47,54 @@ class GaussianMixtureReducer(ss.GaussianMixtureReducer):
     """Stone Soup's ``GaussianMixtureReducer``, compiled."""
 
     def reduce(self, components_list):
+        if self.truncating and isinstance(self.max_number_components, numbers.Real) \
+                and self.max_number_components < 1:
+            raise ValueError(f"max_number_components must be >= 1, got "
+                             f"{self.max_number_components}")
         source = pending_components(components_list)
         if source is None:
             components = mixture_components(components_list)
             reason = self._reason() or _reason(components)
         else:
             reason = self._reason()
-        if reason:
-            fall_back(self, "reduce", reason)
-            return super().reduce(components_list)
-        source = _Objects(components) if source is None else _Arrays(source)
+        if not reason:
+            source = _Objects(components) if source is None else _Arrays(source)
+            try:
+                return self._reduced(source, components_list)
+            except (ValueError, TypeError) as error:  # input Stone Soup's code handles
+                reason = f"refused by fasttrack ({error})"
+        fall_back(self, "reduce", reason)
+        return super().reduce(components_list)
+
+    def _reduced(self, source, components_list):
+        """The reduction of ``source`` (:class:`_Objects` or :class:`_Arrays`); the kept
+        components' weights are set (pruned mass added) once the arrays are reduced, so that
+        a refusal leaves them as they were."""
         if not source.weights.size:
             return components_list
         weights, kept = source.weights, np.arange(source.weights.size)
         if self.pruning:
-            low = weights < self.prune_threshold
+            low = ~(weights >= self.prune_threshold)  # (Stone Soup keeps w >= it; NaN: none)
             if low.any():
                 kept = np.flatnonzero(~low)
                 if not kept.size:
                     return []
                 weights = weights[kept] + ordered_sum(weights[low]) / kept.size
-                source.set_weights(kept, weights)
         cap = self.max_number_components if self.truncating else kept.size
-        if cap < 1:
-            raise ValueError(f"max_number_components must be >= 1, got {cap}")
-        means, covars, weights, heaviest, member = _mixture.reduce(
+        means, covars, merged_weights, heaviest, member = _mixture.reduce(
             *source.arrays(kept), weights, "stonesoup", None, self.merge_threshold,
-            cap if cap < kept.size else None, self.merging)
-        alone = (np.bincount(member[member >= 0], minlength=weights.size) == 1).tolist()
+            cap if cap < kept.size else None, bool(self.merging))
+        if kept.size < source.weights.size:
+            source.set_weights(kept, weights)
+        alone = (np.bincount(member[member >= 0], minlength=merged_weights.size) == 1).tolist()
         heaviest = kept[heaviest].tolist()
-        weights = weights.tolist()
+        merged_weights = merged_weights.tolist()
         reduced = [source.kept(i, weight) if single else source.merged(i, mean, covar, weight)
                    for i, single, mean, covar, weight in zip(heaviest, alone, means, covars,
-                                                             weights)]
+                                                             merged_weights)]
         tags = source.tags(heaviest)
         if tags is not None:
-            renamed = _shared_tags(tags, weights)
+            renamed = _shared_tags(tags, merged_weights)
             for o, tag in zip(renamed, fresh_tags(len(renamed))):
                 reduced[o].tag = tag
         return reduced
@@ -97,6 +114,8 @@ def _reason(components):
     """Why Stone Soup's code must reduce ``components``, or None."""
     if not all(issubclass(kind, WeightedGaussianState) for kind in set(map(type, components))):
         return "components that are not weighted Gaussian states"
+    if len(set(map(id, components))) < len(components):
+        return "a component given twice"  # (Stone Soup's merge counts it once)
     if len({c.state_vector.shape for c in components}) > 1:
         return "components of different dimensions"
     return None
