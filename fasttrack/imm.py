@@ -29,7 +29,13 @@ class _Models:
         self._models = _validate.instances(models, kind, name)
         if not self._models:
             raise ValueError(f"{name} must hold at least one model's")
-        self.transition_matrix = _imm.transition_matrix(transition_matrix, len(self._models))
+        self.transition_matrix = transition_matrix
+
+    #: The (M, M) switching matrix (a copy, checked when assigned, here or later).
+    transition_matrix = _validate.Setting("_checked_matrix")
+
+    def _checked_matrix(self, matrix, name):
+        return _imm.transition_matrix(matrix, len(self._models))
 
     def _mixture(self, mixture, name):
         """``mixture`` checked: a GaussianMixture of one component a model; its mode

@@ -109,6 +109,15 @@ def test_a_measurement_that_is_not_finite_is_named_as_such_on_the_kernel_path():
         filt.step(means, covars, predicted, [[0.0, 0.0], [np.nan, 1.0]], 1.0)
 
 
+@pytest.mark.parametrize("measurements, states", [((2, 1), 4), ((2, 3), 4), ((2, 2), 3)])
+def test_the_fused_update_refuses_arrays_its_kernel_would_index_past(measurements, states):
+    """A measurement of 1 value for a 2-value sensor was read past its end."""
+    means, covars = np.zeros((2, 2, states)), np.tile(np.eye(states), (2, 2, 1, 1))
+    with pytest.raises(ValueError, match=r"measurements must be 2 measurements of 2 values "
+                                         r"of states of 4 \(the measurement model's\)"):
+        imm.update(SENSOR, means, covars, np.full((2, 2), 0.5), np.zeros(measurements))
+
+
 @pytest.mark.parametrize("updater", [ft.KalmanUpdater, ft.ExtendedKalmanUpdater,
                                      ft.UnscentedKalmanUpdater])
 def test_the_pair_names_a_measurement_beyond_every_likelihood(updater):

@@ -107,3 +107,43 @@ def test_bad_input_is_refused_naming_the_argument():
     prediction = predictor.predict(GaussianMixture([half, half]), START)
     with pytest.raises(ValueError, match="hypothesis.measurement is None"):
         updater.update(SingleHypothesis(prediction, None))
+    for z in ([[1.0]], [[1.0], [2.0], [3.0]]):  # (the kernel read past a short one)
+        with pytest.raises(ValueError, match="hypothesis.measurement must have 2 components"):
+            updater.update(SingleHypothesis(prediction, Detection(z, timestamp=START)))
+
+
+@pytest.mark.parametrize("pair", [drop, ft])
+def test_a_switching_matrix_assigned_later_is_checked(pair):
+    """Rows summing to 3 gave mode probabilities summing to 3; a NaN, NaN ones; a nested
+    list, Numba's typing error."""
+    if pair is drop:
+        predictor = KalmanPredictor(
+            CombinedLinearGaussianTransitionModel([ConstantVelocity(1e-3)] * 2))
+    else:
+        predictor = ft.KalmanPredictor(
+            ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(1e-3)] * 2))
+    predictor = pair.IMMPredictor([predictor] * 2, [[0.9, 0.1], [0.1, 0.9]])
+    for matrix, match in (([[3.0, 0.0], [0.0, 3.0]], "row 0 sums to 3.0"),
+                          ([[np.nan, 0.0], [0.0, 1.0]], "transition_matrix contains NaN"),
+                          ([[0.5, 0.5]], r"transition_matrix must have shape \(2, 2\)")):
+        with pytest.raises(ValueError, match=match):
+            predictor.transition_matrix = matrix
+    assert predictor.transition_matrix.tolist() == [[0.9, 0.1], [0.1, 0.9]]
+
+
+@pytest.mark.parametrize("numpy_first", [False, True])
+def test_a_prior_that_is_not_finite_or_mixes_beyond_float64_is_refused(numpy_first,
+                                                                       monkeypatch):
+    """A NaN prior mean gave NaN predictions on the kernels (and 'the prediction
+    overflowed' in NumPy); means of +-1e200, whose mixing overflows, inf covariances."""
+    from fasttrack import _jit
+    monkeypatch.setattr(_jit, "numpy_first", lambda work=1: numpy_first)
+    model = CombinedLinearGaussianTransitionModel([ConstantVelocity(1e-3)] * 2)
+    predictor = drop.IMMPredictor([KalmanPredictor(model)] * 2, [[0.9, 0.1], [0.1, 0.9]])
+    for first, second, match in ((np.nan, 0.0, "prior's component 0 is not finite"),
+                                 (1e200, -1e200, "merged mean or covariance is not finite")):
+        prior = GaussianMixture([
+            WeightedGaussianState([[x], [0.0], [0.0], [0.0]], np.eye(4), timestamp=START,
+                                  weight=0.5) for x in (first, second)])
+        with pytest.raises(ValueError, match=match):
+            predictor.predict(prior, START + datetime.timedelta(seconds=1))

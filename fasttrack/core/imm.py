@@ -453,8 +453,9 @@ def predict(transition_models, matrix, means, covars, mode_probs, dt, has=None):
     """The IMM's prediction of K filters ``dt`` seconds ahead in one kernel call
     (:func:`fasttrack._jit.imm.imm_predict`): ``(means, covars, predicted)``, each model's
     prediction from its mixed prior and the predicted mode probabilities, for linear
-    ``transition_models``; None where the process runs NumPy first or a prior is not
-    positive semi-definite (the caller's general path then reports it)."""
+    ``transition_models``; None where the process runs NumPy first, a prior is not
+    positive semi-definite or a prediction is not finite (the caller's general path then
+    reports it)."""
     k, models = mode_probs.shape
     if _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models):
         return None
@@ -463,7 +464,9 @@ def predict(transition_models, matrix, means, covars, mode_probs, dt, has=None):
     status = np.empty(k, dtype=np.int64)
     _imm.imm_predict(transitions, noises, matrix, _mask(has, means.shape[1:]), means, covars,
                      mode_probs, *out, status)
-    return out if not np.count_nonzero(status) else None
+    if np.count_nonzero(status) or not all(np.isfinite(a).all() for a in out):
+        return None
+    return out
 
 
 def update(measurement_model, means, covars, predicted, measurements, name="measurements"):
@@ -475,6 +478,12 @@ def update(measurement_model, means, covars, predicted, measurements, name="meas
     :func:`weighed`)."""
     sensor = measurement_model.spec
     k, models = predicted.shape
+    m, d = measurement_model.ndim_meas, measurement_model.ndim_state
+    if measurements.shape != (k, m) or means.shape != (k, models, d) \
+            or covars.shape != (k, models, d, d):
+        raise ValueError(f"{name} must be {k} measurements of {m} values of states of {d} "
+                         f"(the measurement model's), got {measurements.shape} and states "
+                         f"{means.shape[2:]}")
     if sensor.kind != SELECT or np.count_nonzero(sensor.angles) \
             or _jit.numpy_first(NUMPY_WORK_PER_MODEL * k * models) \
             or not np.isfinite(measurements).all():

@@ -21,6 +21,7 @@ from stonesoup.updater.base import Updater
 
 from .. import imm as ft_imm_classes
 from ..core import imm as ft_imm
+from ..core.mixture import check_finite_moments
 from ..models.measurement import LinearGaussian
 from . import predictor as ft_predictor
 from . import updater as ft_updater
@@ -49,8 +50,13 @@ class _Models(ft_imm_classes._Models):
         components = mixture.components
         probs = ft_imm.mode_probabilities([float(c.weight) for c in components],
                                           (len(components),), f"{name}'s weights")
-        return (np.array([floats(c.state_vector).ravel() for c in components]),
-                np.array([floats(c.covar) for c in components]), probs)
+        means = np.array([floats(c.state_vector).ravel() for c in components])
+        covars = np.array([floats(c.covar) for c in components])
+        finite = np.isfinite(means).all(axis=1) & np.isfinite(covars).all(axis=(1, 2))
+        if not finite.all():
+            raise ValueError(f"{name}'s component {np.argmin(finite)} is not finite (its "
+                             f"state vector or covariance holds NaN or inf)")
+        return means, covars, probs
 
 
 class IMMPredictor(_Models):
@@ -95,9 +101,11 @@ class IMMPredictor(_Models):
         then = prior.components[0].timestamp
         out = self._kernel_prediction(means, covars, probs, then, timestamp, kwargs)
         if out is None:
-            mixed_means, mixed_covars, predicted = ft_imm.mix(means[None], covars[None],
-                                                              probs[None],
-                                                              self.transition_matrix)
+            with np.errstate(over="ignore", invalid="ignore"):
+                mixed_means, mixed_covars, predicted = ft_imm.mix(means[None], covars[None],
+                                                                  probs[None],
+                                                                  self.transition_matrix)
+            check_finite_moments(mixed_means, mixed_covars)  # (the models' mixed priors)
             states = [predictor.predict(GaussianState(StateVector(mixed_means[0, j]),
                                                       mixed_covars[0, j], timestamp=then),
                                         timestamp=timestamp, **kwargs)
@@ -203,8 +211,10 @@ class IMMUpdater(_Models):
             reason = "measurement models that are not one built-in LinearGaussian"
         elif kwargs:
             reason = "keyword arguments"
+        elif means.shape[1] != sensor.ndim_state:
+            reason = "components of another dimension than the measurement model's"
         if reason is None:
-            z = floats(detection.state_vector).reshape(1, -1)
+            z = sensor.measurement_vector(detection, "hypothesis.measurement")[None]
             out = ft_imm.update(sensor, means[None], covars[None], predicted[None], z)
             if out is not None:
                 return out[0][0], out[1][0], out[2][0]
