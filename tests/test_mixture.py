@@ -1,5 +1,7 @@
 """Gaussian mixtures: the kernels against their mirrors, closed forms, and the
 :class:`~fasttrack.types.GaussianMixture` face."""
+import types
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -401,3 +403,22 @@ def test_a_merge_of_weights_the_kernels_cannot_divide_by_is_refused_on_both_path
     with pytest.raises(ValueError, match="components of zero weight"):
         mixture.reduce(np.zeros((2, 1)), np.ones((2, 1, 1)), [5e-324, 5e-324], mode,
                        prune_threshold=0.0)
+
+
+def test_a_reduction_whose_numpy_twin_is_slow_takes_the_kernel(monkeypatch):
+    """Merge tests cost d^2 each, and a component that many merge into meets up to J of
+    them: 5,000 60-D components merging into one took 79 s in a process's NumPy first
+    calls (1.6 s on the kernels). Such sizes take the kernel; the tutorial's take NumPy."""
+    from fasttrack import _jit
+    monkeypatch.setattr(_jit, "kernels_loaded", lambda: False)  # a new process
+    twin, kernel = [], []
+    monkeypatch.setattr(mixture_numpy, "reduce", lambda *args: twin.append(args) or 0)
+    monkeypatch.setattr(mixture, "_mixture", types.SimpleNamespace(
+        reduce=lambda *args: kernel.append(args) or 0))
+    for j, d, numpy in ((5000, 60, False), (8000, 4, False), (30, 4, True), (4000, 4, True),
+                        (2000, 8, True), (2100, 8, False)):
+        monkeypatch.setattr(_jit, "_numpy_work", _jit.NUMPY_WORK)
+        twin.clear(), kernel.clear()
+        mixture.reduce(np.zeros((j, d)), np.tile(np.eye(d), (j, 1, 1)), np.ones(j),
+                       "stonesoup", merge_threshold=np.inf)
+        assert (len(twin), len(kernel)) == ((1, 0) if numpy else (0, 1)), (j, d)

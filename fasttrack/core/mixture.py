@@ -254,7 +254,7 @@ def reduce(means, covars, weights, mode="textbook", prune_threshold=1e-9,
     cap = _validate.count(max_components, "max_components", default=_validate.MAX_COUNT)
     out = np.empty((j, d)), np.empty((j, d, d)), np.empty(j)
     source, member = np.empty(j, dtype=np.int64), np.empty(j, dtype=np.int64)
-    run, axes = (_numpy.reduce, None) if _jit.numpy_first(j) \
+    run, axes = (_numpy.reduce, None) if _jit.numpy_first(_numpy.reduce_work(j, d)) \
         else (_mixture.reduce, _grid_axes(means))
     count = run(means, covars, weights, MODES[mode], prune, _validate.flag(merging, "merging"),
                 merge, cap, axes, *out, source, member)

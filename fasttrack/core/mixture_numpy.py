@@ -16,6 +16,14 @@ from .._validate import asymmetric
 NEAR_UP_TO = 64
 
 
+def reduce_work(j, d):
+    """The :func:`~fasttrack._jit.numpy_first` units of a reduction of j components of d
+    dimensions: one a component for up to 2,048 components of d <= 4, as each merge test
+    costs d^2 and a component that many merge take meets up to j tests (5,000 components of
+    60-D merging into one took 79 s in NumPy, 1.6 s on the kernels; 8,000 4-D ones 2.4 s)."""
+    return j * max(1, d * d // 16) * max(1, j // 2048)
+
+
 def reduce(means, covars, weights, mode, prune_threshold, merging, merge_threshold,
            max_components, axes, out_means, out_covars, out_weights, source, member):
     """:func:`fasttrack._jit.mixture.reduce` (``axes``, the kernel's grid rows, unused)."""
