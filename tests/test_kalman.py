@@ -575,3 +575,22 @@ def test_a_prediction_that_overflows_is_refused_where_it_starts():
     means[1] = [1e308, 1e308, 0.0, 0.0]
     with pytest.raises(ValueError, match="filter 1: the prediction overflowed"):
         batch.predict(means, np.tile(np.eye(4), (3, 1, 1)), 1.0)
+
+
+@pytest.mark.parametrize("numpy_first", [False, True])
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_a_prior_mean_that_is_not_finite_is_named_not_called_an_overflow(value, numpy_first,
+                                                                         monkeypatch):
+    """A Stone Soup prior of NaN or inf reaches the drop-in predictor unchecked: it was
+    called 'the prediction overflowed'."""
+    from stonesoup.models.transition.linear import (CombinedLinearGaussianTransitionModel,
+                                                    ConstantVelocity)
+    from stonesoup.types.state import GaussianState
+    from fasttrack import _jit
+    from fasttrack.stonesoup import KalmanPredictor
+    monkeypatch.setattr(_jit, "numpy_first", lambda work=1: numpy_first)
+    model = CombinedLinearGaussianTransitionModel([ConstantVelocity(0.3)] * 2)
+    start = datetime.datetime(2025, 1, 1)
+    prior = GaussianState([[value], [0.0], [0.0], [0.0]], np.eye(4), timestamp=start)
+    with pytest.raises(ValueError, match="prior.state_vector is not finite"):
+        KalmanPredictor(model).predict(prior, timestamp=start + datetime.timedelta(seconds=1))

@@ -433,3 +433,23 @@ def test_the_drop_in_reducer_names_stone_soups_cap():
                                             timestamp=T0, tag="a")
     with pytest.raises(ValueError, match="max_number_components must be >= 1, got 0"):
         GaussianMixtureReducer(max_number_components=0).reduce([component] * 2)
+
+
+@pytest.mark.parametrize("updater", [PHDUpdater, LCCUpdater])
+@pytest.mark.parametrize("name, value, match", [
+    ("prob_detection", 1.5, "prob_detection must be a probability in"),
+    ("prob_survival", float("nan"), "prob_survival must be a probability in"),
+    ("clutter_spatial_density", -1e-3, "clutter_spatial_density must be finite and >= 0"),
+    ("clutter_spatial_density", float("inf"), "clutter_spatial_density must be finite")])
+def test_a_probability_outside_0_1_or_a_negative_clutter_density_is_named(updater, name, value,
+                                                                          match):
+    """Stone Soup weighs with them (negative or NaN weights); the drop-ins' reducer then
+    failed naming its own arrays. Set at construction or later, they are named at update."""
+    hypotheses = _hypotheses(0)
+    settings = dict(clutter_spatial_density=1e-3, prob_detection=0.9, prob_survival=0.99)
+    with pytest.raises(ValueError, match=match):
+        updater(KalmanUpdater(SENSOR), **{**settings, name: value}).update(hypotheses)
+    later = updater(KalmanUpdater(SENSOR), **settings)
+    setattr(later, name, value)
+    with pytest.raises(ValueError, match=match):
+        later.update(hypotheses)

@@ -44,17 +44,18 @@ def predict(model, dt, x, covar, jacobian="forward"):
     spec = model.spec(dt)
     if in_numpy(spec.kind):
         status, x_out, covar_out = _numpy.predict(spec, x, covar)
-        if status:
-            _errors.check(status, spec.function, x, dt)
-        return x_out, covar_out
-    d = x.shape[0]
-    x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
-    if spec.kind == FUNCTION:
-        status = _kalman.predict_function(spec.function.callee, dt, spec.noise,
-                                          jacobian == "central", x, covar, x_out, covar_out)
     else:
-        status = _kalman.predict_one(*spec.kalman(), dt, x, covar, x_out, covar_out)
+        d = x.shape[0]
+        x_out, covar_out = np.empty((d, 1)), np.empty((d, d))
+        if spec.kind == FUNCTION:
+            status = _kalman.predict_function(spec.function.callee, dt, spec.noise,
+                                              jacobian == "central", x, covar, x_out,
+                                              covar_out)
+        else:
+            status = _kalman.predict_one(*spec.kalman(), dt, x, covar, x_out, covar_out)
     if status:
+        if not np.isfinite(x).all():  # (a caller's unchecked state: not an overflow)
+            raise ValueError("prior.state_vector is not finite (it holds NaN or inf)")
         _errors.check(status, spec.function, x, dt)
     return x_out, covar_out
 

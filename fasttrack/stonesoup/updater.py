@@ -357,6 +357,12 @@ _tagged_state = builder(TaggedWeightedGaussianState)
 _EPS = np.finfo(float).eps  # Stone Soup's weight for a component of weight 0
 
 
+#: The point-process updaters' numeric settings: (name, what it must be, the test).
+_SETTINGS = (("prob_detection", "a probability in [0, 1]", lambda p: 0.0 <= p <= 1.0),
+             ("prob_survival", "a probability in [0, 1]", lambda p: 0.0 <= p <= 1.0),
+             ("clutter_spatial_density", "finite and >= 0", lambda c: 0.0 <= c < np.inf))
+
+
 class _PointProcess:
     """Stone Soup's ``PointProcessUpdater.update``: the Kalman updates and likelihoods of
     every (component, detection) pair computed at once on arrays, for a ``KalmanUpdater``
@@ -373,6 +379,7 @@ class _PointProcess:
     Stone Soup's code."""
 
     def update(self, hypotheses):
+        self._check_settings()
         groups = pending(hypotheses)
         if groups is not None and all(tag is not None for tag in groups.tags) \
                 and not self._reason(groups.scan.own_models) \
@@ -425,6 +432,19 @@ class _PointProcess:
             if component.weight == 0:
                 component.weight = _EPS
         return GaussianMixtureUpdate(hypothesis=hypotheses, components=updated)
+
+    def _check_settings(self):
+        """ValueError naming a probability outside [0, 1] or a clutter density that is
+        negative or not finite (Stone Soup weighs with them: negative or NaN weights, which
+        fail a step later, unnamed); a value that is not a number is Stone Soup's to read."""
+        for name, expected, fits in _SETTINGS:
+            value = getattr(self, name)
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                continue
+            if not fits(number):
+                raise ValueError(f"{name} must be {expected}, got {value!r}")
 
     def _scan_update(self, groups, hypotheses):
         """The update of a drop-in hypothesiser's groups from its scan's arrays (the
