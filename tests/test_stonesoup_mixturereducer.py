@@ -115,3 +115,15 @@ def test_what_fasttrack_refuses_or_reads_otherwise_is_reduced_as_stone_soup_redu
     _same(got, want)
     for mine, original in zip(components, theirs):
         assert mine.weight == pytest.approx(original.weight, rel=1e-12)
+
+
+def test_a_weight_of_text_meets_stone_soups_error():
+    """A weight '0.5' was read as 0.5 (Stone Soup's comparisons refuse it)."""
+    components = _components(3, 10, 2, clusters=4)
+    components[3].weight = "0.5"
+    errors = []
+    for reducer in (GaussianMixtureReducer, Original):
+        with pytest.raises(TypeError) as error:
+            reducer().reduce(copy.deepcopy(components))
+        errors.append(str(error.value))
+    assert errors[0] == errors[1]

@@ -116,6 +116,8 @@ def _reason(components):
         return "components that are not weighted Gaussian states"
     if len(set(map(id, components))) < len(components):
         return "a component given twice"  # (Stone Soup's merge counts it once)
+    if not all(isinstance(c.weight, numbers.Real) for c in components):
+        return "a weight that is not a real number"  # (not read as one: Stone Soup's error)
     if len({c.state_vector.shape for c in components}) > 1:
         return "components of different dimensions"
     return None
