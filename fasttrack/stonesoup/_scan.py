@@ -177,12 +177,10 @@ class _Scan:
 
     def __init__(self, recipe, tracks, detections, timestamp, single):
         self.recipe = recipe
-        self.tracks = list(tracks)
-        if len(set(map(id, self.tracks))) < len(self.tracks):
-            raise _NotFast("a track given twice")
-        self.detections = list(detections)
-        if len(set(map(id, self.detections))) < len(self.detections):
-            raise _NotFast("a detection given twice")
+        self.tracks, self.detections = list(tracks), list(detections)
+        for kind, given in (("track", self.tracks), ("detection", self.detections)):
+            if len(set(map(id, given))) < len(given):
+                raise _NotFast(f"a {kind} given twice")
         self.timestamp = timestamp
         if timestamp is None or any(d.timestamp != timestamp for d in self.detections):
             raise _NotFast("detections at other times than the scan's")
