@@ -147,3 +147,9 @@ def test_a_prior_that_is_not_finite_or_mixes_beyond_float64_is_refused(numpy_fir
                                   weight=0.5) for x in (first, second)])
         with pytest.raises(ValueError, match=match):
             predictor.predict(prior, START + datetime.timedelta(seconds=1))
+    skew = np.eye(4)
+    skew[0, 1] = 0.5  # (the kernel's mixing read one triangle: symmetrised it silently)
+    prior = GaussianMixture([WeightedGaussianState([[0.0]] * 4, covar, timestamp=START,
+                                                   weight=0.5) for covar in (np.eye(4), skew)])
+    with pytest.raises(ValueError, match=r"prior's covariances\[1\] is not symmetric"):
+        predictor.predict(prior, START + datetime.timedelta(seconds=1))

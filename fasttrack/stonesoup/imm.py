@@ -21,7 +21,7 @@ from stonesoup.updater.base import Updater
 
 from .. import imm as ft_imm_classes
 from ..core import imm as ft_imm
-from ..core.mixture import check_finite_moments
+from ..core.mixture import check_covariances, check_finite_moments
 from ..models.measurement import LinearGaussian
 from . import predictor as ft_predictor
 from . import updater as ft_updater
@@ -56,6 +56,7 @@ class _Models(ft_imm_classes._Models):
         if not finite.all():
             raise ValueError(f"{name}'s component {np.argmin(finite)} is not finite (its "
                              f"state vector or covariance holds NaN or inf)")
+        check_covariances(covars, f"{name}'s covariances")  # (not symmetrised silently)
         return means, covars, probs
 
 
