@@ -133,10 +133,6 @@ def test_arrays_given_stay_the_caller_s():
     means[0], covars[0], log_weights[0] = np.nan, -1.0, np.nan
     assert np.isfinite(mixture.means).all() and (mixture.covars == 1.0).all()
     assert (mixture.log_weights == 0.0).all()
-    for made in (mixture, mixture.reduce()):  # its own arrays: checked once, not editable
-        for name in ("means", "covars", "log_weights", "labels"):
-            with pytest.raises(ValueError, match="read-only"):
-                getattr(made, name)[0] = 0
     matrix, modes = np.array([[0.9, 0.1], [0.1, 0.9]]), np.array([0.5, 0.5])
     models = [ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(q)] * 2)
               for q in (0.1, 10.0)]

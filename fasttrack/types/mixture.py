@@ -29,7 +29,8 @@ class GaussianMixture:
     labels : (K,) array_like of int, optional
         A label per component (e.g. its track), default all 0.
 
-    The mixture keeps read-only copies of its arrays (it is checked once, when made).
+    The mixture keeps copies of the arrays given (it is checked once, when made: edit a
+    mixture by building a new one, not by writing into its arrays).
     """
 
     means: np.ndarray
@@ -54,17 +55,16 @@ class GaussianMixture:
             else _mixture.label_array(self.labels, k)
         for name, value in (("means", means), ("covars", covars), ("log_weights", log_weights),
                             ("labels", labels)):  # (copies: the caller's arrays stay theirs)
-            object.__setattr__(self, name, _read_only(value.copy()))
+            object.__setattr__(self, name, value.copy())
 
     @classmethod
     def _made(cls, means, covars, log_weights, labels, timestamp=None):
         """A mixture of arrays fasttrack made: C-contiguous float64 (K, d), (K, d, d), (K,)
-        and int64 (K,) labels, not checked again (made read-only, as a mixture's are)."""
+        and int64 (K,) labels, not checked again."""
         out = object.__new__(cls)
         for name, value in (("means", means), ("covars", covars), ("log_weights", log_weights),
-                            ("labels", labels)):
-            object.__setattr__(out, name, _read_only(value))
-        object.__setattr__(out, "_timestamp", timestamp)
+                            ("labels", labels), ("_timestamp", timestamp)):
+            object.__setattr__(out, name, value)
         return out
 
     def __len__(self):
@@ -131,13 +131,6 @@ def _components(components):
     if len(times) > 1:
         raise ValueError(f"the components must all have the same timestamp, got {len(times)}")
     return components, times.pop()
-
-
-def _read_only(array):
-    """``array``, flagged read-only: a mixture is checked once, when it is made, so its
-    arrays are not edited in place afterwards (build a new mixture instead)."""
-    array.flags.writeable = False
-    return array
 
 
 def _log(weights):
