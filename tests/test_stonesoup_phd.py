@@ -297,6 +297,64 @@ def test_a_detection_listed_twice_is_updated_as_stone_soup_updates_it():
     assert "a detection given twice" in str(fallbacks())  # (Stone Soup's code scans it)
 
 
+
+def _groups_of_both(components, scan, t1):
+    """The drop-in hypothesiser's groups (unbuilt) and Stone Soup's, of the same scan."""
+    import fasttrack.stonesoup as fss
+    return [hypothesiser(distance(predictor(TRANSITION), kalman(SENSOR), Mahalanobis(),
+                                  missed_distance=3),
+                         order_by_detection=True).hypothesise(components, scan, t1)
+            for hypothesiser, distance, predictor, kalman in (
+                (fss.GaussianMixtureHypothesiser, fss.DistanceHypothesiser,
+                 fss.KalmanPredictor, fss.KalmanUpdater),
+                (GaussianMixtureHypothesiser, DistanceHypothesiser, KalmanPredictor,
+                 KalmanUpdater))]
+
+
+def test_a_detection_changed_after_hypothesising_is_read_when_updating():
+    """Stone Soup's updater reads a detection's state vector when it updates; the drop-in's
+    arrays held the value the hypothesiser read (a top weight of 0.62 against 0.57)."""
+    components, scan, t1 = _scan_of(1, n=3, clutter=1)
+    ours, theirs = _groups_of_both(components, scan, t1)
+    for detection in scan:
+        detection.state_vector[0, 0] += 3.0
+    settings = dict(clutter_spatial_density=1e-3, prob_detection=0.9, prob_survival=0.99)
+    got = PHDUpdater(KalmanUpdater(SENSOR), **settings).update(ours)
+    want = Original(KalmanUpdater(SENSOR), **settings).update(theirs)
+    assert len(got) == len(want) > 4
+    assert sorted(map(_key, got)) == sorted(map(_key, want))
+    whole = {Detection(np.round(d.state_vector).astype(int), timestamp=t1,
+                       measurement_model=SENSOR) for d in scan}  # read as floats: unchanged
+    ours, theirs = _groups_of_both(components, whole, t1)
+    got = PHDUpdater(KalmanUpdater(SENSOR), **settings).update(ours)
+    assert not _built(ours)  # (updated from the scan's arrays)
+    want = Original(KalmanUpdater(SENSOR), **settings).update(theirs)
+    assert sorted(map(_key, got)) == sorted(map(_key, want))
+
+
+@pytest.mark.parametrize("updater, theirs", [(PHDUpdater, Original),
+                                             (LCCUpdater, pointprocess.LCCUpdater)])
+def test_a_weight_that_is_not_a_number_gets_stone_soups_error(updater, theirs):
+    """A component weighing '0.5' (a string): Stone Soup's arithmetic raises; the drop-in
+    read it as 0.5 and returned a mixture."""
+    components, scan, t1 = _scan_of(0, n=3, clutter=1)
+    components[0].weight = "0.5"
+    settings = dict(clutter_spatial_density=1e-3, prob_detection=0.9, prob_survival=0.99)
+    for groups, kind in zip(_groups_of_both(components, scan, t1), (updater, theirs)):
+        with pytest.raises(TypeError, match="can't multiply sequence"):
+            kind(KalmanUpdater(SENSOR), **settings).update(groups)
+
+
+def test_the_drop_in_tracker_counts_no_targets_without_a_mixture():
+    """``gaussian_mixture = None`` (or empty): Stone Soup's tracker estimates 0 targets; the
+    drop-in raised TypeError."""
+    import fasttrack.stonesoup as fss
+    tracker = fss.PointProcessMultiTargetTracker(detector=None, hypothesiser=None,
+                                                 updater=None, reducer=None)
+    assert tracker.estimated_number_of_targets == 0
+    tracker.gaussian_mixture = None
+    assert tracker.estimated_number_of_targets == 0
+
 @pytest.mark.parametrize("joseph", [False, True])
 @pytest.mark.parametrize("drop_in_hypothesiser", [True, False])
 def test_an_updater_of_another_measurement_model_weighs_by_its_own(joseph,

@@ -1,5 +1,6 @@
 """What the drop-in classes share: Stone Soup models and kernels recognised as fasttrack ones,
 Stone Soup arrays as float64 arrays, and Stone Soup's random state."""
+import numbers
 import weakref
 
 import numpy as np
@@ -209,6 +210,12 @@ def uncached(method):
     while hasattr(method, "__wrapped__"):
         method = method.__wrapped__
     return method
+
+
+def all_real(values):
+    """Whether every value is a real number (``numbers.Real``): Stone Soup's arithmetic
+    raises on a weight such as the string '0.5', which a float conversion would read."""
+    return all(isinstance(value, numbers.Real) for value in values)
 
 
 def mixture_components(mixture):

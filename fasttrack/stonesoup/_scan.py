@@ -380,6 +380,17 @@ class _Scan:
             return None
         return self.z_hats, self.innovation_covars, self.covars[:, :, self._fast.spec.mapping]
 
+    def detections_as_read(self):
+        """Whether the detections still hold the state vectors the scan read (Stone Soup's
+        updaters read them when they update): bit for bit, else (another type) by value."""
+        if b"".join([d.state_vector.tobytes() for d in self.detections]) \
+                == self.measurements.tobytes():
+            return True
+        try:
+            return np.array_equal(self._detection_array(), self.measurements)
+        except _NotFast:
+            return False
+
     def log_likelihoods(self, model):
         """The candidates' Gaussian log-likelihoods (n,) under the Stone Soup measurement
         ``model``, or None unless the scan gated with its innovation covariances."""

@@ -30,7 +30,7 @@ from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianS
 
 from ..core import mixture as _mixture
 from ..core.mixture_numpy import ordered_sum
-from ._convert import mixture_components
+from ._convert import all_real, mixture_components
 from ._fallback import fall_back
 from ._objects import builder, fresh_tags
 from ._pending import pending_components
@@ -116,7 +116,7 @@ def _reason(components):
         return "components that are not weighted Gaussian states"
     if len(set(map(id, components))) < len(components):
         return "a component given twice"  # (Stone Soup's merge counts it once)
-    if not all(isinstance(c.weight, numbers.Real) for c in components):
+    if not all_real(c.weight for c in components):
         return "a weight that is not a real number"  # (not read as one: Stone Soup's error)
     if len({c.state_vector.shape for c in components}) > 1:
         return "components of different dimensions"

@@ -139,5 +139,6 @@ class PointProcessMultiTargetTracker(ss_pointprocess.PointProcessMultiTargetTrac
 
     @property
     def estimated_number_of_targets(self):
-        components = mixture_components(self.gaussian_mixture)
-        return sum(component.weight for component in components) if components else 0
+        if not self.gaussian_mixture:  # (an empty mixture, or None, as Stone Soup reads it)
+            return 0
+        return sum(component.weight for component in mixture_components(self.gaussian_mixture))

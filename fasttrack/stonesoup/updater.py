@@ -28,7 +28,7 @@ from ..core import particle as ft_particle
 from ..core import unscented as ft_unscented
 from ..models import LinearGaussian
 from ..types import dense_kernel_covar
-from ._convert import (angle_rows, fast_kernel, fast_model, fits, floats, global_rng,
+from ._convert import (all_real, angle_rows, fast_kernel, fast_model, fits, floats, global_rng,
                        kernel_filter_refusal, mod_bearing, plain_particles, sigma_parameters,
                        typed_measurement, uncached)
 from ._fallback import fall_back, keywords, overridden, unknown_kernel, unknown_model
@@ -382,7 +382,7 @@ class _PointProcess:
         self._check_settings()
         groups = pending(hypotheses)
         if groups is not None and all(tag is not None for tag in groups.tags) \
-                and not self._reason(groups.scan.own_models) \
+                and all_real(groups.weights) and not self._reason(groups.scan.own_models) \
                 and all(type(p) in (float, int, np.float64) for p in (self.prob_detection,
                                                                       self.prob_survival)):
             try:
@@ -395,6 +395,9 @@ class _PointProcess:
         measurements = [hypothesis.measurement for hypothesis in pairs]
         reason = "no hypotheses" if not hypotheses else self._reason(
             {id(model): model for model in [m.measurement_model for m in measurements]}.values())
+        if not reason and not all_real(hypothesis.prediction.weight
+                                       for multiple in hypotheses for hypothesis in multiple):
+            reason = "a weight that is not a real number"  # (Stone Soup's arithmetic raises)
         predicted = None
         if not reason:
             predicted = _carried_predictions(pairs)
@@ -437,13 +440,13 @@ class _PointProcess:
         """ValueError naming a probability outside [0, 1] or a clutter density that is
         negative or not finite (Stone Soup weighs with them: negative or NaN weights, which
         fail a step later, unnamed); a value that is not a number is Stone Soup's to read."""
-        for name, expected, fits in _SETTINGS:
+        for name, expected, allowed in _SETTINGS:
             value = getattr(self, name)
             try:
                 number = float(value)
             except (TypeError, ValueError):
                 continue
-            if not fits(number):
+            if not allowed(number):
                 raise ValueError(f"{name} must be {expected}, got {value!r}")
 
     def _scan_update(self, groups, hypotheses):
@@ -453,8 +456,11 @@ class _PointProcess:
         detected birth component), in the groups' order (by detection, then component),
         then the missed components in the components' order. None if the hypotheses'
         measurement predictions, of another model than this updater's, are not arrays of
-        the scan (Stone Soup's update uses them)."""
+        the scan (Stone Soup's update uses them), or if a detection changed since the scan
+        read it."""
         scan = groups.scan
+        if not scan.detections_as_read():
+            return None
         owners = np.repeat(np.arange(len(scan.tracks)), np.diff(scan.starts))
         order = np.argsort(scan.candidates, kind="stable")
         k, detection = owners[order], scan.candidates[order]
