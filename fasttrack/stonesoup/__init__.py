@@ -39,6 +39,7 @@ _MODULES = {
     "measures": ["Mahalanobis"],
     "metricgenerator": ["GOSPAMetric", "OSPAMetric"],
     "mixturereducer": ["GaussianMixtureReducer"],
+    "pointprocess": ["LCCUpdater", "PHDUpdater"],
     "predictor": ["AdaptiveKernelKalmanPredictor", "ExtendedKalmanPredictor", "KalmanPredictor",
                   "ParticlePredictor", "UnscentedKalmanPredictor"],
     "resampler": ["ESSResampler", "MultinomialResampler", "ResidualMethod", "ResidualResampler",
@@ -47,7 +48,7 @@ _MODULES = {
     "tracker": ["MultiTargetMixtureTracker", "MultiTargetTracker",
                 "PointProcessMultiTargetTracker"],
     "updater": ["AdaptiveKernelKalmanUpdater", "ExtendedKalmanUpdater", "KalmanUpdater",
-                "LCCUpdater", "ParticleUpdater", "PHDUpdater", "UnscentedKalmanUpdater"],
+                "ParticleUpdater", "UnscentedKalmanUpdater"],
     "_fallback": ["fallbacks"],
 }
 

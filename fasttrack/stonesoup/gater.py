@@ -3,7 +3,8 @@
 from stonesoup.gater import distance as ss_gater
 
 from ._fallback import fall_back
-from ._scan import _scan, vectorised
+from ._recipe import vectorised
+from ._scan import _scan
 
 __all__ = ["DistanceGater"]
 

@@ -17,7 +17,8 @@ from stonesoup.types.state import TaggedWeightedGaussianState, WeightedGaussianS
 from ._fallback import fall_back
 from ._objects import builder
 from ._pending import pending_groups
-from ._scan import _scan, vectorised
+from ._recipe import vectorised
+from ._scan import _scan
 
 __all__ = ["DistanceHypothesiser", "GaussianMixtureHypothesiser",
            "GaussianMixtureKDTreeHypothesiser", "PDAHypothesiser"]
