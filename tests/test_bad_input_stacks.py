@@ -109,16 +109,16 @@ def test_zero_dimensional_components_are_refused_by_the_kernels_too():
 def test_intensity_trackers_check_models_and_birth_when_built(kind, models, birth, error,
                                                               match):
     births = vo_linear_birth()
-    covars = births.covars.copy()
+    log_weights = {"heavy": np.full(len(births), 800.0),
+                   "two heavy": np.full(len(births), 709.5)}.get(birth, births.log_weights)
+    births = ft.GaussianMixture(births.means, births.covars, log_weights)
+    covars = births.covars  # (written into: the mixture checked them when made)
     if birth == "indefinite":
         covars[0, 1, 1] = -1.0
     if birth == "asymmetric":
         covars[0, 0, 1] += 1.0
     if birth == "singular":
         covars[0] = 0.0
-    log_weights = {"heavy": np.full(len(births), 800.0),
-                   "two heavy": np.full(len(births), 709.5)}.get(birth, births.log_weights)
-    births = ft.GaussianMixture(births.means, covars, log_weights)
     with pytest.raises(error, match=match):
         kind(*models, births, 0.9, 0.99, 1e-5, *([10.0] if kind is CPHDTracker else []))
 
@@ -281,9 +281,10 @@ def test_an_imm_update_refuses_an_indefinite_prediction():
     prior = ft.GaussianMixture([ft.WeightedGaussianState(np.zeros(4), np.eye(4), weight=0.5,
                                                          timestamp=0.0)] * 2)
     prediction = predictor.predict(prior, timestamp=1.0)
-    bad = ft.GaussianMixture([ft.WeightedGaussianState(mean, -0.1 * np.eye(4), weight=0.5,
+    bad = ft.GaussianMixture([ft.WeightedGaussianState(mean, 0.1 * np.eye(4), weight=0.5,
                                                        timestamp=1.0)
                               for mean in prediction.means])
+    bad.covars[:] *= -1.0  # (written into: the mixture checked them when made)
     detection = ft.Detection(np.zeros((2, 1)), timestamp=1.0)
     updater.update(ft.SingleHypothesis(prediction, detection))  # (the legal one)
     with pytest.raises(ValueError, match=r"hypothesis.prediction.covars\[0\] is not positive"):

@@ -462,12 +462,17 @@ def test_mixtures_and_the_pair_refuse_what_they_cannot_use():
         predictor.predict(ft.GaussianMixture([component, heavy]), 1.0)  # 0.5 + 0.9
     with pytest.raises(TypeError, match="prior must be a GaussianMixture"):
         predictor.predict(component, 1.0)
-    indefinite = ft.WeightedGaussianState([0.0] * 4, np.diag([1.0, -1.0, 1.0, 1.0]),
-                                          weight=0.5, timestamp=0.0)
+    indefinite = np.diag([1.0, -1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match=r"^covars\[1\] is not positive semi-definite"):
+        ft.GaussianMixture(np.zeros((2, 4)), np.stack([np.eye(4), indefinite]))
+    with pytest.raises(ValueError, match=r"^covars\[0\] is not symmetric"):
+        ft.GaussianMixture(np.zeros((1, 4)), (np.eye(4) + np.eye(4, k=1))[None])
+    written = ft.GaussianMixture([component, component])
+    written.covars[1] = indefinite  # (written into: the mixture checked them when made)
     for pair in (predictor, ft.IMMPredictor([ft.ExtendedKalmanPredictor(_cv(1.0))] * 2,
                                             [[0.9, 0.1], [0.1, 0.9]])):
         with pytest.raises(ValueError, match=r"prior.covars\[1\] is not positive semi-def"):
-            pair.predict(ft.GaussianMixture([component, indefinite]), 1.0)
+            pair.predict(written, 1.0)
     with pytest.raises(ValueError, match="predictors must hold at least one"):
         ft.IMMPredictor([], [[1.0]])
     updater = ft.IMMUpdater([ft.KalmanUpdater(SENSOR)] * 2, [[0.9, 0.1], [0.1, 0.9]])

@@ -23,7 +23,7 @@ class GaussianMixture:
     ----------
     means : (K, d) array_like, or a list of WeightedGaussianState
     covars : (K, d, d) array_like
-        Symmetric positive semi-definite (not checked: a mixture carries what it is given).
+        Symmetric positive semi-definite (checked, by the kernels' tolerance).
     log_weights : (K,) array_like, optional
         Unnormalised log weights, -inf for zero (default: equal weights).
     labels : (K,) array_like of int, optional
@@ -48,6 +48,7 @@ class GaussianMixture:
                 object.__setattr__(self, name, value)
         object.__setattr__(self, "_timestamp", timestamp)
         means, covars = _mixture.stack(self.means, self.covars)
+        _mixture.check_covariances(covars, "covars")
         k = means.shape[0]
         log_weights = np.zeros(k) if self.log_weights is None else \
             _mixture.log_weight_array(self.log_weights, k)
