@@ -69,9 +69,14 @@ class _IntensityTracker(ModelSettings):
         if not isinstance(mixture, GaussianMixture):
             raise TypeError(f"{name} must be a GaussianMixture, got {type(mixture).__name__}")
         d = self.measurement_model.ndim_state
-        if mixture.means.shape[1] != d:
+        if np.ndim(mixture.means) != 2 or mixture.means.shape[1] != d:
             raise ValueError(f"{name} must have {d}-D components (the models' state), got "
-                             f"{mixture.means.shape[1]}-D")
+                             f"means of shape {np.shape(mixture.means)}")
+        k = len(mixture)
+        for field, shape in (("covars", (k, d, d)), ("log_weights", (k,)), ("labels", (k,))):
+            if np.shape(getattr(mixture, field)) != shape:  # (a mixture's fields set by hand)
+                raise ValueError(f"{name}.{field} must have shape {shape}, as its {k} means, "
+                                 f"got {np.shape(getattr(mixture, field))}")
         return mixture
 
     def _birth(self, birth, name):

@@ -123,6 +123,30 @@ def test_intensity_trackers_check_models_and_birth_when_built(kind, models, birt
         kind(*models, births, 0.9, 0.99, 1e-5, *([10.0] if kind is CPHDTracker else []))
 
 
+def test_a_birth_of_fields_set_by_hand_is_named():
+    """A birth mixture whose covariances were replaced by fewer (its frozen fields set by
+    hand) failed a step later with NumPy's broadcasting message."""
+    births = vo_linear_birth()
+    object.__setattr__(births, "covars", births.covars[:2])
+    with pytest.raises(ValueError, match=r"birth.covars must have shape \(4, 4, 4\), as its "
+                                         r"4 means, got \(2, 4, 4\)"):
+        PHDTracker(CV, SENSOR, births, 0.9, 0.99, 1e-5)
+
+
+@pytest.mark.parametrize("numpy_first", [False, True])
+@pytest.mark.parametrize("field", ["means", "covars"])
+def test_nan_written_into_a_tracker_s_mixture_is_named(field, numpy_first, monkeypatch):
+    """NaN written into the tracker's own mixture was reported as a prediction that
+    overflowed."""
+    monkeypatch.setattr(_jit, "numpy_first", lambda work=1: numpy_first)
+    tracker = PHDTracker(CV, SENSOR, vo_linear_birth(), 0.9, 0.99, 1e-5)
+    tracker.step(np.zeros((1, 2)), 0.0)
+    getattr(tracker.mixture, field)[0, 0] = np.nan
+    with pytest.raises(ValueError, match=rf"filter 0: {field}\[0\] is not (finite|symmetric "
+                                         r"\(or not finite\))"):
+        tracker.step(np.zeros((1, 2)), 1.0)
+
+
 
 def test_arrays_given_stay_the_caller_s():
     """A mixture, a switching matrix and initial mode probabilities kept the caller's

@@ -155,7 +155,7 @@ def stack_predict(transition_model, model, intervals, means, covars, jacobian="a
         _stack.transition(transition_model, intervals)  # refuses what the kernels refuse
         status, *out = _numpy.stack_predict(transition_model, sensor, JACOBIANS[jacobian],
                                             intervals, means, covars)
-        _stack.check(status)
+        _stack.check(status, means, covars)
         return tuple(out)
     out = (np.empty((k, d)), np.empty((k, d, d)), np.empty((k, sensor.ndim_meas)),
            np.empty((k, sensor.ndim_meas, sensor.ndim_meas)))
@@ -179,7 +179,7 @@ def stack_predict(transition_model, model, intervals, means, covars, jacobian="a
                                   covars[lo:hi], *[a[lo:hi] for a in out], status[lo:hi])
 
     _stack.in_chunks(k, run)
-    _stack.check(status)
+    _stack.check(status, means, covars)
     return out
 
 

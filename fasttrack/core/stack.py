@@ -52,12 +52,21 @@ def transition(model, intervals):
     return spec.kalman()
 
 
-def check(status):
-    """Raise the ValueError naming the first failed filter of ``status`` (K,), if any."""
+def check(status, means=None, covars=None):
+    """Raise the ValueError naming the first failed filter of ``status`` (K,), if any; a
+    prediction that is not finite from its input ``means`` or ``covars`` (K, ...), if
+    given, that was not finite already is named as such."""
     failed = np.flatnonzero(status)
     if failed.size:
-        raise ValueError(f"{failed.size} of {status.size} filters failed; filter "
-                         f"{failed[0]}: {_message(status[failed[0]], failed[0])}")
+        k = failed[0]
+        message = _message(status[k], k)
+        if status[k] == _status.PREDICTION_OVERFLOW and means is not None:
+            given = [f"{name}[{k}]" for name, values in (("means", means), ("covars", covars))
+                     if not np.isfinite(values[k]).all()]
+            if given:
+                message = f"{' and '.join(given)} {'are' if len(given) > 1 else 'is'} not finite"
+        raise ValueError(f"{failed.size} of {status.size} filters failed; filter {k}: "
+                         f"{message}")
 
 
 def _message(code, k):
