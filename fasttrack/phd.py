@@ -28,10 +28,6 @@ def _first_row(d):
     reads)."""
     return LinearGaussian(d, (0,), np.eye(1))
 
-#: The largest cardinality a CPHDTracker carries (its recursions cost O(N^2) a scan).
-MAX_TARGETS = 10_000
-
-
 class _IntensityTracker(ModelSettings):
     """What the PHD and CPHD trackers share: the models, the birth intensity, P_D, P_S,
     the clutter intensity, the gate and the reducer (see :class:`PHDTracker`), and the
@@ -294,8 +290,8 @@ class CPHDTracker(_IntensityTracker):
         super().__init__(transition_model, measurement_model, birth, prob_detect,
                          prob_survival, clutter_intensity, gate_threshold, reducer, unscented)
         self.clutter_rate = clutter_rate
-        none = np.full(_validate.count(max_targets, "max_targets", maximum=MAX_TARGETS) + 1,
-                       -np.inf)
+        most = _validate.count(max_targets, "max_targets", maximum=_cphd.MAX_TARGETS)
+        none = np.full(most + 1, -np.inf)
         none[0] = 0.0
         self.log_cardinality = none
 
@@ -305,11 +301,8 @@ class CPHDTracker(_IntensityTracker):
     @staticmethod
     def _cardinality(value, name):
         """A read-only copy of a valid log cardinality distribution ``value`` (of at most
-        :data:`MAX_TARGETS` targets)."""
+        :data:`~fasttrack.core.cphd.MAX_TARGETS` targets)."""
         values = _cphd.cardinality(value, name).copy()
-        if values.size > MAX_TARGETS + 1:
-            raise ValueError(f"{name} must hold at most {MAX_TARGETS + 1} probabilities (of "
-                             f"0..max_targets), got {values.size}")
         values.flags.writeable = False
         return values
 

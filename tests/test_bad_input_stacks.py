@@ -204,6 +204,9 @@ def test_tracker_state_assigned_is_checked():
         cphd.log_cardinality = np.array([np.nan])
     with pytest.raises(ValueError, match="log_cardinality must hold at most 10001"):
         cphd.log_cardinality = np.log(np.full(10_002, 1 / 10_002))
+    huge = np.r_[0.0, np.full(200_000, -np.inf)]  # (its O(N^2) recursion ran for minutes)
+    with pytest.raises(ValueError, match="log_cardinality must hold at most 10001"):
+        core_cphd.predict_cardinality(huge, 0.9, 0.3)
     cphd.step(np.zeros((1, 2)), 0.0)
     with pytest.raises(ValueError, match="read-only"):
         cphd.log_cardinality[:] = 0.0

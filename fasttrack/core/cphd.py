@@ -18,6 +18,10 @@ from . import phd as _phd
 
 _cphd = _jit.lazy("cphd")
 
+#: The largest cardinality a distribution may carry (the recursions cost O(N^2) a scan:
+#: 10,000 targets take about a second).
+MAX_TARGETS = 10_000
+
 
 def predict_cardinality(log_cardinality, prob_survival, birth_mean):
     """The predicted log cardinality: each of n targets survives with ``prob_survival``
@@ -123,10 +127,13 @@ def update(model, means, covars, log_weights, log_cardinality, detections, prob_
 
 def cardinality(log_cardinality, name="log_cardinality"):
     """A validated (N + 1,) log cardinality distribution: finite or -inf, summing to one
-    (to 1e-9)."""
+    (to 1e-9), of N <= :data:`MAX_TARGETS`."""
     values = _validate.float_array(log_cardinality, name, 1)
     if values.size == 0 or np.isnan(values).any() or (values == np.inf).any():
         raise ValueError(f"{name} must be N + 1 >= 1 log probabilities, not NaN or +inf")
+    if values.size > MAX_TARGETS + 1:
+        raise ValueError(f"{name} must hold at most {MAX_TARGETS + 1} probabilities (of "
+                         f"0..N targets), got {values.size}")
     with np.errstate(over="ignore"):
         total = np.exp(values).sum()
     if abs(total - 1.0) > 1e-9:
