@@ -310,3 +310,19 @@ def test_position_rmse_pairs_by_order_or_by_timestamp():
                       pair="timestamp")
     with pytest.raises(ValueError, match="pair must be"):
         position_rmse(track, truth, pair="time")
+
+
+@pytest.mark.parametrize("state", [
+    lambda: ft.WeightedGaussianState([0.0, 0.0], np.eye(2), 0.5, 1.0),
+    lambda: ft.Detection([0.0], timestamp=1.0),
+    lambda: ft.ParticleState(np.zeros((2, 3)), timestamp=1.0),
+    lambda: ft.KernelParticleState(np.zeros((2, 3)), timestamp=1.0)])
+def test_a_timestamp_set_later_is_checked_as_the_constructor_checks_it(state):
+    """A NaN timestamp assigned after construction was kept (the constructor refuses it)."""
+    state = state()
+    with pytest.raises(ValueError, match="timestamp must be finite, got nan"):
+        state.timestamp = np.nan
+    with pytest.raises(TypeError, match="timestamp must be None, a datetime"):
+        state.timestamp = "now"
+    state.timestamp = 2.0
+    assert state.timestamp == 2.0

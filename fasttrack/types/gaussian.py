@@ -29,8 +29,10 @@ class State:
 
     def __init__(self, state_vector, timestamp=None):
         self.state_vector = state_vector
-        self.timestamp = check_timestamp(timestamp)
+        self.timestamp = timestamp
 
+    #: Checked when assigned (here or later): None, a datetime or finite seconds.
+    timestamp = _validate.Setting(check_timestamp)
     #: Checked when assigned (here or later): (d, 1), finite.
     state_vector = _validate.Setting("_checked_vector")
 

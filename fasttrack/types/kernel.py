@@ -36,11 +36,13 @@ class KernelParticleState:
         self.state_vector = state_vector
         m = self.state_vector.shape[1]
         self.weight = np.full(m, 1.0 / m) if weight is None else weight
-        self.timestamp = check_timestamp(timestamp)
+        self.timestamp = timestamp
         self._factors = isotropic_factors(m, 1.0 / m) if kernel_covar is None else \
             factor_kernel_covar(kernel_covar, m)
         self._kernel_covar = None
 
+    #: Checked when assigned (here or later): None, a datetime or finite seconds.
+    timestamp = _validate.Setting(check_timestamp)
     #: Checked when assigned (here or later): (d, M) finite, M the particles the weights
     #: and the kernel covariance hold.
     state_vector = _validate.Setting("_checked_particles")

@@ -74,6 +74,9 @@ class ParticleState:
 
     parent = Link()
 
+    #: Checked when assigned (here or later): None, a datetime or finite seconds.
+    timestamp = _validate.Setting(check_timestamp)
+
     def __init__(self, state_vector=None, timestamp=None, weight=None, log_weight=None,
                  parent=None, particle_list=None, fixed_covar=None):
         self._source = None
@@ -98,7 +101,7 @@ class ParticleState:
             raise TypeError(f"parent must be a ParticleState or None, "
                             f"got {type(parent).__name__}")
         self.parent = parent
-        self.timestamp = check_timestamp(timestamp)
+        self.timestamp = timestamp
         self.fixed_covar = None if fixed_covar is None else _validate.psd_covariance(
             fixed_covar, "fixed_covar", self.ndim)
         self._moments = None
