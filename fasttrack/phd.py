@@ -37,7 +37,7 @@ class _IntensityTracker(ModelSettings):
     def __init__(self, transition_model, measurement_model, birth, prob_detect, prob_survival,
                  clutter_intensity, gate_threshold, reducer, unscented):
         self.transition_model, self.measurement_model = transition_model, measurement_model
-        self.unscented = None if unscented is None else _phd.unscented_parameters(unscented)
+        self.unscented = unscented
         self.birth = birth
         self.prob_detect = prob_detect
         self.prob_survival = prob_survival
@@ -52,6 +52,7 @@ class _IntensityTracker(ModelSettings):
 
     # Settings, checked when assigned (here or later).
     birth = _validate.Setting("_birth")
+    unscented = _validate.Setting(_validate.optional(_phd.unscented_parameters))
     mixture = _validate.Setting("_intensity")
     time = _validate.Setting(_validate.optional(_validate.real))
     prob_detect = _validate.Setting(_validate.probability)
@@ -175,8 +176,8 @@ class PHDTracker(_IntensityTracker):
     birth components, update with the scan (:func:`fasttrack.core.phd.update`), reduce, and
     extract the components heavier than ``extraction_threshold``.
 
-    The settings (the parameters but the models and ``unscented``) may be changed between
-    scans; each assignment is checked as the constructor checks it.
+    The settings (the parameters but the models) may be changed between scans; each
+    assignment is checked as the constructor checks it.
 
     Parameters
     ----------

@@ -199,6 +199,8 @@ def test_tracker_state_assigned_is_checked():
         phd.mixture = None
     with pytest.raises(TypeError, match="time must be a real number"):
         phd.time = "x"
+    with pytest.raises(TypeError, match=r"unscented must be \(alpha, beta, kappa\), got 'x'"):
+        phd.unscented = "x"  # (was kept, and the updates ignored it)
     cphd = CPHDTracker(CV, SENSOR, birth, 0.9, 0.99, 1e-4, 5.0)
     with pytest.raises(ValueError, match="log_cardinality must be N"):
         cphd.log_cardinality = np.array([np.nan])

@@ -217,13 +217,13 @@ def jacobians_at(spec, means, name="means"):
     return jacobians
 
 
-def unscented_parameters(unscented):
+def unscented_parameters(unscented, name="unscented"):
     """``unscented`` as a checked ``(alpha, beta, kappa)`` (see
     :func:`fasttrack.core.unscented.check_parameters`), else an error naming it."""
     try:
         alpha, beta, kappa = unscented
     except (TypeError, ValueError):
-        raise TypeError(f"unscented must be (alpha, beta, kappa), got {unscented!r}") from None
+        raise TypeError(f"{name} must be (alpha, beta, kappa), got {unscented!r}") from None
     return _unscented.check_parameters(alpha, beta, kappa)
 
 
