@@ -62,7 +62,8 @@ class _IntensityTracker(ModelSettings):
     reducer = _validate.Setting(_validate.instance, kind=GaussianMixtureReducer)
 
     def _intensity(self, mixture, name):
-        """``mixture``, checked to be a mixture of the models' state."""
+        """``mixture``, checked to be a mixture of the models' state, of fields that agree
+        in length and a finite expected number of targets."""
         if not isinstance(mixture, GaussianMixture):
             raise TypeError(f"{name} must be a GaussianMixture, got {type(mixture).__name__}")
         d = self.measurement_model.ndim_state
@@ -74,12 +75,16 @@ class _IntensityTracker(ModelSettings):
             if np.shape(getattr(mixture, field)) != shape:  # (a mixture's fields set by hand)
                 raise ValueError(f"{name}.{field} must have shape {shape}, as its {k} means, "
                                  f"got {np.shape(getattr(mixture, field))}")
+        total = logsumexp(mixture.log_weights) if k else -np.inf
+        if total > _LOG_LARGEST:
+            raise ValueError(f"{name}.log_weights must total at most {_LOG_LARGEST:.1f} in "
+                             f"log (its expected number of targets, finite), got {total}")
         return mixture
 
     def _birth(self, birth, name):
-        """``birth``, checked: a mixture of the models' state, its covariances positive
-        definite (the reducer measures distances by their inverses), its expected number
-        of births finite, and (unless unscented) the sensor differentiable at its means."""
+        """``birth``, checked: a mixture of the models' state (its expected number of
+        births finite), its covariances positive definite (the reducer measures distances by
+        their inverses), and (unless unscented) the sensor differentiable at its means."""
         self._intensity(birth, name)
         _mixture.check_covariances(birth.covars, f"{name}.covars")
         singular = first_bad_covariance(birth.covars) if len(birth) else -1
@@ -88,11 +93,6 @@ class _IntensityTracker(ModelSettings):
                              f"reducer measures distances by its inverse)")
         if self.unscented is None:  # (each update linearises the sensor at the births' means)
             _phd.jacobians_at(self.measurement_model.spec, birth.means, f"{name}.means")
-        total = logsumexp(birth.log_weights)
-        if total > _LOG_LARGEST:
-            raise ValueError(f"{name}.log_weights must total at most {_LOG_LARGEST:.1f} in "
-                             f"log (the expected number of births a scan, finite), got "
-                             f"{total}")
         return birth
 
     def step(self, detections, time):

@@ -199,6 +199,9 @@ def test_tracker_state_assigned_is_checked():
         phd.mixture = None
     with pytest.raises(TypeError, match="time must be a real number"):
         phd.time = "x"
+    heavy = ft.GaussianMixture(np.zeros((2, 4)), np.tile(np.eye(4), (2, 1, 1)), [709.5] * 2)
+    with pytest.raises(ValueError, match="mixture.log_weights must total at most 709.8"):
+        phd.mixture = heavy  # (its expected number was inf)
     with pytest.raises(TypeError, match=r"unscented must be \(alpha, beta, kappa\), got 'x'"):
         phd.unscented = "x"  # (was kept, and the updates ignored it)
     cphd = CPHDTracker(CV, SENSOR, birth, 0.9, 0.99, 1e-4, 5.0)
