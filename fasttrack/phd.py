@@ -20,6 +20,8 @@ from .models.measurement import LinearGaussian
 from .types.mixture import GaussianMixture
 
 _LOG_LARGEST = math.log(np.finfo(np.float64).max)
+#: Labels of a tracker's mixture stay below this, so that new labels above them fit int64.
+_LABEL_LIMIT = 2 ** 62
 
 
 @functools.lru_cache(maxsize=None)
@@ -45,15 +47,15 @@ class _IntensityTracker(ModelSettings):
         self.gate_threshold = gate_threshold
         self.reducer = GaussianMixtureReducer(1e-5, 4.0, 100) if reducer is None else reducer
         d = birth.means.shape[1]
+        self._next_label = 0
         self.mixture = GaussianMixture(np.empty((0, d)), np.empty((0, d, d)), np.empty(0),
                                        np.empty(0, dtype=np.int64))
         self.time = None
-        self._next_label = 0
 
     # Settings, checked when assigned (here or later).
     birth = _validate.Setting("_birth")
     unscented = _validate.Setting(_validate.optional(_phd.unscented_parameters))
-    mixture = _validate.Setting("_intensity")
+    mixture = _validate.Setting("_mixture")
     time = _validate.Setting(_validate.optional(_validate.real))
     prob_detect = _validate.Setting(_validate.probability)
     prob_survival = _validate.Setting(_validate.probability)
@@ -79,6 +81,18 @@ class _IntensityTracker(ModelSettings):
         if total > _LOG_LARGEST:
             raise ValueError(f"{name}.log_weights must total at most {_LOG_LARGEST:.1f} in "
                              f"log (its expected number of targets, finite), got {total}")
+        return mixture
+
+    def _mixture(self, mixture, name):
+        """``mixture``, checked as :meth:`_intensity`, its labels below 2**62 (room for
+        new ones); the labels given later (births, merges) start above them."""
+        self._intensity(mixture, name)
+        if len(mixture):
+            top = int(mixture.labels.max())
+            if top >= _LABEL_LIMIT:
+                raise ValueError(f"{name}.labels must be below 2**62 (new components are "
+                                 f"labelled above them), got {top}")
+            self._next_label = max(self._next_label, top + 1)
         return mixture
 
     def _birth(self, birth, name):
@@ -120,8 +134,6 @@ class _IntensityTracker(ModelSettings):
         means, covars, log_weights, components = self._update(predicted, detections)
         updated = GaussianMixture._made(means, covars, log_weights, predicted.labels[components])
         self.mixture = self.reducer.reduce(updated, first_label=self._next_label)
-        if len(self.mixture):
-            self._next_label = max(self._next_label, int(self.mixture.labels.max()) + 1)
         self.time = time
         return self._picked(self._extract())
 

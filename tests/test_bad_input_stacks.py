@@ -123,6 +123,21 @@ def test_intensity_trackers_check_models_and_birth_when_built(kind, models, birt
         kind(*models, births, 0.9, 0.99, 1e-5, *([10.0] if kind is CPHDTracker else []))
 
 
+@pytest.mark.parametrize("kind", [PHDTracker, CPHDTracker])
+def test_a_mixture_assigned_to_a_tracker_keeps_its_labels_apart_from_new_ones(kind):
+    """A mixture of labels 7 and 0 assigned to a tracker failed its next step (the births
+    were labelled 0-3, the reducer refused a first label of 4); labels near 2**63 named
+    ``first_label``, which the caller never gave."""
+    tracker = kind(CV, SENSOR, vo_linear_birth(), 0.9, 0.99, 1e-5,
+                   *([10.0] if kind is CPHDTracker else []))
+    covars = np.tile(np.eye(4) * 100.0, (2, 1, 1))
+    tracker.mixture = ft.GaussianMixture(np.zeros((2, 4)), covars, np.log([0.5, 0.5]), [7, 0])
+    tracker.step(np.zeros((1, 2)), 0.0)
+    assert (tracker.mixture.labels[tracker.mixture.labels != 0] >= 7).all()  # (births: 8-11)
+    with pytest.raises(ValueError, match=r"mixture.labels must be below 2\*\*62"):
+        tracker.mixture = ft.GaussianMixture(np.zeros((1, 4)), covars[:1], [0.0], [2**63 - 1])
+
+
 def test_a_birth_of_fields_set_by_hand_is_named():
     """A birth mixture whose covariances were replaced by fewer (its frozen fields set by
     hand) failed a step later with NumPy's broadcasting message."""
