@@ -166,6 +166,9 @@ class _IntensityTracker(ModelSettings):
     def _predicted(self, dt):
         """The intensity ``dt`` seconds on, survival applied, with the births (new labels)."""
         mixture = self.mixture
+        for name, values in (("mixture", mixture.log_weights), ("birth", self.birth.log_weights)):
+            if np.isnan(values).any() or (values == np.inf).any():  # (written into since set)
+                raise ValueError(f"{name}.log_weights must not be NaN or +inf")
         k = len(mixture)
         means, covars = mixture.means, mixture.covars
         if k and dt > 0:  # (a sensor of one state row: the measurements are not used)

@@ -149,16 +149,17 @@ def test_a_birth_of_fields_set_by_hand_is_named():
 
 
 @pytest.mark.parametrize("numpy_first", [False, True])
-@pytest.mark.parametrize("field", ["means", "covars"])
+@pytest.mark.parametrize("field", ["means", "covars", "log_weights"])
 def test_nan_written_into_a_tracker_s_mixture_is_named(field, numpy_first, monkeypatch):
     """NaN written into the tracker's own mixture was reported as a prediction that
     overflowed."""
     monkeypatch.setattr(_jit, "numpy_first", lambda work=1: numpy_first)
     tracker = PHDTracker(CV, SENSOR, vo_linear_birth(), 0.9, 0.99, 1e-5)
     tracker.step(np.zeros((1, 2)), 0.0)
-    getattr(tracker.mixture, field)[0, 0] = np.nan
-    with pytest.raises(ValueError, match=rf"filter 0: {field}\[0\] is not (finite|symmetric "
-                                         r"\(or not finite\))"):
+    getattr(tracker.mixture, field).flat[0] = np.nan
+    with pytest.raises(ValueError, match=rf"(filter 0: {field}\[0\] is not (finite|(symmetric|"
+                                         r"positive semi-definite) \(or not finite\)))|"
+                                         r"mixture.log_weights must not be NaN"):
         tracker.step(np.zeros((1, 2)), 1.0)
 
 
