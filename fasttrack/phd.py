@@ -219,6 +219,8 @@ class PHDTracker(_IntensityTracker):
     ----------
     mixture : GaussianMixture
         The current intensity; the sum of its weights is the expected number of targets.
+        A mixture assigned to it is checked as the birth is, its labels below 2**62; the
+        components the tracker labels later are labelled above them.
     time : float or None
         The last scan's time in seconds (None before the first).
     """
@@ -292,7 +294,7 @@ class CPHDTracker(_IntensityTracker):
     Attributes
     ----------
     mixture : GaussianMixture
-        The current intensity.
+        The current intensity (assigned as :class:`PHDTracker`'s).
     log_cardinality : (N + 1,) ndarray
         Log probabilities of 0..N targets (at first, no target); read-only, checked when
         assigned.
