@@ -175,7 +175,7 @@ class _IntensityTracker(ModelSettings):
             means, covars, _, _ = _kalman.stack_predict(
                 self.transition_model, _first_row(means.shape[1]), np.full(k, dt), means,
                 covars)
-        log_survive = _phd.log_probability(self.prob_survival)
+        log_survive = _phd.log_probability(self.prob_survival, "prob_survival")
         births = len(self.birth)
         labels = np.concatenate((mixture.labels,
                                  self._next_label + np.arange(births, dtype=np.int64)))
@@ -247,7 +247,7 @@ class PHDTracker(_IntensityTracker):
         threshold = np.inf if self.gate_threshold is None else self.gate_threshold
         pairs = _phd.gated_pairs(model.spec, predicted.means, predicted.covars,
                                  predicted.log_weights, _phd.detections_of(model, detections),
-                                 _phd.log_probability(prob_detect),
+                                 _phd.log_probability(prob_detect, "prob_detect"),
                                  threshold, self.unscented)
         means, covars, log_weights, components, _ = _phd.posterior(
             pairs, prob_detect,

@@ -249,9 +249,50 @@ def test_component_gains_refuse_a_nan_innovation_covariance(numpy_first, monkeyp
     from fasttrack.core import mixture
     monkeypatch.setattr(_jit, "numpy_first", lambda work=1: numpy_first)
     covars = np.tile(np.eye(2), (2, 1, 1))
-    with pytest.raises(ValueError, match="innovation covariance of component 0 is not "
-                                         "positive definite"):
+    with pytest.raises(ValueError, match="innovation contains NaN"):
         mixture.component_gains(covars, covars[:, :, :1].copy(), np.full((2, 1, 1), np.nan))
+    with pytest.raises(ValueError, match="innovation covariance of component 1 is not "
+                                         "positive definite"):
+        mixture.component_gains(covars, covars[:, :, :1].copy(), np.array([[[1.0]], [[-1.0]]]))
+
+
+@pytest.mark.parametrize("name", ["covars", "innovation"])
+def test_component_gains_refuse_an_asymmetric_covariance(name):
+    """The kernel reads lower triangles: an asymmetric S gave the gains of another."""
+    from fasttrack.core import mixture
+    stacks = dict(covars=np.tile(np.eye(4), (2, 1, 1)), innovation=np.tile(np.eye(2), (2, 1, 1)))
+    stacks[name][1, 0, 1] = 0.9
+    with pytest.raises(ValueError, match=rf"{name}\[1\] is not symmetric"):
+        mixture.component_gains(stacks["covars"], np.zeros((2, 4, 2)), stacks["innovation"])
+
+
+@pytest.mark.parametrize("call, error, message", [
+    (lambda m, p: p.log_probability(-0.5, "prob_detect"), ValueError,
+     r"prob_detect must lie in \[0, 1\], got -0.5"),
+    (lambda m, p: p.log_probability(np.nan), ValueError, "value must be finite"),
+    (lambda m, p: m.relabel([0.5, 0.5], [1.0, 2.0], 3), ValueError,
+     "labels must be 2 integers, got float64"),
+    (lambda m, p: m.relabel([0, 0, 1], [1.0, 2.0], 5), ValueError,
+     r"weights must be 3 numbers \(not NaN\), one a label, got shape \(2,\)"),
+    (lambda m, p: m.relabel([0, 0], [1.0, np.nan], 5), ValueError, "not NaN"),
+    (lambda m, p: m.relabel([0, 0], [1.0, 2.0], -9), ValueError, "first_new must be >= 0"),
+    (lambda m, p: m.relabel([0, 0], [1.0, 2.0], 2**63 - 2), ValueError,
+     "first_new must be <= 9223372036854775805"),
+    (lambda m, p: m.relabel([0, 0], [1.0, 2.0], 1.5), TypeError, "first_new must be an int"),
+    (lambda m, p: m.groups([0.5, 0.5, 2.0]), ValueError, "labels must be 3 integers"),
+    (lambda m, p: m.groups([[0, 1]]), ValueError,
+     r"labels must be a 1-D array of integers, got int64 of shape \(1, 2\)"),
+])
+def test_array_layer_mixture_helpers_name_bad_arguments(call, error, message):
+    from fasttrack.core import mixture, phd
+    with pytest.raises(error, match=message):
+        call(mixture, phd)
+
+
+def test_relabel_renames_repeats_from_first_new():
+    from fasttrack.core import mixture
+    np.testing.assert_array_equal(mixture.relabel([4, 4, 2, 4], [1.0, 3.0, 1.0, 3.0], 10),
+                                  [10, 4, 2, 11])
 
 
 _CV = ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(0.05)] * 2)

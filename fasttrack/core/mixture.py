@@ -50,15 +50,19 @@ def component_gains(covars, cross, innovation):
     """``(gains, updated)``: each component's Kalman gain ``K = C S^-1`` (J, d, m) and
     posterior covariance ``P - K C^T`` (J, d, d, symmetric) from its covariance P
     (J, d, d), ``cross`` C = P H^T (J, d, m) and innovation covariance S (J, m, m)
-    (:func:`fasttrack._jit.mixture.component_gains`). Raises ValueError naming the first
-    component whose S is not positive definite."""
-    covars, cross, innovation = (_validate.float_array(a, name, 3) for a, name in (
+    (:func:`fasttrack._jit.mixture.component_gains`). Raises ValueError, naming the
+    argument, for stacks that are not finite or whose shapes disagree, a P or S that is not
+    symmetric (the kernel reads lower triangles), and naming the first component whose S
+    is not positive definite."""
+    covars, cross, innovation = (_validate.finite_array(a, name, 3) for a, name in (
         (covars, "covars"), (cross, "cross"), (innovation, "innovation")))
     j, d, m = cross.shape
     if covars.shape != (j, d, d) or innovation.shape != (j, m, m):
         raise ValueError(f"covars, cross and innovation must have shapes (J, d, d), (J, d, m) "
                          f"and (J, m, m), got {covars.shape}, {cross.shape} and "
                          f"{innovation.shape}")
+    _validate.symmetric_stack(covars, "covars")
+    _validate.symmetric_stack(innovation, "innovation")
     gains, updated = np.empty(cross.shape), np.empty(covars.shape)
     run = _numpy.component_gains if _jit.numpy_first(covars.size) else _mixture.component_gains
     failed = run(covars, np.ascontiguousarray(cross), np.ascontiguousarray(innovation), gains,
@@ -113,12 +117,14 @@ def log_weight_array(log_weights, k):
     return log_weights
 
 
-def label_array(labels, k):
-    """(K,) int64 ``labels`` (integers that int64 holds), else an error naming them."""
+def label_array(labels, k=None):
+    """(K,) int64 ``labels`` (integers that int64 holds; K any if None), else an error
+    naming them."""
     labels = np.asarray(labels)
+    k = labels.shape[0] if k is None and labels.ndim == 1 else k
     if labels.shape != (k,) or labels.dtype.kind not in "iu":
-        raise ValueError(f"labels must be {k} integers, got {labels.dtype} of shape "
-                         f"{labels.shape}")
+        raise ValueError(f"labels must be {'a 1-D array of' if k is None else k} integers, "
+                         f"got {labels.dtype} of shape {labels.shape}")
     if labels.dtype.kind == "u" and k and labels.max() > np.iinfo(np.int64).max:
         raise ValueError(f"labels must be below 2**63, got {labels.max()}")
     return labels.astype(np.int64)
@@ -127,6 +133,7 @@ def label_array(labels, k):
 def groups(labels):
     """``(order, starts, unique)``: the stable order that sorts int64 ``labels`` (K,), the
     CSR starts of its runs and the distinct labels, ascending."""
+    labels = label_array(labels)
     order = np.argsort(labels, kind="stable")
     unique, counts = np.unique(labels[order], return_counts=True)
     starts = np.zeros(unique.size + 1, dtype=np.int64)
@@ -281,8 +288,16 @@ def _grid_axes(means):
 
 def relabel(labels, weights, first_new):
     """``labels`` (L,) int64 with each label left on several components kept by the
-    heaviest (the first of equals) and the others numbered ``first_new``, ``first_new + 1``,
-    ... in component order."""
+    heaviest (the first of equals, by the (L,) float ``weights``) and the others numbered
+    ``first_new``, ``first_new + 1``, ... in component order (``first_new`` an int >= 0 that
+    leaves room for L new labels below 2**63)."""
+    labels = label_array(labels)
+    weights = _validate.float_array(weights, "weights", 1)
+    if weights.shape != labels.shape or np.isnan(weights).any():
+        raise ValueError(f"weights must be {labels.size} numbers (not NaN), one a label, got "
+                         f"shape {weights.shape}")
+    first_new = _validate.count(first_new, "first_new", minimum=0,
+                                maximum=np.iinfo(np.int64).max - labels.size)
     order = np.lexsort((-weights, labels))
     repeat = np.zeros(labels.size, dtype=bool)
     repeat[order[1:]] = labels[order[1:]] == labels[order[:-1]]

@@ -148,7 +148,7 @@ def detected_pairs(model, means, covars, log_weights, scan, prob_detect, gate_th
     log_weights = _validate.float_array(log_weights, "log_weights", 1)
     if log_weights.shape != (j,) or np.isnan(log_weights).any() or (log_weights == np.inf).any():
         raise ValueError(f"log_weights must be {j} numbers, not NaN or +inf")
-    log_detect = log_probability(_validate.probability(prob_detect, "prob_detect"))
+    log_detect = log_probability(prob_detect, "prob_detect")
     threshold = np.inf if gate_threshold is None else \
         _validate.positive(gate_threshold, "gate_threshold")
     _mixture.check_covariances(covars, "covars")
@@ -227,7 +227,9 @@ def unscented_parameters(unscented, name="unscented"):
     return _unscented.check_parameters(alpha, beta, kappa)
 
 
-def log_probability(value):
-    """log of a probability (a float in [0, 1]), -inf for 0."""
+def log_probability(value, name="value"):
+    """log of a probability ``value`` (a real number in [0, 1], else an error naming
+    ``name``), -inf for 0."""
+    value = _validate.probability(value, name)
     return math.log(value) if value > 0.0 else -math.inf
 
