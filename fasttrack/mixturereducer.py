@@ -63,16 +63,17 @@ class GaussianMixtureReducer:
         """
         if not isinstance(mixture, GaussianMixture):
             raise TypeError(f"mixture must be a GaussianMixture, got {type(mixture).__name__}")
+        means, covars, log_weights, labels = mixture.fields()
         with np.errstate(over="ignore"):
-            linear = np.exp(mixture.log_weights)
+            linear = np.exp(log_weights)
         if np.isinf(linear).any():
             raise ValueError(f"mixture.log_weights must lie below log(1.8e308) = 709.78 (the "
-                             f"reducer works on weights), got {mixture.log_weights.max()}")
+                             f"reducer works on weights), got {log_weights.max()}")
+        above = int(labels.max()) + 1 if labels.size else 0
         means, covars, weights, source, _ = _mixture.reduce(
-            mixture.means, mixture.covars, linear, self.mode,
+            means, covars, linear, self.mode,
             self.prune_threshold if self.pruning else None, self.merge_threshold,
             self.max_number_components if self.truncating else None, self.merging)
-        above = int(mixture.labels.max()) + 1 if len(mixture) else 0
         if first_label is None:
             first_label = above
         elif not _validate.is_integer(first_label):
@@ -84,6 +85,6 @@ class GaussianMixtureReducer:
         if first_label + len(weights) > np.iinfo(np.int64).max:
             raise ValueError(f"first_label leaves no room for new labels below 2**63, got "
                              f"{first_label}")
-        labels = _mixture.relabel(mixture.labels[source], weights, first_label)
+        labels = _mixture.relabel(labels[source], weights, first_label)
         with np.errstate(divide="ignore"):
             return GaussianMixture._made(means, covars, np.log(weights), labels)

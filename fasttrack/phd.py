@@ -68,16 +68,12 @@ class _IntensityTracker(ModelSettings):
         in length and a finite expected number of targets."""
         if not isinstance(mixture, GaussianMixture):
             raise TypeError(f"{name} must be a GaussianMixture, got {type(mixture).__name__}")
+        means, _, log_weights, _ = mixture.fields(name)
         d = self.measurement_model.ndim_state
-        if np.ndim(mixture.means) != 2 or mixture.means.shape[1] != d:
+        if means.shape[1] != d:
             raise ValueError(f"{name} must have {d}-D components (the models' state), got "
-                             f"means of shape {np.shape(mixture.means)}")
-        k = len(mixture)
-        for field, shape in (("covars", (k, d, d)), ("log_weights", (k,)), ("labels", (k,))):
-            if np.shape(getattr(mixture, field)) != shape:  # (a mixture's fields set by hand)
-                raise ValueError(f"{name}.{field} must have shape {shape}, as its {k} means, "
-                                 f"got {np.shape(getattr(mixture, field))}")
-        total = logsumexp(mixture.log_weights) if k else -np.inf
+                             f"means of shape {means.shape}")
+        total = logsumexp(log_weights) if len(mixture) else -np.inf
         if total > _LOG_LARGEST:
             raise ValueError(f"{name}.log_weights must total at most {_LOG_LARGEST:.1f} in "
                              f"log (its expected number of targets, finite), got {total}")
@@ -159,31 +155,31 @@ class _IntensityTracker(ModelSettings):
 
     def _picked(self, index):
         """The components ``index`` (a mask or indices) of the intensity."""
-        mixture = self.mixture
-        return GaussianMixture._made(mixture.means[index], mixture.covars[index],
-                                     mixture.log_weights[index], mixture.labels[index])
+        return GaussianMixture._made(*(field[index] for field in self.mixture.fields("mixture")))
 
     def _predicted(self, dt):
         """The intensity ``dt`` seconds on, survival applied, with the births (new labels)."""
-        mixture = self.mixture
-        for name, values in (("mixture", mixture.log_weights), ("birth", self.birth.log_weights)):
-            if np.isnan(values).any() or (values == np.inf).any():  # (written into since set)
+        means, covars, log_weights, labels = self.mixture.fields("mixture")
+        birth = self.birth.fields("birth")  # (both may be written into or replaced since set)
+        for name, values in (("mixture", log_weights), ("birth", birth[2])):
+            if np.isnan(values).any() or (values == np.inf).any():
                 raise ValueError(f"{name}.log_weights must not be NaN or +inf")
-        k = len(mixture)
-        means, covars = mixture.means, mixture.covars
+        k = means.shape[0]
+        if birth[0].shape[1:] != means.shape[1:]:
+            raise ValueError(f"birth must have components of the mixture's dimension "
+                             f"{means.shape[1]}, got means of shape {birth[0].shape}")
         if k and dt > 0:  # (a sensor of one state row: the measurements are not used)
             means, covars, _, _ = _kalman.stack_predict(
                 self.transition_model, _first_row(means.shape[1]), np.full(k, dt), means,
                 covars)
         log_survive = _phd.log_probability(self.prob_survival, "prob_survival")
-        births = len(self.birth)
-        labels = np.concatenate((mixture.labels,
-                                 self._next_label + np.arange(births, dtype=np.int64)))
+        births = birth[0].shape[0]
+        labels = np.concatenate((labels, self._next_label + np.arange(births, dtype=np.int64)))
         self._next_label += births
-        return GaussianMixture._made(np.concatenate((means, self.birth.means)),
-                                     np.concatenate((covars, self.birth.covars)),
-                                     np.concatenate((mixture.log_weights + log_survive,
-                                                     self.birth.log_weights)), labels)
+        return GaussianMixture._made(np.concatenate((means, birth[0])),
+                                     np.concatenate((covars, birth[1])),
+                                     np.concatenate((log_weights + log_survive, birth[2])),
+                                     labels)
 
 
 class PHDTracker(_IntensityTracker):

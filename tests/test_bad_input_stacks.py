@@ -148,6 +148,52 @@ def test_a_birth_of_fields_set_by_hand_is_named():
         PHDTracker(CV, SENSOR, births, 0.9, 0.99, 1e-5)
 
 
+def _replaced(mixture, field, value):
+    """``mixture`` with its frozen ``field`` set by hand to ``value``."""
+    object.__setattr__(mixture, field, value)
+    return mixture
+
+
+def _three():
+    return ft.GaussianMixture(np.zeros((3, 2)), np.tile(np.eye(2), (3, 1, 1)))
+
+
+@pytest.mark.parametrize("field, value, error, match", [
+    ("labels", np.zeros(1, dtype=np.int64), ValueError,
+     r"mixture.labels must have shape \(3,\), as its 3 means, got \(1,\)"),
+    ("covars", np.tile(np.eye(2), (2, 1, 1)), ValueError,
+     r"mixture.covars must have shape \(3, 2, 2\), as its 3 means, got \(2, 2, 2\)"),
+    ("means", [[0.0, 0.0]] * 3, TypeError, "mixture.means must be a float64 ndarray, got list"),
+    ("means", np.zeros(3), ValueError, r"mixture.means must be 2-D \(K, d\), got shape"),
+    ("labels", np.zeros(3), TypeError, "mixture.labels must be a int64 ndarray, got float64"),
+])
+@pytest.mark.parametrize("use", ["reduce", "mean", "covar", "components", "fields"])
+def test_a_mixture_of_fields_set_by_hand_is_named_where_it_is_read(field, value, error, match,
+                                                                   use):
+    """Fields that disagree gave IndexError, NumPy's broadcasting message, or (components)
+    two of three components without a word."""
+    mixture = _replaced(_three(), field, value)
+    read = {"reduce": lambda: ft.GaussianMixtureReducer(merging=False).reduce(mixture),
+            "mean": lambda: mixture.mean, "covar": lambda: mixture.covar,
+            "components": lambda: mixture.components, "fields": mixture.fields}[use]
+    with pytest.raises(error, match=match):
+        read()
+
+
+@pytest.mark.parametrize("kind", [PHDTracker, CPHDTracker])
+@pytest.mark.parametrize("which", ["mixture", "birth"])
+def test_a_tracker_names_its_mixture_or_birth_set_by_hand_after_it_was_assigned(kind, which):
+    """A tracker mixture whose log weights were replaced by fewer failed its next step with
+    an IndexError."""
+    tracker = kind(CV, SENSOR, vo_linear_birth(), 0.9, 0.99, 1e-5,
+                   *([10.0] if kind is CPHDTracker else []))
+    tracker.step(np.zeros((1, 2)), 0.0)
+    held = getattr(tracker, which)
+    _replaced(held, "log_weights", held.log_weights[:1])
+    with pytest.raises(ValueError, match=rf"{which}.log_weights must have shape"):
+        tracker.step(np.zeros((1, 2)), 1.0)
+
+
 @pytest.mark.parametrize("numpy_first", [False, True])
 @pytest.mark.parametrize("field", ["means", "covars", "log_weights"])
 def test_nan_written_into_a_tracker_s_mixture_is_named(field, numpy_first, monkeypatch):

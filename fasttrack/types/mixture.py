@@ -71,6 +71,33 @@ class GaussianMixture:
     def __len__(self):
         return self.means.shape[0]
 
+    def fields(self, name="mixture"):
+        """``(means, covars, log_weights, labels)``, checked to be arrays of the mixture's
+        kinds whose shapes agree (a mixture's fields can be replaced after it is made).
+
+        Raises
+        ------
+        TypeError
+            For a field that is not a float64 (labels: int64) ndarray, naming ``name``'s.
+        ValueError
+            For a field whose shape disagrees with the (K, d) means.
+        """
+        means = self.means
+        _field_kind(name, "means", means, _FLOAT)
+        if means.ndim != 2:
+            raise ValueError(f"{name}.means must be 2-D (K, d), got shape {means.shape}")
+        k, d = means.shape
+        out = [means]
+        for field, shape, kind in (("covars", (k, d, d), _FLOAT), ("log_weights", (k,), _FLOAT),
+                                   ("labels", (k,), _INT)):
+            value = getattr(self, field)
+            _field_kind(name, field, value, kind)
+            if value.shape != shape:
+                raise ValueError(f"{name}.{field} must have shape {shape}, as its {k} means, "
+                                 f"got {value.shape}")
+            out.append(value)
+        return tuple(out)
+
     @property
     def timestamp(self):
         """The components' time (None for a mixture built from arrays)."""
@@ -80,13 +107,14 @@ class GaussianMixture:
     def components(self):
         """The components as :class:`~fasttrack.types.WeightedGaussianState` (new objects)."""
         from .gaussian import WeightedGaussianState
+        means, covars, log_weights, _ = self.fields()
         with np.errstate(under="ignore", over="ignore"):
-            weights = np.exp(self.log_weights)
+            weights = np.exp(log_weights)
         if np.isinf(weights).any():
             raise ValueError(f"log_weights beyond log(1.8e308) = 709.78 have no float64 weight "
-                             f"for a component, got {self.log_weights.max()}")
+                             f"for a component, got {log_weights.max()}")
         return [WeightedGaussianState(m, p, float(w), self._timestamp)
-                for m, p, w in zip(self.means, self.covars, weights)]
+                for m, p, w in zip(means, covars, weights)]
 
     @property
     def mean(self):
@@ -101,12 +129,12 @@ class GaussianMixture:
         return self._matched()[1]
 
     def _matched(self):
-        if len(self) == 0 or self.log_weights.max() == -np.inf:
+        means, covars, log_weights, _ = self.fields()
+        if len(self) == 0 or log_weights.max() == -np.inf:
             raise ValueError("a mixture of no components or of zero weight has no mean or "
                              "covariance")
-        weights = np.exp(self.log_weights - self.log_weights.max())
-        mean, covar = _imm.combine(self.means[None], self.covars[None],
-                                   (weights / weights.sum())[None])
+        weights = np.exp(log_weights - log_weights.max())
+        mean, covar = _imm.combine(means[None], covars[None], (weights / weights.sum())[None])
         _mixture.check_finite_moments(mean, covar)
         return mean[0], covar[0]
 
@@ -132,6 +160,16 @@ def _components(components):
     if len(times) > 1:
         raise ValueError(f"the components must all have the same timestamp, got {len(times)}")
     return components, times.pop()
+
+
+_FLOAT, _INT = np.dtype(np.float64), np.dtype(np.int64)
+
+
+def _field_kind(name, field, value, kind):
+    """TypeError naming ``name.field`` unless ``value`` is an ndarray of dtype ``kind``."""
+    if not isinstance(value, np.ndarray) or value.dtype != kind:
+        got = f"{value.dtype} array" if isinstance(value, np.ndarray) else type(value).__name__
+        raise TypeError(f"{name}.{field} must be a {kind} ndarray, got {got}")
 
 
 def _log(weights):
