@@ -61,7 +61,7 @@ class _IntensityTracker(ModelSettings):
     prob_survival = _validate.Setting(_validate.probability)
     clutter_intensity = _validate.Setting(_validate.positive)
     gate_threshold = _validate.Setting(_validate.optional(_validate.positive))
-    reducer = _validate.Setting(_validate.instance, kind=GaussianMixtureReducer)
+    reducer = _validate.Setting("_reducer")
 
     def _intensity(self, mixture, name):
         """``mixture``, checked to be a mixture of the models' state, of fields that agree
@@ -105,6 +105,18 @@ class _IntensityTracker(ModelSettings):
             _phd.jacobians_at(self.measurement_model.spec, birth.means, f"{name}.means")
         return birth
 
+    @staticmethod
+    def _reducer(reducer, name):
+        """``reducer``, checked to be a GaussianMixtureReducer that prunes, merges or
+        truncates (with none of them, the intensity gains a component for each pair of
+        component and detection every scan, without bound)."""
+        _validate.instance(reducer, name, GaussianMixtureReducer)
+        if not (reducer.pruning or reducer.merging or reducer.truncating):
+            raise ValueError(f"{name} must prune, merge or truncate (a tracker's intensity "
+                             f"multiplies its components by the detections + 1 every scan), "
+                             f"got pruning, merging and truncating all False")
+        return reducer
+
     def step(self, detections, time):
         """Process one scan.
 
@@ -126,6 +138,7 @@ class _IntensityTracker(ModelSettings):
         if self.time is not None and not dt > 0:
             raise ValueError(f"time must be after the previous scan's ({self.time} s), "
                              f"got {time}")
+        self._reducer(self.reducer, "reducer")  # (its settings may have changed since)
         predicted = self._predicted(dt)
         means, covars, log_weights, components = self._update(predicted, detections)
         updated = GaussianMixture._made(means, covars, log_weights, predicted.labels[components])
@@ -205,7 +218,8 @@ class PHDTracker(_IntensityTracker):
         Squared Mahalanobis distance within which a detection updates a component (default:
         every pair).
     reducer : ~fasttrack.mixturereducer.GaussianMixtureReducer, optional
-        Default: prune 1e-5, merge 4, at most 100 components (Vo's), textbook rules.
+        Default: prune 1e-5, merge 4, at most 100 components (Vo's), textbook rules. It
+        must prune, merge or truncate (checked at each step).
     extraction_threshold : float
         Components heavier than this are the estimates (default 0.5).
     unscented : (alpha, beta, kappa), optional

@@ -148,6 +148,24 @@ def test_a_birth_of_fields_set_by_hand_is_named():
         PHDTracker(CV, SENSOR, births, 0.9, 0.99, 1e-5)
 
 
+@pytest.mark.parametrize("kind", [PHDTracker, CPHDTracker])
+def test_a_reducer_that_does_not_reduce_is_refused(kind):
+    """With pruning, merging and truncating all off, a tracker's intensity grew from 260 to
+    1.1 million components by its second scan."""
+    args = (CV, SENSOR, vo_linear_birth(), 0.9, 0.99, 1e-5,
+            *([10.0] if kind is CPHDTracker else []))
+    idle = ft.GaussianMixtureReducer(pruning=False, merging=False, truncating=False)
+    with pytest.raises(ValueError, match="reducer must prune, merge or truncate"):
+        kind(*args, reducer=idle)
+    tracker = kind(*args)
+    with pytest.raises(ValueError, match="reducer must prune, merge or truncate"):
+        tracker.reducer = idle
+    tracker.reducer.pruning = tracker.reducer.merging = tracker.reducer.truncating = False
+    with pytest.raises(ValueError, match="reducer must prune, merge or truncate"):
+        tracker.step(np.zeros((1, 2)), 0.0)
+    assert tracker.time is None  # (refused before the scan changed anything)
+
+
 def _replaced(mixture, field, value):
     """``mixture`` with its frozen ``field`` set by hand to ``value``."""
     object.__setattr__(mixture, field, value)
