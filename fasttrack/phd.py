@@ -123,7 +123,9 @@ class _IntensityTracker(ModelSettings):
         Parameters
         ----------
         detections : (M, m) array_like
-            The scan (an empty one for none).
+            The scan (an empty one for none), finite. Bearings are wrapped to [-pi, pi)
+            (within +-1e9 rad) and ranges taken as measured: the sensor's noise is additive,
+            so a range measured near the sensor may be negative.
         time : float
             The scan's time in seconds, finite, after the previous scan's (the intensity is
             predicted over the difference).
