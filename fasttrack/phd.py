@@ -217,8 +217,8 @@ class PHDTracker(_IntensityTracker):
     clutter_intensity : float
         Expected clutter detections per unit volume of measurement space, > 0.
     gate_threshold : float, optional
-        Squared Mahalanobis distance within which a detection updates a component (default:
-        every pair).
+        Squared Mahalanobis distance within which a detection updates a component, finite
+        and > 0 (default None: every pair).
     reducer : ~fasttrack.mixturereducer.GaussianMixtureReducer, optional
         Default: prune 1e-5, merge 4, at most 100 components (Vo's), textbook rules. It
         must prune, merge or truncate (checked at each step).

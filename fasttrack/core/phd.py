@@ -52,8 +52,8 @@ def update(model, means, covars, log_weights, detections, prob_detect, clutter_i
     clutter_intensity : float
         kappa > 0: expected clutter detections per unit volume of measurement space.
     gate_threshold : float, optional
-        Squared Mahalanobis distance within which a detection updates a component (default:
-        every pair).
+        Squared Mahalanobis distance within which a detection updates a component, finite
+        and > 0 (default None: every pair).
     unscented : (alpha, beta, kappa), optional
         For a polar sensor, the unscented transform's parameters (the unscented Kalman
         filter's, e.g. Stone Soup's (0.5, 2, None); kappa None for 3 - d); default: the
