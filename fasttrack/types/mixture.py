@@ -75,6 +75,11 @@ class GaussianMixture:
         """``(means, covars, log_weights, labels)``, checked to be arrays of the mixture's
         kinds whose shapes agree (a mixture's fields can be replaced after it is made).
 
+        Parameters
+        ----------
+        name : str
+            The mixture's name in the errors (e.g. a tracker's ``"birth"``).
+
         Raises
         ------
         TypeError
