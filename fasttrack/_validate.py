@@ -213,17 +213,19 @@ def linear_weights(value, name, size=None):
         return np.log(w)
 
 
-def storable(count, bytes_each, name):
+def storable(count, bytes_each, name, described=None):
     """ValueError naming ``name`` when ``count`` items of ``bytes_each`` bytes would need
     more than the machine's physical memory (rather than NumPy's MemoryError, which names
-    only a shape)."""
+    only a shape); ``described``, if given, says what was asked for in the arguments'
+    terms instead of ``name=count``."""
     try:
         memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (AttributeError, ValueError, OSError):  # (no sysconf: NumPy's error stands)
         return
     if count * bytes_each > memory:
-        raise ValueError(f"{name}={count} needs {count * bytes_each / 2**30:.3g} GiB of "
-                         f"arrays, more than this machine's {memory / 2**30:.3g} GiB of memory")
+        raise ValueError(f"{described or f'{name}={count}'} needs "
+                         f"{count * bytes_each / 2**30:.3g} GiB of arrays, more than this "
+                         f"machine's {memory / 2**30:.3g} GiB of memory")
 
 
 def count(value, name, default=None, minimum=1, maximum=MAX_COUNT):

@@ -251,6 +251,10 @@ def _same_components(truths, estimates):
     return truths, estimates
 
 
+#: The range of ``c ** p`` the OSPA and GOSPA sums hold (distances are summed to the power p).
+POWER_RANGE = (1e-300, 1e300)
+
+
 def _parameters(c, p, alpha=None, infinite_p=False):
     c = positive(c, "c")
     if infinite_p and _is_inf(p):
@@ -261,7 +265,7 @@ def _parameters(c, p, alpha=None, infinite_p=False):
             raise ValueError(f"p must be >= 1{' (or inf)' if infinite_p else ''}, got {p}")
         with np.errstate(over="ignore", under="ignore"):
             cut = np.float64(c) ** p
-        if not 1e-300 <= cut <= 1e300:
+        if not POWER_RANGE[0] <= cut <= POWER_RANGE[1]:
             raise ValueError(f"c ** p must lie in [1e-300, 1e300] (the distances are summed "
                              f"to the power p), got c = {c:g}, p = {p:g}: rescale the points "
                              f"so that c is nearer 1, or lower p")

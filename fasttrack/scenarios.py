@@ -10,8 +10,8 @@ from . import random as _random
 from .models import (Cartesian2DToBearing, CartesianToBearingRange,
                      CombinedLinearGaussianTransitionModel, ConstantVelocity, LinearGaussian,
                      LinearGaussianTransitionModel)
-from .simulate import (MAX_RATE, MultiTargetScenario, _observe, _rate, detections, ground_truth,
-                       multi_target)
+from .simulate import (MAX_RATE, MultiTargetScenario, _observe, _rate, check_storable,
+                       detections, ground_truth, multi_target)
 from .types import GaussianMixture, GaussianState, KernelParticleState, ParticleState
 
 START = datetime.datetime(2026, 1, 1)
@@ -40,6 +40,13 @@ def _generator(seed):
     if not isinstance(seed, np.random.SeedSequence):
         _random.check_rng(seed, "seed")
     return np.random.default_rng(seed)
+
+
+def _particles(n_particles):
+    """``n_particles``, an int >= 1 whose (4, N) prior and its draws fit in memory."""
+    n_particles = _validate.count(n_particles, "n_particles")
+    _validate.storable(n_particles, 3 * 4 * 8, "n_particles")
+    return n_particles
 
 
 def _diagonal_gaussian(rng, mean, std, n):
@@ -77,7 +84,7 @@ def particle_filter_tutorial(n_particles=1000, seed=1991, steps=21):
     -------
     Scenario
     """
-    n_particles = _validate.count(n_particles, "n_particles")
+    n_particles = _particles(n_particles)
     steps = _validate.count(steps, "steps")
     rng = _generator(seed)
     transition, sensor, truth, measured = _bearing_range_scenario(rng, steps)
@@ -130,7 +137,7 @@ def adaptive_kernel_tutorial(n_particles=30, seed=50, steps=30):
     -------
     Scenario
     """
-    n_particles = _validate.count(n_particles, "n_particles")
+    n_particles = _particles(n_particles)
     steps = _validate.count(steps, "steps")
     rng = _generator(seed)
     transition = CombinedLinearGaussianTransitionModel([ConstantVelocity(1e-4)] * 2)
@@ -224,6 +231,7 @@ def vo_linear(clutter_rate=60.0, seed=None):
     fasttrack.simulate.MultiTargetScenario
     """
     clutter_rate = _rate(clutter_rate, "clutter_rate")
+    check_storable(100, clutter_rate + 10, 4, 2, f"100 scans of clutter_rate={clutter_rate:g}")
     rng = _generator(seed)
     f = np.kron(np.eye(2), [[1.0, 1.0], [0.0, 1.0]])
     b = np.kron(np.eye(2), [[0.5], [1.0]])

@@ -43,6 +43,7 @@ def ground_truth(transition_model, initial_state, steps, time_interval=1.0, star
     """
     check_model(transition_model, TransitionModel, "transition_model")
     steps = _validate.count(steps, "steps")
+    _validate.storable(steps, BYTES_PER_STATE, "steps")
     dt = _interval(time_interval)
     check_timestamp(start_time, "start_time")
     if start_time is None:
@@ -99,6 +100,9 @@ def detections(truth, measurement_model, rng=None):
                         f"timestamp), such as a GroundTruthPath, got {given}")
     out = []
     for k, state in enumerate(truth):
+        if np.shape(state.state_vector)[:1] != (measurement_model.ndim_state,):
+            raise ValueError(f"measurement_model measures {measurement_model.ndim_state}-D "
+                             f"states, got truth[{k}] of shape {np.shape(state.state_vector)}")
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow is raised below
             measured = measurement_model.function(state, noise=True, rng=rng)
         if not np.isfinite(measured).all():
@@ -119,6 +123,17 @@ def _interval(time_interval):
 
 #: The most clutter or births a scan may expect (more would not fit in memory).
 MAX_RATE = 1e7
+
+#: About the memory of a truth or detection object (its vector and timestamp), bytes.
+BYTES_PER_STATE = 512
+
+
+def check_storable(steps, per_scan, d, m, described):
+    """ValueError, ``described`` saying what was asked for, when ``steps`` scans of
+    ``per_scan`` expected measurements and target states (``d``-D states, ``m``-D
+    measurements) need more memory than the machine has."""
+    _validate.storable(int(steps * per_scan), 8 * (2 * m + d + 4), "steps",
+                       f"{described}, about {steps * per_scan:.3g} measurements,")
 
 
 def _rate(value, name):
@@ -251,6 +266,9 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
     check_model(measurement_model, MeasurementModel, "measurement_model")
     steps = _validate.count(steps, "steps")
     d, m = transition_model.ndim_state, measurement_model.ndim_meas
+    if measurement_model.ndim_state != d:
+        raise ValueError(f"measurement_model measures {measurement_model.ndim_state}-D states, "
+                         f"transition_model's are {d}-D")
     states = _validate.finite_array(initial_states, "initial_states", 2)
     if states.shape[1:] != (d,):
         raise ValueError(f"initial_states must have shape (n, {d}), got {states.shape}")
@@ -277,6 +295,9 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
     if not np.isfinite(clutter_density):
         raise ValueError(f"the clutter density (clutter_rate {clutter_rate:g} over region's "
                          f"volume {volume:.3g}) overflows float64")
+    check_storable(steps, clutter_rate + states.shape[0] + birth_rate * (steps + 1) / 2, d, m,
+                   f"steps={steps} of clutter_rate={clutter_rate:g}, birth_rate={birth_rate:g} "
+                   f"and {states.shape[0]} initial_states")
     if birth_rate > 0 and (birth_mean is None or birth_covar is None):
         raise ValueError("birth_rate > 0 needs birth_mean and birth_covar")
     if birth_mean is not None:

@@ -278,3 +278,47 @@ def test_detections_name_a_bad_model_or_overflow():
                                          r"measurement_model"):
         detections(far, polar, rng=0)
     assert detections([], SENSOR) == []
+
+
+# --- sizes beyond memory, models that disagree ---------------------------------------------
+
+def _huge_memory(monkeypatch, gib):
+    """The machine as reported to the checks: ``gib`` GiB of memory."""
+    import os
+    sysconf = os.sysconf
+    pages = {"SC_PAGE_SIZE": 4096, "SC_PHYS_PAGES": gib * 2**30 // 4096}
+    monkeypatch.setattr(os, "sysconf", lambda name: pages.get(name) or sysconf(name))
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: scenarios.vo_linear(clutter_rate=1e7), r"100 scans of clutter_rate=1e\+07, about "
+                                                    r"1e\+09 measurements, needs .* GiB"),
+    (lambda: scenarios.grid_targets(n_targets=4, clutter_rate=1e7),
+     r"steps=50 of clutter_rate=1e\+07, birth_rate=0 and 4 initial_states"),
+    (lambda: scenarios.grid_targets(n_targets=10**7, steps=2**40, clutter_rate=0.0),
+     r"steps=1099511627776 of .* 10000000 initial_states"),
+    (lambda: _multi(steps=10**6, **BIRTH, birth_covar=np.eye(4)), r"birth_rate=5"),
+    (lambda: scenarios.particle_filter_tutorial(n_particles=10**11, steps=2),
+     "n_particles=100000000000 needs"),
+    (lambda: scenarios.adaptive_kernel_tutorial(n_particles=2**40, steps=2),
+     "n_particles=1099511627776 needs"),
+    (lambda: scenarios.particle_filter_tutorial(steps=10**9), "steps=1000000000 needs"),
+    (lambda: ground_truth(TRANSITION, START, 10**9), "steps=1000000000 needs"),
+])
+def test_scenarios_beyond_memory_are_named_at_once(call, match, monkeypatch):
+    """vo_linear's documented clutter_rate of 1e7 needed 24 GB and ran for minutes into
+    NumPy's MemoryError; counts under the 2**40 cap that could not be stored ran until
+    killed."""
+    _huge_memory(monkeypatch, 16)
+    with pytest.raises(ValueError, match=match + ".*more than this machine's 16 GiB"):
+        call()
+
+
+def test_a_measurement_model_of_other_states_is_named():
+    six = ft.LinearGaussian(6, (0, 2), np.eye(2))
+    with pytest.raises(ValueError, match="measurement_model measures 6-D states, "
+                                         "transition_model's are 4-D"):
+        _multi(measurement_model=six, region=REGION)
+    with pytest.raises(ValueError, match=r"measurement_model measures 6-D states, got "
+                                         r"truth\[0\] of shape \(4, 1\)"):
+        detections(ground_truth(TRANSITION, START, 2, rng=0), six)

@@ -479,6 +479,97 @@ def test_a_position_mapping_outside_the_states_is_an_error_up_front():
     with pytest.raises(ValueError, match="position_mapping"):
         mc.run_trial(pf_scenario, make_pf, mc.run_seeds(1, 1)[0], position_mapping=(0, 5))
 
+class _FlatTracks:
+    means = np.zeros(4)
+
+
+class _FlatTracker:
+    def step(self, detections, time):
+        return _FlatTracks()
+
+
+@pytest.mark.parametrize("arguments, error, match", [
+    (dict(client=42), TypeError, r"client must be a distributed.Client or a scheduler's "
+                                 r"address \(a str\), got int"),
+    (dict(scenario=lambda seed: None), TypeError,
+     r"scenario\(seed=...\) must return a Scenario \(truth, detections, prior\) or a "
+     r"MultiTargetScenario, got NoneType"),
+    (dict(scenario=lambda: pf_scenario(1)), TypeError, "scenario must take a seed keyword"),
+    (dict(position_mapping=(0, 2.0)), TypeError,
+     r"position_mapping must hold integer indices, got 2.0"),
+    (dict(position_mapping=(True, 2)), TypeError, "position_mapping must hold integer indices"),
+    (dict(position_mapping=None), TypeError, "position_mapping must be a sequence"),
+    (dict(position_mapping={0: 1, 2: 3}), TypeError, "position_mapping must be a sequence"),
+    (dict(position_mapping=[[0, 2]]), TypeError, "position_mapping must hold integer indices"),
+    (dict(position_mapping=(0, -1)), ValueError, r"position_mapping indices must lie in \[0,"),
+    (dict(gospa_cutoff=1e301), ValueError, r"gospa_cutoff must lie in \[1e-300, 1e\+300\]"),
+    (dict(gospa_cutoff=1e-310), ValueError, "gospa_cutoff must lie in"),
+    (dict(n_runs=2**40), ValueError, "n_runs=1099511627776 needs"),
+])
+def test_run_trials_names_bad_arguments_up_front(arguments, error, match):
+    arguments = {"scenario": pf_scenario, "make_filter": make_pf, "n_runs": 2,
+                 "processes": 1, "progress": False, **arguments}
+    if "client" in arguments:
+        del arguments["processes"]
+    with pytest.raises(error, match=match):
+        mc.run_trials(**arguments)
+
+
+def test_a_position_mapping_may_be_any_sequence_of_indices():
+    ranged = mc.run_trials(pf_scenario, make_pf, 2, seed=3, position_mapping=range(0, 3, 2),
+                           processes=1, progress=False)
+    listed = mc.run_trials(pf_scenario, make_pf, 2, seed=3, position_mapping=[0, 2],
+                           processes=1, progress=False)
+    np.testing.assert_array_equal(ranged.table["position_error"],
+                                  listed.table["position_error"])
+
+
+def test_tracks_of_the_wrong_shape_fail_their_run_naming_the_means():
+    """Tracks with 1-D means failed every run with NumPy's 'too many indices'."""
+    with pytest.raises(RuntimeError, match=r"the tracker's step must return tracks with means "
+                                           r"of shape \(K, 4\) .* got _FlatTracks with means "
+                                           r"of shape \(4,\)"):
+        mc.run_trials(mt_scenario, lambda scenario, rng: _FlatTracker(), 2, processes=1,
+                      progress=False)
+
+
+@pytest.mark.parametrize("confidence, error", [("0.9", TypeError), (None, TypeError),
+                                               (np.array([0.5, 0.9]), TypeError),
+                                               (True, TypeError), (1.0, ValueError)])
+def test_a_summary_names_a_bad_confidence(confidence, error):
+    results = mc.TrialResults(np.zeros(0, mc.metrics._row_dtype(mc.METRICS)), [], None, 0)
+    with pytest.raises(error, match="confidence"):
+        results.summary(confidence)
+
+
+def test_an_imm_run_scores_the_nees_of_its_moment_matched_posterior():
+    """An IMM posterior (a mixture) had NaN NEES, silently."""
+    def imm_scenario(seed):
+        world = linear_scenario(seed, steps=6)
+        prior = ft.GaussianMixture([ft.WeightedGaussianState(
+            world.prior.state_vector, world.prior.covar, weight=0.5, timestamp=0.0)] * 2)
+        return Scenario(world.transition_model, world.measurement_model, world.truth,
+                        world.detections, prior)
+
+    def make_imm(scenario, rng):
+        models = [ft.CombinedLinearGaussianTransitionModel([ft.ConstantVelocity(q)] * 2)
+                  for q in (0.1, 5.0)]
+        matrix = [[0.95, 0.05], [0.05, 0.95]]
+        return (ft.IMMPredictor([ft.KalmanPredictor(m) for m in models], matrix),
+                ft.IMMUpdater([ft.KalmanUpdater(scenario.measurement_model)] * 2, matrix))
+
+    table = mc.run_trial(imm_scenario, make_imm, mc.run_seeds(4, 1)[0], metrics=("nees",))
+    world = imm_scenario(mc.trial._children(mc.run_seeds(4, 1)[0], 2)[0])
+    predictor, updater = make_imm(world, None)
+    state = world.prior
+    for step, (detection, truth) in enumerate(zip(world.detections, world.truth)):
+        state = updater.update(ft.SingleHypothesis(
+            predictor.predict(state, timestamp=detection.timestamp), detection))
+        error = np.ravel(state.mean) - np.ravel(truth.state_vector)
+        assert table["nees"][step] == pytest.approx(error @ np.linalg.solve(state.covar, error),
+                                                    rel=1e-9)
+
+
 def test_nees_of_a_singular_posterior_is_named():
     """A posterior covariance of zero has no inverse: the NEES was numpy's LinAlgError."""
     with pytest.raises(ValueError, match="metric 'nees': the posterior covariance is not "

@@ -1,13 +1,13 @@
 """What a Monte Carlo run records at each step: position error, NEES, NIS, ESS and step
 time of a filter; GOSPA and its parts, the track count and step time of a multi-target
 tracker; and the checks of the position mapping."""
+import collections.abc
 import math
-import numbers
 
 import numpy as np
 
-from .._validate import iterator
-from ..types import GaussianMeasurementPrediction, GaussianState
+from .._validate import indices, iterator
+from ..types import GaussianMeasurementPrediction, GaussianMixture, GaussianState
 
 
 #: The metrics a run of a filter can record per step.
@@ -27,14 +27,14 @@ _SUMMARIES = {"position_error": "rmse", "nees": "anees", "nis": "anis", "ess": "
 
 
 def _check_mapping(mapping):
-    """``position_mapping`` as a list of distinct non-negative ints."""
-    index = list(mapping) if isinstance(mapping, (list, tuple, np.ndarray)) else None
-    if (not index or len(set(index)) != len(index)
-            or not all(isinstance(i, numbers.Integral) and not isinstance(i, (bool, np.bool_))
-                       and i >= 0 for i in index)):
-        raise ValueError(f"position_mapping must be distinct non-negative state indices, "
-                         f"got {mapping!r}")
-    return [int(i) for i in index]
+    """``position_mapping`` (a sequence of distinct non-negative ints) as a list."""
+    if isinstance(mapping, collections.abc.Mapping):
+        raise TypeError(f"position_mapping must be a sequence of state indices, got "
+                        f"{type(mapping).__name__}")
+    index = indices(mapping, "position_mapping", np.iinfo(np.int64).max, minimum=1)
+    if len(set(index)) != len(index):
+        raise ValueError(f"position_mapping must be distinct state indices, got {index}")
+    return list(index)
 
 
 def _check_mapping_fits(world, mapping):
@@ -85,10 +85,10 @@ def _score(metrics, posterior, truth, hypothesis, model, mapping, effective, sec
         if name == "position_error":
             error = np.ravel(posterior.mean)[mapping] - np.ravel(truth.state_vector)[mapping]
             out.append(math.sqrt(error @ error))
-        elif name == "nees":
+        elif name == "nees":  # (of a mixture, e.g. an IMM's: its moment-matched Gaussian)
             out.append(_quadratic_form(np.ravel(posterior.mean) - np.ravel(truth.state_vector),
                                        posterior.covar, name)
-                       if isinstance(posterior, GaussianState) else np.nan)
+                       if isinstance(posterior, (GaussianState, GaussianMixture)) else np.nan)
         elif name == "nis":
             predicted = hypothesis.measurement_prediction
             if isinstance(predicted, GaussianMeasurementPrediction):

@@ -6,6 +6,7 @@ import warnings
 
 import numpy as np
 
+from .._validate import real
 from .metrics import _SUMMARIES
 
 
@@ -84,7 +85,8 @@ class TrialResults:
         (seconds since the run's first detection), then one float64 column per metric:
         ``position_error`` (Euclidean distance of the posterior mean's position from the
         truth, in state units), ``nees`` and ``nis`` (normalised estimation error and
-        innovation squared, Gaussian filters), ``ess`` (effective sample size of the weights
+        innovation squared, Gaussian filters; a mixture's, e.g. an IMM's, NEES is its
+        moment-matched Gaussian's and its NIS NaN), ``ess`` (effective sample size of the weights
         before resampling, particle filters), ``step_seconds`` (wall time of predict +
         update); for a multi-target tracker, per scan, ``gospa`` and its parts
         ``gospa_localisation``, ``gospa_missed`` and ``gospa_false`` (position units,
@@ -144,6 +146,7 @@ class TrialResults:
             One per statistic defined for at least one run.
         """
         from scipy import stats
+        confidence = real(confidence, "confidence")
         if not 0 < confidence < 1:
             raise ValueError(f"confidence must be in (0, 1), got {confidence}")
         per_run = self.per_run()

@@ -7,11 +7,11 @@ import warnings
 
 import numpy as np
 
-from .._validate import count, flag
-from ..simulate import MultiTargetScenario
+from .._validate import count, flag, storable
+from ..simulate import BYTES_PER_STATE, MultiTargetScenario
 from .metrics import _check_mapping, _check_mapping_fits, _check_metrics, _row_dtype
 from .workers import _client, _local_cores, _run_dask, _run_local, _serialise, check_main_guard
-from .trial import _check_run, _children, _root_seed
+from .trial import _check_run, _children, _root_seed, _world
 from .results import TrialResults
 
 
@@ -97,7 +97,8 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=None, client=No
         Times a batch whose local worker process died is rerun (Dask retries tasks of lost
         workers by its own ``allowed-failures`` setting).
     gospa_cutoff : float
-        The GOSPA cut-off c of a multi-target scenario, in position units, finite and > 0.
+        The GOSPA cut-off c of a multi-target scenario, in position units, in
+        [1e-300, 1e300].
 
     Returns
     -------
@@ -114,15 +115,20 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=None, client=No
         must do so under ``if __name__ == "__main__":``.
     """
     n_runs = count(n_runs, "n_runs")
+    storable(n_runs, BYTES_PER_STATE, "n_runs")  # (a seed and a table row a run, at least)
     max_retries = count(max_retries, "max_retries", minimum=0)
     if client is not None and processes is not None:
         raise ValueError("processes is for local runs; with a client, the cluster's "
                          "workers run the tasks")
+    if client is not None and not isinstance(client, str) \
+            and not all(callable(getattr(client, name, None)) for name in ("submit", "nthreads")):
+        raise TypeError(f"client must be a distributed.Client or a scheduler's address (a "
+                        f"str), got {type(client).__name__}")
     cutoff = _check_run(scenario, make_filter, gospa_cutoff)
     progress = flag(progress, "progress")
     root = _root_seed(seed)
     mapping = _check_mapping(position_mapping)
-    first = scenario(seed=_children(_children(root, 1)[0], 2)[0])
+    first = _world(scenario, _children(_children(root, 1)[0], 2)[0])
     metrics = _check_metrics(metrics, isinstance(first, MultiTargetScenario))
     _check_mapping_fits(first, mapping)
     if client is None:

@@ -1,6 +1,7 @@
 """One run: its seeds, its scenario and filter, and its scored steps; and a batch of runs,
 the task of a worker."""
 import hashlib
+import inspect
 import numbers
 import pickle
 import time
@@ -10,6 +11,7 @@ import numpy as np
 
 from .. import _jit
 from .._validate import count, positive
+from ..metrics import POWER_RANGE
 from ..types import SingleHypothesis, time_interval
 from ..simulate import MultiTargetScenario
 from .metrics import (_check_mapping, _check_mapping_fits, _check_metrics, _row_dtype, _score,
@@ -48,12 +50,37 @@ def _root_seed(seed):
 
 
 def _check_run(scenario, make_filter, gospa_cutoff):
-    """The GOSPA cut-off (finite, > 0), after a TypeError for a ``scenario`` or
-    ``make_filter`` that is not callable."""
+    """The GOSPA cut-off (in [1e-300, 1e300], the range of GOSPA's c ** p at p = 1), after a
+    TypeError for a ``scenario`` or ``make_filter`` that is not callable, or a ``scenario``
+    that takes no ``seed`` keyword."""
     for name, value in (("scenario", scenario), ("make_filter", make_filter)):
         if not callable(value):
             raise TypeError(f"{name} must be callable, got {type(value).__name__}")
-    return positive(gospa_cutoff, "gospa_cutoff")
+    try:
+        inspect.signature(scenario).bind(seed=None)
+    except TypeError:
+        raise TypeError(f"scenario must take a seed keyword (each run calls "
+                        f"scenario(seed=seed_sequence)), got {scenario!r}") from None
+    except ValueError:  # (no signature to read: the call will tell)
+        pass
+    cutoff = positive(gospa_cutoff, "gospa_cutoff")
+    low, high = POWER_RANGE
+    if not low <= cutoff <= high:
+        raise ValueError(f"gospa_cutoff must lie in [{low:g}, {high:g}] (GOSPA sums distances "
+                         f"cut off at it), got {cutoff:g}")
+    return cutoff
+
+
+def _world(scenario, seed):
+    """``scenario(seed=seed)``, checked to be a :class:`~fasttrack.scenarios.Scenario` (or an
+    object with its ``truth``, ``detections`` and ``prior``) or a
+    :class:`~fasttrack.simulate.MultiTargetScenario`."""
+    world = scenario(seed=seed)
+    if not (isinstance(world, MultiTargetScenario)
+            or all(hasattr(world, name) for name in ("truth", "detections", "prior"))):
+        raise TypeError(f"scenario(seed=...) must return a Scenario (truth, detections, "
+                        f"prior) or a MultiTargetScenario, got {type(world).__name__}")
+    return world
 
 
 def _children(seed, n):
@@ -100,7 +127,7 @@ def run_trial(scenario, make_filter, run_seed, metrics=None, position_mapping=(0
                         f"got {type(run_seed).__name__}")
     _jit.kernels_from_now()  # a run's results are the same bits in every process
     scenario_seed, filter_seed = _children(run_seed, 2)
-    world = scenario(seed=scenario_seed)
+    world = _world(scenario, scenario_seed)
     multi_target = isinstance(world, MultiTargetScenario)
     metrics = _check_metrics(metrics, multi_target)
     _check_mapping_fits(world, mapping)
@@ -136,10 +163,16 @@ def _track_scans(world, tracker, metrics, mapping, cutoff):
     """Run a multi-target ``tracker`` (``step(detections, time)`` returning the tracks, with
     ``means`` (K, d)) over the scans of ``world`` and score them."""
     tracks, seconds = [], []
+    d = world.transition_model.ndim_state
     for t, scan in enumerate(world.detections):
         tic = time.perf_counter()
         tracks.append(tracker.step(scan, t * world.time_interval))
         seconds.append(time.perf_counter() - tic)
+        shape = np.shape(getattr(tracks[-1], "means", None))
+        if len(shape) != 2 or shape[1] != d:
+            raise ValueError(f"the tracker's step must return tracks with means of shape "
+                             f"(K, {d}) (the scenario's states), got "
+                             f"{type(tracks[-1]).__name__} with means of shape {shape}")
     rows = np.zeros(len(world.detections), _row_dtype(metrics))
     rows["run"] = -1
     rows["step"] = np.arange(rows.size)
