@@ -505,6 +505,7 @@ class _FlatTracker:
     (dict(gospa_cutoff=1e301), ValueError, r"gospa_cutoff must lie in \[1e-300, 1e\+300\]"),
     (dict(gospa_cutoff=1e-310), ValueError, "gospa_cutoff must lie in"),
     (dict(n_runs=2**40), ValueError, "n_runs=1099511627776 needs"),
+    (dict(processes=10**6), ValueError, "processes must be <= 1024, got 1000000"),
 ])
 def test_run_trials_names_bad_arguments_up_front(arguments, error, match):
     arguments = {"scenario": pf_scenario, "make_filter": make_pf, "n_runs": 2,

@@ -15,6 +15,10 @@ from .trial import _check_run, _children, _root_seed, _world
 from .results import TrialResults
 
 
+#: The most local worker processes a call starts (each holds its own compiled kernels).
+MAX_PROCESSES = 1024
+
+
 class _Progress:
     """A progress bar on stderr, shown once the work has taken a second; on a terminal it
     redraws in place, elsewhere it prints a line every tenth of the work."""
@@ -85,9 +89,10 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=None, client=No
         batches cost less scheduling; each worker process keeps its compiled kernels across
         batches.
     processes : int, optional
-        Local worker processes (default: the usable cores). With 1, runs in this process at
-        its Numba thread count; otherwise each worker runs one run at a time on one thread,
-        and the workers are kept for the next call (their kernels stay compiled).
+        Local worker processes, at most 1024 (default: the usable cores). With 1, runs in
+        this process at its Numba thread count; otherwise each worker runs one run at a time
+        on one thread, and the workers are kept for the next call (their kernels stay
+        compiled).
         Not with a client (Dask workers also run each task on one Numba thread).
     position_mapping : sequence of int
         State components of the position.
@@ -132,7 +137,8 @@ def run_trials(scenario, make_filter, n_runs, seed=None, metrics=None, client=No
     metrics = _check_metrics(metrics, isinstance(first, MultiTargetScenario))
     _check_mapping_fits(first, mapping)
     if client is None:
-        processes = _local_cores() if processes is None else count(processes, "processes")
+        processes = _local_cores() if processes is None \
+            else count(processes, "processes", maximum=MAX_PROCESSES)
         batches = _batches(root, n_runs, batch_size, processes)
         if processes == 1:  # in this process: nothing to pickle
             payload = (scenario, make_filter, metrics, mapping, cutoff, None)

@@ -50,7 +50,8 @@ def check_main_guard():
         return
     line = frame.f_lineno
     try:
-        tree = ast.parse(open(path).read())
+        with open(path) as script:
+            tree = ast.parse(script.read())
     except (OSError, SyntaxError):
         return
     for node in ast.walk(tree):
