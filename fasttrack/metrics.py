@@ -25,6 +25,7 @@ and its ``c^p`` counts as localisation; OSPA minimises ``sum min(d, c)^p`` (its 
 whereas Stone Soup minimises ``sum min(d, c)`` and then sums powers, so the two differ for
 p != 1 unless ``stonesoup_pairs=True``.
 """
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -254,6 +255,35 @@ def _same_components(truths, estimates):
 #: The range of ``c ** p`` the OSPA and GOSPA sums hold (distances are summed to the power p).
 POWER_RANGE = (1e-300, 1e300)
 
+#: The largest finite order p: at p = 30, a distance of 1e-10 c has a power (d / c) ** p of
+#: 1e-300, and a shorter one underflows to 0.
+MAX_ORDER = 30.0
+
+
+def _in_units_of_c(truths, estimates, c):
+    """``(truths, estimates, c, e)``: the points and the cut-off divided by ``2 ** e``, the
+    power of two that brings c into [0.5, 1) (exactly: the distances scale with them), so
+    that the kernels' squared distances and ``c * c`` neither overflow nor underflow;
+    ValueError for points too far out for the cut-off."""
+    e = math.frexp(c)[1]
+    with np.errstate(over="ignore"):  # (named below)
+        truths, estimates = np.ldexp(truths, -e), np.ldexp(estimates, -e)
+    for name, points in (("truths", truths), ("estimates", estimates)):
+        if not np.isfinite(points).all():
+            raise ValueError(f"{name} lie too far out for the cut-off c = {c:g}: |x| / c must "
+                             f"stay below about 1e308")
+    return truths, estimates, math.ldexp(c, -e), e
+
+
+def _back_from_units_of_c(e, p, distances, powers=()):
+    """The ``distances`` (units of c) in the points' units, and the ``powers`` (units of
+    c ** p) in the points' units to the power p."""
+    distances = np.ldexp(distances, e)
+    if not len(powers):
+        return distances, []
+    scale = 2.0 ** (e * p / 2)  # (twice: 2 ** (e p) alone may overflow where the parts do not)
+    return distances, [part * scale * scale for part in powers]
+
 
 def _parameters(c, p, alpha=None, infinite_p=False):
     c = positive(c, "c")
@@ -263,6 +293,10 @@ def _parameters(c, p, alpha=None, infinite_p=False):
         p = real(p, "p")
         if not p >= 1:
             raise ValueError(f"p must be >= 1{' (or inf)' if infinite_p else ''}, got {p}")
+        if p > MAX_ORDER:
+            raise ValueError(f"p must be at most {MAX_ORDER:g}{' (or inf)' if infinite_p else ''}"
+                             f", got {p:g}: beyond it, the powers d ** p of distances under "
+                             f"1e-10 c underflow float64 to 0")
         with np.errstate(over="ignore", under="ignore"):
             cut = np.float64(c) ** p
         if not POWER_RANGE[0] <= cut <= POWER_RANGE[1]:
@@ -329,7 +363,7 @@ def gospa(truths, estimates, c, p=1, alpha=2):
     c : float
         Cut-off distance, > 0 (same units).
     p : float
-        Order, ``1 <= p < inf``.
+        Order, in [1, 30] (``c ** p`` in [1e-300, 1e300]).
     alpha : float
         ``0 < alpha <= 2``; 2 (Stone Soup's value) makes the parts missed and false sum to
         the cardinality errors.
@@ -352,9 +386,19 @@ def gospa(truths, estimates, c, p=1, alpha=2):
     (t, t_offsets), (e, e_offsets) = _one_step(truths, "truths"), _one_step(estimates,
                                                                            "estimates")
     t, e = _same_components(t, e)
-    out, assignment = _metric.gospa(t, t_offsets, e, e_offsets, c, p, alpha)
-    distance, localisation, missed, false = (float(v) for v in out[0])
-    return GOSPAResult(distance, localisation, missed, false, 0.0, assignment)
+    distance, (localisation, missed, false), assignment = _gospa(t, t_offsets, e, e_offsets,
+                                                                 c, p, alpha)
+    return GOSPAResult(float(distance[0]), float(localisation[0]), float(missed[0]),
+                       float(false[0]), 0.0, assignment)
+
+
+def _gospa(t, t_offsets, e, e_offsets, c, p, alpha):
+    """The kernel's GOSPA in units of c: (T,) distances, the three (T,) parts and the
+    assignment."""
+    t, e, unit_c, exponent = _in_units_of_c(t, e, c)
+    out, assignment = _metric.gospa(t, t_offsets, e, e_offsets, unit_c, p, alpha)
+    distance, parts = _back_from_units_of_c(exponent, p, out[:, 0], out[:, 1:].T)
+    return distance, parts, assignment
 
 
 def gospa_over_time(truths, estimates, c, p=1, alpha=2, switching_penalty=0.0, *,
@@ -374,7 +418,7 @@ def gospa_over_time(truths, estimates, c, p=1, alpha=2, switching_penalty=0.0, *
     c : float
         Cut-off distance, > 0.
     p : float
-        Order, ``1 <= p < inf``.
+        Order, in [1, 30] (``c ** p`` in [1e-300, 1e300]).
     alpha : float
         ``0 < alpha <= 2``.
     switching_penalty : float
@@ -414,8 +458,8 @@ def gospa_over_time(truths, estimates, c, p=1, alpha=2, switching_penalty=0.0, *
         raise ValueError(f"truths have {t_offsets.size - 1} steps and estimates "
                          f"{e_offsets.size - 1}: they must be the same")
     t, e = _same_components(t, e)
-    out, assignment = _metric.gospa(t, t_offsets, e, e_offsets, c, p, alpha)
-    distance = out[:, 0].copy()
+    distance, (localisation, missed, false), assignment = _gospa(t, t_offsets, e, e_offsets,
+                                                                 c, p, alpha)
     switching = np.zeros(t_offsets.size - 1)
     if truth_ids is not None or estimate_ids is not None or switching_penalty > 0:
         t_ids, n_ids = _ids(truth_ids, t_offsets, t_mask, "truth_ids", "truths")
@@ -435,8 +479,7 @@ def gospa_over_time(truths, estimates, c, p=1, alpha=2, switching_penalty=0.0, *
     else:
         bounds = t_offsets.tolist()
         assignment = [assignment[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
-    return GOSPAResult(distance, out[:, 1].copy(), out[:, 2].copy(), out[:, 3].copy(),
-                       switching, assignment)
+    return GOSPAResult(distance, localisation, missed, false, switching, assignment)
 
 
 def ospa(truths, estimates, c, p=1, stonesoup_pairs=False):
@@ -452,7 +495,7 @@ def ospa(truths, estimates, c, p=1, stonesoup_pairs=False):
     c : float
         Cut-off distance, > 0 (same units).
     p : float
-        Order, ``p >= 1`` or ``inf``.
+        Order, in [1, 30] (``c ** p`` in [1e-300, 1e300]), or ``inf``.
     stonesoup_pairs : bool
         Choose the pairs as Stone Soup 1.9.1 does, minimising ``sum min(d, c)`` (and for
         ``p = inf`` taking the largest distance of those pairs) instead of
@@ -486,7 +529,9 @@ def _ospa(t, t_offsets, e, e_offsets, c, p, stonesoup_pairs):
         raise ValueError(f"truths have {t_offsets.size - 1} steps and estimates "
                          f"{e_offsets.size - 1}: they must be the same")
     t, e = _same_components(t, e)
-    return _metric.ospa(t, t_offsets, e, e_offsets, c, p, stonesoup_pairs)
+    t, e, unit_c, exponent = _in_units_of_c(t, e, c)
+    return _back_from_units_of_c(exponent, p, _metric.ospa(t, t_offsets, e, e_offsets, unit_c,
+                                                           p, stonesoup_pairs))[0]
 
 
 def ospa_over_time(truths, estimates, c, p=1, stonesoup_pairs=False, *, truth_counts=None,
@@ -503,7 +548,7 @@ def ospa_over_time(truths, estimates, c, p=1, stonesoup_pairs=False, *, truth_co
     c : float
         Cut-off distance, > 0.
     p : float
-        Order, ``p >= 1`` or ``inf``.
+        Order, in [1, 30] (``c ** p`` in [1e-300, 1e300]), or ``inf``.
     stonesoup_pairs : bool
         Choose the pairs as Stone Soup 1.9.1 does (see :func:`ospa`).
     truth_counts, estimate_counts : (T,) array_like of int, optional

@@ -405,9 +405,12 @@ def test_warmup_and_position_mapping_arguments_are_checked():
         with pytest.raises(error, match=match):
             ft.warmup(**kwargs)
     from fasttrack.montecarlo.metrics import _check_mapping
-    with pytest.raises(ValueError, match=r"position_mapping must be distinct non-negative "
-                                         r"state indices, got \(True, 2\)"):
+    with pytest.raises(TypeError, match=r"position_mapping must hold integer indices, got "
+                                        r"True \(bool\) in \(True, 2\)"):
         _check_mapping((True, 2))
+    with pytest.raises(ValueError, match=r"position_mapping must be distinct state indices, "
+                                         r"got \(2, 2\)"):
+        _check_mapping((2, 2))
     assert _check_mapping((np.int64(1), 2)) == [1, 2]
 
 

@@ -1,6 +1,7 @@
 """Bad input to the faces that carry stacks of Gaussians (mixtures and their reducer, the
 PHD and CPHD filters, the IMM, the trackers) and to the runners around them: each error
 names the argument (TypeError for a type, ValueError for a value); none crashes."""
+import functools
 import subprocess
 import sys
 
@@ -413,7 +414,9 @@ def test_an_imm_update_refuses_an_indefinite_prediction():
     (dict(metrics=5), TypeError, "metrics must be an iterable"),
 ])
 def test_run_trials_names_a_bad_argument(arguments, error, match):
-    settings = dict(scenario=lambda seed: None, make_filter=lambda world, rng: None, n_runs=2)
+    settings = dict(scenario=functools.partial(ft.scenarios.particle_filter_tutorial,
+                                               n_particles=10, steps=2),
+                    make_filter=lambda world, rng: None, n_runs=2)
     with pytest.raises(error, match=match):
         montecarlo.run_trials(**{**settings, **arguments})
 

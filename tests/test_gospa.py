@@ -387,11 +387,17 @@ def test_kernels_run_with_the_jit_disabled():
     (lambda: gospa_over_time(np.zeros((2, 3, 2)), np.zeros((2, 3, 2)), 1.0,
                              estimate_counts=[1]), ValueError,
      "estimate_counts must be 2 integers"),
+    (lambda: gospa([[0.0]], [[0.0]], 1e20, p=20), ValueError,
+     r"c \*\* p must lie in \[1e-300, 1e300\].*c = 1e\+20, p = 20"),
     (lambda: gospa([[0.0]], [[0.0]], 10.0, p=400), ValueError,
-     r"c \*\* p must lie in \[1e-300, 1e300\].*c = 10, p = 400"),
+     r"p must be at most 30, got 400: beyond it, the powers d \*\* p of distances under "
+     r"1e-10 c underflow"),
     (lambda: gospa([[0.0]], [[0.0]], 1e200, p=2), ValueError, r"c \*\* p must lie in"),
     (lambda: gospa([[0.0]], [[0.0]], 1e-200, p=2), ValueError, r"c \*\* p must lie in"),
-    (lambda: ospa([[0.0]], [[0.0]], 10.0, p=1e6), ValueError, r"c \*\* p must lie in"),
+    (lambda: ospa([[0.0]], [[0.0]], 10.0, p=1e6), ValueError,
+     r"p must be at most 30 \(or inf\), got 1e\+06"),
+    (lambda: ospa([[1e300]], [[-1e300]], 1e-10), ValueError,
+     r"truths lie too far out for the cut-off c = 1e-10"),
     (lambda: gospa_over_time([[[0.0]]], [[[0.0]]], 1.0, truth_counts=[1]), ValueError,
      "truth_counts is only for a padded"),
     (lambda: gospa_over_time(np.zeros((4, 2)), np.zeros((4, 2)), 1.0), TypeError,
@@ -460,3 +466,28 @@ def test_position_rmse_is_still_exported_and_the_module_lists_its_names():
     assert again is position_rmse
     assert set(metrics.__all__) >= {"gospa", "gospa_over_time", "ospa", "ospa_over_time",
                                     "position_rmse", "GOSPAResult"}
+
+
+@pytest.mark.parametrize("numpy_first", [False, True])
+@pytest.mark.parametrize("scale", [1e-250, 1e-190, 1.0, 1e150, 1e290])
+def test_distances_are_exact_at_any_scale_of_the_points_and_cut_off(scale, numpy_first,
+                                                                     monkeypatch):
+    """Squared distances and c * c overflowed or underflowed at the ends of the float range:
+    OSPA of points 2.8e154 apart with c = 1e300 was c, GOSPA of 5e-200 with c = 1e-190 was
+    c; powers of distances under 1 underflowed to 0 at large p (OSPA 0 for 0.5 apart)."""
+    from fasttrack import _jit
+    monkeypatch.setattr(_jit, "numpy_first", lambda work=1: numpy_first)
+    truths, estimates = np.array([[0.0, 0.0], [3.0, 0.0]]), np.array([[0.0, 0.4], [3.3, 0.0]])
+    for p in [p for p in (1.0, 2.5, 30.0) if abs(p * np.log10(scale)) <= 300]:
+        want = gospa(truths, estimates, 1.0, p)
+        got = gospa(truths * scale, estimates * scale, scale, p)
+        assert got.distance == pytest.approx(want.distance * scale, rel=1e-12)
+        for part in ("localisation", "missed", "false"):
+            assert getattr(got, part) == pytest.approx(getattr(want, part) * scale ** p,
+                                                       rel=1e-12)
+        np.testing.assert_array_equal(got.assignment, want.assignment)
+        assert ospa(truths * scale, estimates * scale, scale, p) == pytest.approx(
+            ospa(truths, estimates, 1.0, p) * scale, rel=1e-12)
+    assert ospa(truths * scale, estimates * scale, scale, np.inf) == pytest.approx(
+        0.4 * scale, rel=1e-12)
+    assert gospa(truths, estimates, 1.0, 30.0).distance > 0.3  # (powers of 1e-16, 1e-12)
