@@ -123,6 +123,16 @@ def test_gospa_switching_with_given_ids_equals_stonesoup():
                             ours)
 
 
+@pytest.mark.parametrize("name, c, p", [("GOSPAMetric", 10, 40), ("OSPAMetric", 10, 0.5),
+                                         ("OSPAMetric", 3, 50)])
+def test_orders_fasttrack_refuses_run_stonesoups_code(name, c, p):
+    """Orders above 30 or below 1 (and c ** p beyond [1e-300, 1e300]), which fasttrack's
+    metrics refuse, are Stone Soup's to compute."""
+    truths, tracks = _metric_scenario(3)
+    ours, theirs = _both(name, c=c, p=p)
+    _compare_generators(ours, theirs, truths, tracks)
+
+
 @pytest.mark.parametrize("p", [1, 2, np.inf])
 @pytest.mark.parametrize("c", [4.0, 10])
 def test_ospa_metric_equals_stonesoup(c, p):

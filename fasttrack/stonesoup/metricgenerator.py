@@ -20,7 +20,7 @@ from stonesoup.types.metric import SingleTimeMetric, TimeRangeMetric
 from stonesoup.types.state import GaussianState, SqrtGaussianState, State, StateMutableSequence
 from stonesoup.types.time import TimeRange
 
-from ..metrics import gospa, gospa_over_time, ospa_over_time
+from ..metrics import MAX_ORDER, POWER_RANGE, gospa, gospa_over_time, ospa_over_time
 from ._fallback import fall_back
 from ._objects import builder
 
@@ -241,6 +241,10 @@ def _cut_off(generator):
         raise _NotFast("c or p not a number") from None
     if not (0 < c < np.inf and p > 0):
         raise _NotFast("c or p outside (0, inf)")
+    with np.errstate(over="ignore", under="ignore"):
+        power = np.float64(c) ** p
+    if p != np.inf and not (1 <= p <= MAX_ORDER and POWER_RANGE[0] <= power <= POWER_RANGE[1]):
+        raise _NotFast(f"p outside [1, {MAX_ORDER:g}] or c ** p outside [1e-300, 1e300]")
     return c, p
 
 
