@@ -332,6 +332,21 @@ def threshold(value, name):
     return value
 
 
+#: The largest angle a measurement may hold, radians: wrapping it to [-pi, pi) keeps about
+#: 7 digits (float64's spacing at 1e9 is 1.2e-7).
+LARGEST_ANGLE = 1e9
+
+
+def angle_columns(z, angles, name):
+    """ValueError naming ``name`` if a column of the (..., m) float64 array ``z`` that the
+    (m,) bool mask ``angles`` marks holds an angle beyond :data:`LARGEST_ANGLE`."""
+    largest = np.abs(z[..., angles]).max(initial=0.0) if angles.any() else 0.0
+    if largest > LARGEST_ANGLE:
+        raise ValueError(f"{name} must hold angles within +-{LARGEST_ANGLE:.0e} rad (wrapped "
+                         f"to [-pi, pi) in float64, a larger one keeps fewer than 7 digits), "
+                         f"got {largest:.3g}")
+
+
 def asymmetric(stack):
     """(K,) bool: which matrices of a (K, n, n) float array are not symmetric to 1e-9 of
     their largest entry (the kernels' rule; one with a NaN counts as not symmetric)."""

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 import fasttrack as ft
 from fasttrack.core.gating import Clusters, Gate, clusters, gate, gate_arrays
 from fasttrack.core.assign import global_nearest_neighbour, nearest_neighbour
+from fasttrack.core.jpda import pda_weights
 from fasttrack._jit import gating as kernels
 from fasttrack.core import stack
 from fasttrack.core.kalman import JACOBIANS as ft_jacobians
@@ -536,3 +537,56 @@ def test_a_gate_edited_after_it_was_built_is_checked_where_it_is_used():
         found.members(99)
     with pytest.raises(TypeError, match="c must be an int cluster number, got str"):
         found.members("a")
+
+
+@pytest.mark.parametrize("field, value, error, match", [
+    ("distances2", np.array([1.0]), ValueError,
+     r"gate.distances2 must be starts\[-1\] = 3 numbers, got shape \(1,\)"),
+    ("log_likelihoods", np.zeros(5), ValueError, "gate.log_likelihoods must be starts"),
+    ("starts", np.array([0.0, 2.0, 3.0]), TypeError,
+     "gate.starts must be a C-contiguous int64 ndarray, got an array of dtype float64"),
+    ("detections", [0, 2, 1], TypeError, "gate.detections must be a C-contiguous int64"),
+    ("distances2", np.array([1.0, 2.0, 3.0, 4.0])[::-1][1:], TypeError,
+     "gate.distances2 must be a C-contiguous float64"),
+    ("n_detections", 1.5, TypeError, "gate.n_detections must be an int"),
+    ("n_detections", -1, ValueError, "gate.n_detections must be >= 0"),
+])
+def test_a_gate_whose_fields_were_replaced_is_refused_where_it_is_used(field, value, error,
+                                                                        match):
+    """A gate's distances2 replaced by a shorter array (its frozen field set by hand): the
+    kernels read past its end and returned an assignment of whatever lay there."""
+    gate = _hand_built()
+    object.__setattr__(gate, field, value)
+    for use in (clusters, lambda g: global_nearest_neighbour(g, 3.0),
+                lambda g: nearest_neighbour(g, 3.0), lambda g: g.dense()):
+        with pytest.raises(error, match=match):
+            use(gate)
+
+
+def test_a_gate_reads_only_its_own_values_densely_and_takes_an_empty_list():
+    with pytest.raises(ValueError, match="value must be 'distances2' or 'log_likelihoods', "
+                                         "got 'starts'"):
+        _hand_built().dense("starts")
+    empty = Gate([0], [], [], [], 3)
+    assert empty.detections.dtype == np.int64 and empty.dense().shape == (0, 3)
+
+
+@pytest.mark.parametrize("call", [
+    lambda z, d: gate(z, np.eye(2)[None], d, 9.0, angles=[True, False]),
+    lambda z, d: pda_weights(z, np.eye(2)[None], d, angles=[True, False]),
+])
+def test_angles_beyond_their_digits_are_refused_as_the_updaters_refuse_them(call):
+    """Angles of 1e17 rad were gated (the wrapped innovation kept no digit; the NumPy path
+    and the kernels disagreed)."""
+    for z_hat, detection, name in (([[1e17, 0.0]], [[0.5, 0.0]], "z_hats|means"),
+                                   ([[0.5, 0.0]], [[-1e300, 0.0]], "detections")):
+        with pytest.raises(ValueError, match=rf"({name}) must hold angles within \+-1e\+09"):
+            call(np.array(z_hat), np.array(detection))
+    call(np.array([[1e9, 0.0]]), np.array([[-1e9, 0.0]]))  # (the limit itself is taken)
+
+
+def test_a_gate_of_probability_zero_holds_no_volume():
+    """prob_gate = 0 (documented in [0, 1]) failed with 'math domain error'."""
+    weights = pda_weights(np.zeros((1, 2)), np.eye(2)[None], np.array([[0.5, 0.0]]),
+                          prob_gate=0.0, clutter_spatial_density=1e-3)
+    np.testing.assert_array_equal(weights, [[1.0, 0.0]])  # (nothing inside a gate of d2 <= 0)

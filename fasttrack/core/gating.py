@@ -46,16 +46,13 @@ class Gate:
         for name in ("distances2", "log_likelihoods"):
             object.__setattr__(self, name, _validate.float_array(getattr(self, name), name, 1))
         self.check()
-        n = self.detections.size
-        for name in ("distances2", "log_likelihoods"):
-            if getattr(self, name).shape != (n,):
-                raise ValueError(f"{name} must be starts[-1] = {n} numbers, got shape "
-                                 f"{getattr(self, name).shape}")
 
     def check(self):
         """Raise a ValueError unless the indices the kernels follow are in range: ``starts``
-        non-decreasing from 0 to n, ``detections`` (n,) in ``[0, n_detections)`` (run on
-        each use: the arrays can be written after the gate is built)."""
+        non-decreasing from 0 to n, ``detections`` (n,) in ``[0, n_detections)``, and the
+        values (n,) (run on each use: the arrays can be written, or the fields replaced,
+        after the gate is built)."""
+        self._check_kinds()
         starts, detections, m = self.starts, self.detections, self.n_detections
         if starts.ndim != 1 or starts.size < 1 or starts[0] != 0 or (np.diff(starts) < 0).any():
             raise ValueError(f"gate.starts must be (K + 1,) non-decreasing from 0, got {starts}")
@@ -69,7 +66,23 @@ class Gate:
         if not rising.all():
             raise ValueError("gate.detections must be ascending (no repeats) within each "
                              "track")
+        for name in ("distances2", "log_likelihoods"):
+            if getattr(self, name).shape != (n,):
+                raise ValueError(f"gate.{name} must be starts[-1] = {n} numbers, got shape "
+                                 f"{getattr(self, name).shape}")
         self._check_values()
+
+    def _check_kinds(self):
+        """TypeError unless the fields are of the kinds the kernels take (C-contiguous int64
+        indices, float64 values, an int count)."""
+        _validate.count(self.n_detections, "gate.n_detections", minimum=0)
+        for name, kind in (("starts", np.int64), ("detections", np.int64),
+                           ("distances2", np.float64), ("log_likelihoods", np.float64)):
+            value = getattr(self, name)
+            if not (isinstance(value, np.ndarray) and value.dtype == kind
+                    and value.flags.c_contiguous):
+                raise TypeError(f"gate.{name} must be a C-contiguous {np.dtype(kind)} ndarray, "
+                                f"got {_validate._describe(value)}")
 
     def _check_values(self):
         """ValueError unless the candidates' distances are finite and >= 0 and their
@@ -91,8 +104,11 @@ class Gate:
         return np.repeat(np.arange(self.n_tracks), np.diff(self.starts))
 
     def dense(self, value="distances2", fill=np.inf):
-        """A (K, M) matrix of ``value`` (an attribute name) at the candidates, ``fill``
-        elsewhere."""
+        """A (K, M) matrix of ``value`` (``"distances2"`` or ``"log_likelihoods"``) at the
+        candidates, ``fill`` elsewhere."""
+        if value not in ("distances2", "log_likelihoods"):
+            raise ValueError(f"value must be 'distances2' or 'log_likelihoods', got {value!r}")
+        self.check()
         out = np.full((self.n_tracks, self.n_detections), fill)
         out[self.tracks(), self.detections] = getattr(self, value)
         return out
@@ -110,7 +126,7 @@ def _built(cls, *fields):
 def _indices(value, name):
     """``value`` as a 1-D int64 array (a TypeError unless it holds integers)."""
     a = np.asarray(value)
-    if a.ndim != 1 or a.dtype.kind not in "iu":
+    if a.ndim != 1 or (a.dtype.kind not in "iu" and a.size):  # (an empty list is float64)
         raise TypeError(f"{name} must be a 1-D array of integers, got "
                         f"{a.ndim}-D {a.dtype}")
     return np.ascontiguousarray(a, dtype=np.int64)
@@ -219,6 +235,8 @@ def gate(z_hats, innovation_covars, detections, threshold, angles=None, grid_axe
     threshold = _validate.positive(threshold, "threshold")
     angles = (np.zeros(m, dtype=np.bool_) if angles is None
               else _validate.bool_array(angles, "angles", (m,)))
+    _validate.angle_columns(z_hats, angles, "z_hats")
+    _validate.angle_columns(detections, angles, "detections")
     return gate_arrays(z_hats, covars, detections, threshold, angles,
                        _grid_axes(m, angles, grid_axes))
 

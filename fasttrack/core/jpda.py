@@ -51,6 +51,8 @@ def _gate(prob_gate, m):
     (identical values), without importing scipy.stats (half a second)."""
     from scipy.special import gammaincinv
     threshold = float(2.0 * gammaincinv(m / 2, prob_gate))
+    if threshold == 0.0:  # (prob_gate = 0: a gate of no volume)
+        return threshold, 0.0
     try:  # (in logs: Gamma(m/2 + 1) alone overflows from m = 343)
         return threshold, math.exp(m / 2 * math.log(math.pi * threshold)
                                    - math.lgamma(m / 2 + 1))
@@ -137,6 +139,8 @@ def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
             else _validate.bool_array(gate, "gate", (n_tracks, n_dets)))
     angles = (np.zeros(m, dtype=np.bool_) if angles is None
               else _validate.bool_array(angles, "angles", (m,)))
+    _validate.angle_columns(means, angles, "means")
+    _validate.angle_columns(detections, angles, "detections")
     if n_tracks:
         asym = _validate.asymmetric(covars)
         if asym.any():

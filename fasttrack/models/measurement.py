@@ -15,9 +15,8 @@ from .base import (UserFunction, check_rows, gaussian_noise, read_only, scalar_o
                    state_columns, wrap_angle)
 from .spec import BEARING, BEARING_RANGE, FUNCTION, SELECT, MeasurementSpec
 
-#: The largest angle a measurement may hold, radians: wrapping it to [-pi, pi) keeps about
-#: 7 digits (float64's spacing at 1e9 is 1.2e-7).
-LARGEST_ANGLE = 1e9
+#: The largest angle a measurement may hold, radians (see :data:`fasttrack._validate.LARGEST_ANGLE`).
+LARGEST_ANGLE = _validate.LARGEST_ANGLE
 
 __all__ = [
     "MeasurementModel", "LinearGaussian", "CartesianToBearingRange", "Cartesian2DToBearing",
@@ -199,12 +198,7 @@ class MeasurementModel:
         ValueError
             If an angle component of a row is beyond :data:`LARGEST_ANGLE`.
         """
-        angles = list(self.angle_components)
-        largest = np.abs(z[..., angles]).max(initial=0.0) if angles else 0.0
-        if largest > LARGEST_ANGLE:
-            raise ValueError(f"{name} must hold angles within +-{LARGEST_ANGLE:.0e} rad "
-                             f"(wrapped to [-pi, pi) in float64, a larger one keeps fewer than "
-                             f"7 digits), got {largest:.3g}")
+        _validate.angle_columns(z, self._angles, name)
 
     def _check_angles(self, z, name):
         """A ValueError naming ``name`` if an angle of the (m,) measurement ``z`` is beyond
