@@ -28,6 +28,9 @@ def step_intervals(time_intervals, n):
         if value < 0:
             raise ValueError(f"time_intervals must be >= 0 seconds, got {value}")
         return np.full(n - 1, value)
+    if isinstance(time_intervals, np.ndarray) and time_intervals.ndim != 1:
+        raise ValueError(f"time_intervals must be one interval or T - 1 = {n - 1} of them, "
+                         f"got an array of shape {time_intervals.shape}")
     values = list(time_intervals)
     if len(values) != n - 1:
         raise ValueError(f"time_intervals must hold T - 1 = {n - 1} intervals, "

@@ -25,8 +25,8 @@ def check_models(transition_model, measurement_model, nonlinear=False):
     check_transition_model(transition_model, nonlinear)
     check_measurement_model(measurement_model)
     if measurement_model.ndim_state != transition_model.ndim_state:
-        raise ValueError(f"the models disagree on the state dimension: "
-                         f"{transition_model.ndim_state} and {measurement_model.ndim_state}")
+        raise ValueError(f"measurement_model measures {measurement_model.ndim_state}-D "
+                         f"states, transition_model's are {transition_model.ndim_state}-D")
 
 
 def check_transition_model(transition_model, nonlinear=False):

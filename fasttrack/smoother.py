@@ -101,6 +101,32 @@ def _with_moments(states, means, covars):
         out.append(smoothed)
     return out
 
+def _predictions(predicted_means, predicted_covars, shape, d):
+    """The predicted means (``shape``, i.e. (T, d) or (K, T, d)) and covariances given to
+    ``smooth_arrays``, checked where they are read: finite and (covariances) symmetric from
+    time 1 on (time 0's are not read)."""
+    out = []
+    for name, value, like, want in (("predicted_means", predicted_means, "means", shape),
+                                    ("predicted_covars", predicted_covars, "covars",
+                                     shape + (d,))):
+        value = _validate.float_array(value, name)
+        if value.shape != want:
+            raise ValueError(f"{name} must have the shape of {like} {want}, got "
+                             f"{value.shape}")
+        read = value[1:] if len(shape) == 2 else value[:, 1:]
+        if not np.isfinite(read).all():
+            raise ValueError(f"{name} contains NaN or infinite values (past time 0, whose "
+                             f"prediction is not read)")
+        out.append(value)
+    covars = out[1] if len(shape) == 3 else out[1][None]
+    bad = _validate.asymmetric(covars[:, 1:].reshape(-1, d, d))
+    if bad.any():
+        k, t = np.unravel_index(np.argmax(bad), (covars.shape[0], covars.shape[1] - 1))
+        where = f"{t + 1}" if len(shape) == 2 else f"{k}, {t + 1}"
+        raise ValueError(f"predicted_covars[{where}] is not symmetric")
+    return out
+
+
 class KalmanSmoother:
     """The Rauch-Tung-Striebel (Kalman) smoother for a linear-Gaussian transition model.
 
@@ -319,18 +345,7 @@ class KalmanSmoother:
             x_pred, covar_pred = np.empty_like(x), np.empty_like(covar)
             recompute = np.ones(n, dtype=np.uint8)
         else:
-            x_pred = _validate.finite_array(predicted_means, "predicted_means")
-            if x_pred.shape != shape:
-                raise ValueError(f"predicted_means must have the shape of means "
-                                 f"{shape}, got {x_pred.shape}")
-            covar_pred = _validate.finite_array(predicted_covars, "predicted_covars")
-            if covar_pred.shape != shape + (d,):
-                raise ValueError(f"predicted_covars must have the shape of covars "
-                                 f"{shape + (d,)}, got {covar_pred.shape}")
-            bad = _validate.asymmetric(covar_pred.reshape(-1, d, d))
-            if bad.any():
-                where = ", ".join(map(str, np.unravel_index(np.argmax(bad), shape[:-1])))
-                raise ValueError(f"predicted_covars[{where}] is not symmetric")
+            x_pred, covar_pred = _predictions(predicted_means, predicted_covars, shape, d)
             x_pred, covar_pred = x_pred.reshape(x.shape), covar_pred.reshape(covar.shape)
             recompute = np.zeros(n, dtype=np.uint8)
         intervals = step_intervals(time_intervals, n)

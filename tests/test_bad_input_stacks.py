@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import fasttrack as ft
-from fasttrack import _jit, imm, metrics, montecarlo, smoother, tracker
+from fasttrack import _jit, association, imm, metrics, montecarlo, smoother, tracker
 from fasttrack.core import cphd as core_cphd
 from fasttrack.core import mixture as core_mixture
 from fasttrack.core import phd as core_phd
@@ -97,7 +97,7 @@ def test_zero_dimensional_components_are_refused_by_the_kernels_too():
 
 @pytest.mark.parametrize("kind", [PHDTracker, CPHDTracker])
 @pytest.mark.parametrize("models, birth, error, match", [
-    ((CV6, SENSOR), None, ValueError, "the models disagree on the state dimension: 6 and 4"),
+    ((CV6, SENSOR), None, ValueError, "measurement_model measures 4-D states, transition_model.s are 6-D"),
     ((None, SENSOR), None, TypeError, "transition_model must be a linear-Gaussian"),
     ((CV, None), None, TypeError, "measurement_model must be a built-in MeasurementModel"),
     ((CV, CV), None, TypeError, "measurement_model must be a built-in MeasurementModel"),
@@ -376,7 +376,16 @@ def test_a_huge_birth_mean_puts_the_predicted_cardinality_at_the_top(numpy_first
      r"truths must have at least one coordinate a point, got shape \(3, 0\)"),
     (lambda: ft.KalmanSmoother(CV).smooth_arrays(MEANS, COVARS, 1.0, MEANS,
                                                  COVARS + np.triu(np.ones((4, 4)), 1)),
-     ValueError, r"predicted_covars\[0\] is not symmetric"),
+     ValueError, r"predicted_covars\[1\] is not symmetric"),  # (time 0's is not read)
+    (lambda: ft.KalmanSmoother(CV).smooth_arrays(MEANS, COVARS, np.ones((2, 1))), ValueError,
+     r"time_intervals must be one interval or T - 1 = 2 of them, got an array of shape "
+     r"\(2, 1\)"),
+    (lambda: ft.KalmanSmoother(CV).smooth_arrays(MEANS, COVARS, 1.0,
+                                                 np.where(np.arange(3)[:, None] == 1, np.nan,
+                                                          MEANS), COVARS), ValueError,
+     r"predicted_means contains NaN or infinite values \(past time 0"),
+    (lambda: association.jpda_marginals([np.ones((2, 3)), np.ones(3)]), ValueError,
+     r"weights\[1\] must be 2-D, got 1-D with shape \(3,\)"),
     (lambda: core_phd.update(CV, MEANS, COVARS, ZEROS, np.zeros((1, 2)), 0.9, 1e-4),
      TypeError, "model must be a MeasurementModel, got CombinedLinearGaussianTransitionModel"),
     (lambda: core_phd.update(SENSOR, MEANS, COVARS, ZEROS, np.zeros((1, 2)), 0.9, 1e-4,
@@ -438,11 +447,11 @@ def test_models_swapped_after_construction_are_checked_as_the_constructor_checks
     owner = make()
     for name, model, error, match in [
             ("measurement_model", ft.LinearGaussian(600, (0, 599), np.eye(2)), ValueError,
-             "the models disagree on the state dimension: 4 and 600"),
+             "measurement_model measures 600-D states, transition_model.s are 4-D"),
             ("measurement_model", _user_sensor(), TypeError,
              "measurement_model must be a"),
             ("transition_model", ft.ConstantVelocity(1.0), ValueError,
-             "the models disagree on the state dimension: 2 and 4"),
+             "measurement_model measures 4-D states, transition_model.s are 2-D"),
             ("transition_model", "CV", TypeError, "transition_model must be a")]:
         before = getattr(owner, name)
         with pytest.raises(error, match=match):
@@ -459,7 +468,8 @@ def test_multiple_model_filters_check_swapped_models_and_switching():
             owner.transition_models = [CV]
         with pytest.raises(ValueError, match="transition model 0 .* has 6 state dimensions"):
             owner.transition_models = [CV6, CV6]
-        with pytest.raises(ValueError, match="4 and 6|has 4 state dimensions, the state 6"):
+        with pytest.raises(ValueError, match="measures 6-D states, transition_model.s are 4-D|"
+                                             "has 4 state dimensions, the state 6"):
             owner.measurement_model = ft.LinearGaussian(6, (0, 2), np.eye(2))
         with pytest.raises(ValueError, match=r"transition_matrix must have shape \(2, 2\)"):
             owner.transition_matrix = np.eye(3)
@@ -473,3 +483,13 @@ def test_a_tracker_keeps_a_copy_of_its_prior():
     tracker = ft.IMMTracker([CV, CV], SENSOR, np.full((2, 2), 0.5), mean, covar)
     mean[1], covar[1, 1] = np.nan, np.nan
     assert len(tracker.run([np.zeros((1, 2))] * 3)[-1]) == 1
+
+
+def test_a_smoother_does_not_read_the_prediction_of_time_0():
+    """predicted_means[0] is documented unused, yet a NaN there was refused."""
+    smoothed = ft.KalmanSmoother(CV).smooth_arrays(MEANS, COVARS, 1.0, MEANS, COVARS)
+    unread = MEANS.copy(), COVARS.copy()
+    unread[0][0], unread[1][0] = np.nan, np.nan
+    for got, want in zip(ft.KalmanSmoother(CV).smooth_arrays(MEANS, COVARS, 1.0, *unread),
+                         smoothed):
+        np.testing.assert_array_equal(got, want)

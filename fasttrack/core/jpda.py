@@ -181,7 +181,7 @@ def pda_weights(means, covars, detections, prob_detect=0.85, prob_gate=0.95,
 def _is_cluster_list(weights):
     if isinstance(weights, np.ndarray) or not isinstance(weights, (list, tuple)):
         return False
-    return len(weights) == 0 or all(np.ndim(w) == 2 for w in weights)
+    return len(weights) == 0 or any(np.ndim(w) == 2 for w in weights)  # (each is checked)
 
 
 def _cluster(value, name):
