@@ -300,6 +300,21 @@ def real(value, name):
     return value
 
 
+def scan_time(time, previous):
+    """``(time, dt)``: a scan's ``time`` (a finite real, seconds) and the interval since the
+    ``previous`` scan's (0 for the first, None), which must be > 0 and finite."""
+    time = real(time, "time")
+    if previous is None:
+        return time, 0.0
+    dt = time - previous
+    if not dt > 0:
+        raise ValueError(f"time must be after the previous scan's ({previous} s), got {time}")
+    if not math.isfinite(dt):
+        raise ValueError(f"time must lie within 1.8e308 s of the previous scan's "
+                         f"({previous} s), got {time}")
+    return time, dt
+
+
 def probability(value, name):
     """A real number in [0, 1], as a float."""
     value = real(value, name)

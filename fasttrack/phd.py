@@ -135,11 +135,7 @@ class _IntensityTracker(ModelSettings):
         GaussianMixture
             The estimates (:meth:`_extract`), labelled.
         """
-        time = _validate.real(time, "time")
-        dt = 0.0 if self.time is None else time - self.time
-        if self.time is not None and not dt > 0:
-            raise ValueError(f"time must be after the previous scan's ({self.time} s), "
-                             f"got {time}")
+        time, dt = _validate.scan_time(time, self.time)
         self._reducer(self.reducer, "reducer")  # (its settings may have changed since)
         predicted = self._predicted(dt)
         means, covars, log_weights, components = self._update(predicted, detections)

@@ -229,11 +229,7 @@ class MultiTargetTracker(ModelSettings):
             ``confirmed``).
         """
         detections = self._scan(detections)
-        time = _validate.real(time, "time")
-        dt = 0.0 if self.time is None else time - self.time
-        if self.time is not None and not dt > 0:
-            raise ValueError(f"time must be after the previous scan's ({self.time} s), "
-                             f"got {time}")
+        time, dt = _validate.scan_time(time, self.time)
         free = np.ones(detections.shape[0], dtype=np.bool_)
         confirmed, taken = self._advance(self.confirmed, detections, dt, free)
         free &= ~taken

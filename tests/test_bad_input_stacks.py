@@ -493,3 +493,26 @@ def test_a_smoother_does_not_read_the_prediction_of_time_0():
     for got, want in zip(ft.KalmanSmoother(CV).smooth_arrays(MEANS, COVARS, 1.0, *unread),
                          smoothed):
         np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("make", [
+    lambda: tracker.MultiTargetTracker(CV, SENSOR, np.zeros(4), np.eye(4), min_points=1),
+    lambda: PHDTracker(CV, SENSOR, vo_linear_birth(), 0.9, 0.99, 1e-5),
+])
+def test_a_scan_time_beyond_the_float_range_of_the_last_is_named_as_time(make):
+    """Scans at -1e308 s and then 1e308 s: the interval overflowed and the error named
+    time_interval, which step does not take."""
+    scanner = make()
+    scanner.step(np.zeros((1, 2)), -1e308)
+    with pytest.raises(ValueError, match=r"time must lie within 1.8e308 s of the previous "
+                                         r"scan's \(-1e\+308 s\), got 1e\+308"):
+        scanner.step(np.zeros((1, 2)), 1e308)
+
+
+def test_a_particle_state_s_linear_weights_are_read_only():
+    """``weight`` is made from ``log_weight`` when read: a write into it was lost."""
+    state = ft.ParticleState(np.zeros((4, 5)), timestamp=0.0)
+    with pytest.raises(ValueError, match="read-only"):
+        state.weight[0] = 0.5
+    state.weight = [0.5, 0.125, 0.125, 0.125, 0.125]
+    np.testing.assert_allclose(state.weight, [0.5, 0.125, 0.125, 0.125, 0.125])

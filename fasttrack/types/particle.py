@@ -195,8 +195,11 @@ class ParticleState:
 
     @property
     def weight(self):
-        """(N,) float64 linear weights ``exp(log_weight)`` (a new array)."""
-        return np.exp(self.log_weight)
+        """(N,) float64 linear weights ``exp(log_weight)``: a new read-only array (a write
+        into it would change nothing; assign ``weight``, or write into ``log_weight``)."""
+        weight = np.exp(self.log_weight)
+        weight.flags.writeable = False
+        return weight
 
     @weight.setter
     def weight(self, value):
