@@ -11,6 +11,7 @@ from .core import imm as _imm
 from .core import kalman as _kalman
 from .core import stack as _stack
 from .core import unscented as _unscented
+from .models.base import check_same_states
 from .models.measurement import MeasurementModel, NonlinearGaussianMeasurement
 from .models.transition import TransitionModel
 
@@ -24,9 +25,7 @@ def check_models(transition_model, measurement_model, nonlinear=False):
     dimensions differ."""
     check_transition_model(transition_model, nonlinear)
     check_measurement_model(measurement_model)
-    if measurement_model.ndim_state != transition_model.ndim_state:
-        raise ValueError(f"measurement_model measures {measurement_model.ndim_state}-D "
-                         f"states, transition_model's are {transition_model.ndim_state}-D")
+    check_same_states(transition_model, measurement_model)
 
 
 def check_transition_model(transition_model, nonlinear=False):

@@ -8,7 +8,7 @@ import numpy as np
 
 from . import _validate
 from . import random as _random
-from .models.base import check_model
+from .models.base import check_model, check_same_states
 from .models.measurement import MeasurementModel
 from .models.transition import TransitionModel
 from .types import Detection, GroundTruthPath, GroundTruthState, check_timestamp, seconds
@@ -265,10 +265,8 @@ def multi_target(transition_model, measurement_model, initial_states, steps, reg
     check_model(transition_model, TransitionModel, "transition_model")
     check_model(measurement_model, MeasurementModel, "measurement_model")
     steps = _validate.count(steps, "steps")
+    check_same_states(transition_model, measurement_model)
     d, m = transition_model.ndim_state, measurement_model.ndim_meas
-    if measurement_model.ndim_state != d:
-        raise ValueError(f"measurement_model measures {measurement_model.ndim_state}-D states, "
-                         f"transition_model's are {d}-D")
     states = _validate.finite_array(initial_states, "initial_states", 2)
     if states.shape[1:] != (d,):
         raise ValueError(f"initial_states must have shape (n, {d}), got {states.shape}")

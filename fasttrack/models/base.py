@@ -24,6 +24,13 @@ def check_model(model, kind, name):
                     f"{type(model).__module__}.{type(model).__name__}{hint}")
 
 
+def check_same_states(transition_model, measurement_model):
+    """ValueError, naming both, unless the models' state dimensions agree."""
+    if measurement_model.ndim_state != transition_model.ndim_state:
+        raise ValueError(f"measurement_model measures {measurement_model.ndim_state}-D "
+                         f"states, transition_model's are {transition_model.ndim_state}-D")
+
+
 def state_columns(state, name="state"):
     """The (d, N) float64 array of a state object (anything with ``state_vector``) or an
     array_like: a (d,) vector becomes one column."""
