@@ -86,8 +86,8 @@ class TrialResults:
         ``position_error`` (Euclidean distance of the posterior mean's position from the
         truth, in state units), ``nees`` and ``nis`` (normalised estimation error and
         innovation squared, Gaussian filters; a mixture's, e.g. an IMM's, NEES is its
-        moment-matched Gaussian's and its NIS NaN), ``ess`` (effective sample size of the weights
-        before resampling, particle filters), ``step_seconds`` (wall time of predict +
+        moment-matched Gaussian's and its NIS NaN), ``ess`` (effective sample size of the
+        weights before resampling, particle filters), ``step_seconds`` (wall time of predict +
         update); for a multi-target tracker, per scan, ``gospa`` and its parts
         ``gospa_localisation``, ``gospa_missed`` and ``gospa_false`` (position units,
         p = 1), ``n_tracks``, ``cardinality_error`` (the distance of ``n_tracks`` from the
