@@ -15,7 +15,8 @@ from .base import (UserFunction, check_rows, gaussian_noise, read_only, scalar_o
                    state_columns, wrap_angle)
 from .spec import BEARING, BEARING_RANGE, FUNCTION, SELECT, MeasurementSpec
 
-#: The largest angle a measurement may hold, radians (see :data:`fasttrack._validate.LARGEST_ANGLE`).
+#: The largest angle a measurement may hold, radians (wrapping it to [-pi, pi) keeps about
+#: 7 digits; :data:`fasttrack._validate.LARGEST_ANGLE`).
 LARGEST_ANGLE = _validate.LARGEST_ANGLE
 
 __all__ = [
